@@ -1,0 +1,34 @@
+# bayes_dnlr: `make demo` (install + main job on the shipped example), `make test` (install + tests).
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+EXAMPLE ?= runs/hdpe-a-5e-3/config.yaml
+export PYTHON
+
+.PHONY: install demo test test-slow bench lint clean-runs
+
+install: $(VENV)/.installed
+
+$(VENV)/.installed: pyproject.toml scripts/find-python
+	@py=$$(sh scripts/find-python) || exit 1; \
+	echo "using $$py ($$($$py --version 2>&1))"; \
+	[ -x $(PY) ] || $$py -m venv $(VENV) || exit 1; \
+	$(PY) -m pip install --quiet --upgrade pip && \
+	$(PY) -m pip install --quiet -e '.[test]' && touch $@
+
+demo: install
+	$(PY) -m bayes_dnlr simulate $(EXAMPLE)
+
+test: install
+	$(PY) -m pytest -q
+
+test-slow: install
+	$(PY) -m pytest -q -m slow
+
+bench: install
+	$(PY) benchmarks/forward.py
+
+lint: install
+	$(PY) -m ruff check bayes_dnlr tests benchmarks
+
+clean-runs:
+	git clean -fdX runs/

@@ -1,0 +1,112 @@
+"""The command line: parse, call, print. No logic lives here.
+
+    python -m bayes_dnlr simulate runs/hdpe-a-5e-3/config.yaml
+    python -m bayes_dnlr fit      runs/hdpe-a-5e-3/config.yaml
+    python -m bayes_dnlr sample   runs/hdpe-a-5e-3/config.yaml
+    python -m bayes_dnlr report   runs/hdpe-a-5e-3
+    python -m bayes_dnlr compare  runs/hdpe-a-*
+
+Heavy modules are imported inside each command so that ``--help`` stays instant.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from bayes_dnlr import __version__
+from bayes_dnlr.errors import BayesDnlrError
+
+
+def _config(path: str):
+    from bayes_dnlr.config import load_config
+
+    return load_config(path)
+
+
+def cmd_simulate(args: argparse.Namespace) -> None:
+    from bayes_dnlr.synthetic import simulate_test
+
+    print(simulate_test(_config(args.config), overwrite=args.force).summary())
+
+
+def cmd_fit(args: argparse.Namespace) -> None:
+    from bayes_dnlr.inference.lsq import fit
+
+    result = fit(_config(args.config), overwrite=args.force)
+    if not args.quiet:
+        print(result.table())
+
+
+def cmd_sample(args: argparse.Namespace) -> None:
+    from bayes_dnlr.inference.mcmc import sample
+
+    post = sample(_config(args.config), restart=args.restart, progress=not args.quiet)
+    print(post.table())
+
+
+def cmd_report(args: argparse.Namespace) -> None:
+    from bayes_dnlr.report import build_report
+
+    for run_dir in args.run_dirs:
+        print(build_report(Path(run_dir)))
+
+
+def cmd_compare(args: argparse.Namespace) -> None:
+    from bayes_dnlr.report.compare import compare_runs
+
+    table = compare_runs([Path(d) for d in args.run_dirs], out_dir=args.out)
+    print(table.markdown())
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m bayes_dnlr",
+        description="True elastic modulus of polymers from tensile tests (DNLR model, "
+                    "least squares and emcee posterior).")
+    parser.add_argument("--version", action="version", version=f"bayes_dnlr {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("simulate", help="write a synthetic test CSV from the config's truth: section")
+    p.add_argument("config", help="YAML config with a truth: section")
+    p.add_argument("--force", action="store_true", help="replace an existing data file")
+    p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("fit", help="least squares (LM / Gauss-Newton) and the paper's stochastic "
+                                   "analysis; writes fit.json")
+    p.add_argument("config")
+    p.add_argument("--force", action="store_true",
+                   help="replace a fit.json made from another config or data")
+    p.add_argument("--quiet", action="store_true", help="print nothing on success")
+    p.set_defaults(func=cmd_fit)
+
+    p = sub.add_parser("sample", help="emcee posterior (runs fit first when needed); resumable")
+    p.add_argument("config")
+    p.add_argument("--restart", action="store_true",
+                   help="discard an existing chain (from another config or data) and start again")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_sample)
+
+    p = sub.add_parser("report", help="report.html and figures/*.png for a finished run")
+    p.add_argument("run_dirs", nargs="+", metavar="run_dir")
+    p.set_defaults(func=cmd_report)
+
+    p = sub.add_parser("compare", help="Table 3/5-style table across runs (Markdown and CSV)")
+    p.add_argument("run_dirs", nargs="+", metavar="run_dir")
+    p.add_argument("--out", type=Path, default=None, help="folder for compare.md and compare.csv")
+    p.set_defaults(func=cmd_compare)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        args.func(args)
+    except BayesDnlrError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    return 0

@@ -1,0 +1,388 @@
+"""YAML config -> validated config (pydantic). All defaults live here.
+
+Every error names the file and the key (``runs/x/config.yaml: parameters.E.low: ...``).
+The keys are a contract (see DESIGN.md and docs/config.md).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from bayes_dnlr.errors import BayesDnlrError
+
+PARAMETER_NAMES = ("E", "G", "tau_max", "sigma_inf", "tau_max_R")
+TENSILE_PARAMETERS = ("E", "G", "tau_max")
+RELAXATION_PARAMETERS = ("sigma_inf", "tau_max_R")
+UNITS = {"E": "MPa", "G": "MPa", "tau_max": "s", "sigma_inf": "MPa", "tau_max_R": "s", "sigma0": "MPa"}
+
+
+class ConfigError(BayesDnlrError, ValueError):
+    """A config that cannot be used; the message names the file and the key."""
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=False)
+
+
+class Window(_Strict):
+    """Identification interval (paper section 4.1: interval I is ``strain_max: 0.13``)."""
+
+    strain_min: float | None = None
+    strain_max: float | None = None
+    time_min: float | None = None
+    time_max: float | None = None
+
+    @model_validator(mode="after")
+    def _ordered(self) -> Window:
+        for lo, hi in (("strain_min", "strain_max"), ("time_min", "time_max")):
+            a, b = getattr(self, lo), getattr(self, hi)
+            if a is not None and b is not None and a >= b:
+                raise ValueError(f"{lo} ({a}) must be smaller than {hi} ({b})")
+        return self
+
+
+class Columns(_Strict):
+    """Roles -> CSV header names."""
+
+    time: str | None = None
+    force: str | None = None
+    eps11: str | None = None
+    eps22: str | None = None
+    stress: str | None = None
+    strain: str | None = None
+
+    @model_validator(mode="after")
+    def _has_strain(self) -> Columns:
+        if self.eps11 is None and self.strain is None:
+            raise ValueError("needs an axial strain column: give 'eps11' (or 'strain')")
+        if self.eps11 is not None and self.strain is not None:
+            raise ValueError("give the axial strain once: 'eps11' or 'strain', not both")
+        if self.force is None and self.stress is None:
+            raise ValueError("needs 'force' (with data.area0) or 'stress'")
+        return self
+
+
+class DataConfig(_Strict):
+    file: str
+    columns: Columns
+    area0: float | None = Field(default=None, description="initial cross-section S0, mm²")
+    strain_measure: Literal["hencky", "nominal"] = "hencky"
+    observable: Literal["sigma_star", "sigma", "stress"] = "sigma_star"
+    strain_rate: float | None = Field(default=None, gt=0)
+    strain_input: Literal["smoothed", "measured"] = "smoothed"
+    window: Window = Field(default_factory=Window)
+    relaxation_start: Literal["auto"] | float | None = None
+    delimiter: str = ","
+
+    @field_validator("area0")
+    @classmethod
+    def _positive_area(cls, v: float | None) -> float | None:
+        if v is not None and not v > 0:
+            raise ValueError(f"must be a positive cross-section in mm², got {v}")
+        return v
+
+    @model_validator(mode="after")
+    def _consistent(self) -> DataConfig:
+        c = self.columns
+        if c.force is not None and c.stress is None and self.area0 is None:
+            raise ValueError("area0 is needed to turn the force column into a stress")
+        if self.observable == "sigma" and c.eps22 is None:
+            raise ValueError("observable 'sigma' (eq. 2) needs the transverse strain column eps22")
+        if self.observable == "stress" and c.stress is None:
+            raise ValueError("observable 'stress' needs a stress column (columns.stress)")
+        if self.observable in ("sigma_star", "sigma") and c.force is None and c.stress is None:
+            raise ValueError(f"observable '{self.observable}' needs columns.force")
+        if c.time is None and self.strain_rate is None:
+            raise ValueError("without a time column, give strain_rate (t = strain / strain_rate)")
+        return self
+
+
+class ModelConfig(_Strict):
+    modes: int = Field(default=50, ge=1, le=1000)
+    decades: float = Field(default=6.0, gt=0, le=20)
+
+
+PriorKind = Literal["uniform", "log-uniform", "normal", "log-normal", "half-normal"]
+
+
+class ParameterSpec(_Strict):
+    """A prior for a free parameter, or ``value`` to fix it.
+
+    uniform: low, high. log-uniform: low > 0, high. normal: mean, sd. log-normal: median, sd_log
+    (sd of the natural log). half-normal: scale. ``low``/``high`` truncate any of them.
+    """
+
+    prior: PriorKind | None = None
+    value: float | None = None
+    low: float | None = None
+    high: float | None = None
+    mean: float | None = None
+    sd: float | None = Field(default=None, gt=0)
+    median: float | None = Field(default=None, gt=0)
+    sd_log: float | None = Field(default=None, gt=0)
+    scale: float | None = Field(default=None, gt=0)
+
+    @model_validator(mode="after")
+    def _complete(self) -> ParameterSpec:
+        if self.value is not None:
+            others = [k for k in ("prior", "low", "high", "mean", "sd", "median", "sd_log", "scale")
+                      if getattr(self, k) is not None]
+            if others:
+                raise ValueError(
+                    f"a fixed parameter (value: {self.value}) takes no prior; remove {others}")
+            return self
+        if self.prior is None:
+            raise ValueError("give a prior (uniform, log-uniform, normal, log-normal, "
+                             "half-normal) or a fixed value")
+        need = {"uniform": ("low", "high"), "log-uniform": ("low", "high"),
+                "normal": ("mean", "sd"), "log-normal": ("median", "sd_log"),
+                "half-normal": ("scale",)}[self.prior]
+        missing = [k for k in need if getattr(self, k) is None]
+        if missing:
+            raise ValueError(f"prior '{self.prior}' needs {', '.join(missing)}")
+        if self.low is not None and self.high is not None and not self.low < self.high:
+            raise ValueError(f"low ({self.low}) must be smaller than high ({self.high})")
+        if self.prior in ("log-uniform", "log-normal") and self.low is not None and self.low <= 0:
+            raise ValueError(f"prior '{self.prior}' needs low > 0, got {self.low}")
+        for k in ("low", "high", "mean"):
+            v = getattr(self, k)
+            if v is not None and not math.isfinite(v):
+                raise ValueError(f"{k} must be finite")
+        return self
+
+    @property
+    def fixed(self) -> bool:
+        return self.value is not None
+
+    def bounds(self) -> tuple[float, float]:
+        """Support of the prior (the truncation where given)."""
+        lo = self.low if self.low is not None else -math.inf
+        hi = self.high if self.high is not None else math.inf
+        if self.prior in ("log-uniform", "log-normal", "half-normal"):
+            lo = max(lo, 0.0)
+        return lo, hi
+
+
+DEFAULT_PRIORS: dict[str, dict[str, Any]] = {
+    "E": {"prior": "uniform", "low": 100.0, "high": 20000.0},
+    "G": {"prior": "uniform", "low": 0.0, "high": 50.0},
+    "tau_max": {"prior": "log-uniform", "low": 0.01, "high": 1.0e4},
+    "sigma_inf": {"prior": "uniform", "low": 0.0, "high": 500.0},
+    "tau_max_R": {"prior": "log-uniform", "low": 0.01, "high": 1.0e5},
+}
+
+
+class BaselineNoise(_Strict):
+    baseline: Window
+
+
+class SampledNoise(_Strict):
+    prior: Literal["half-normal", "log-uniform", "uniform"]
+    scale: float | None = Field(default=None, gt=0)
+    low: float | None = None
+    high: float | None = None
+
+    @model_validator(mode="after")
+    def _complete(self) -> SampledNoise:
+        if self.prior == "half-normal" and self.scale is None:
+            raise ValueError("prior 'half-normal' needs scale")
+        if self.prior in ("uniform", "log-uniform") and (self.low is None or self.high is None):
+            raise ValueError(f"prior '{self.prior}' needs low and high")
+        if self.low is not None and self.high is not None and not self.low < self.high:
+            raise ValueError(f"low ({self.low}) must be smaller than high ({self.high})")
+        return self
+
+
+class NoiseConfig(_Strict):
+    """sigma0: a number (MPa), 'residuals', {baseline: {time_max: ...}} or a prior to sample it."""
+
+    sigma0: Annotated[float, Field(gt=0)] | Literal["residuals"] | BaselineNoise | SampledNoise = (
+        "residuals")
+
+
+class SamplerConfig(_Strict):
+    walkers: int = Field(default=32, ge=2)
+    max_steps: int = Field(default=20000, ge=1)
+    target_ess: float = Field(default=1000.0, gt=0)
+    seed: int = 1
+    checkpoint_every: int = Field(default=100, ge=1)
+    moves: Literal["de-snooker", "stretch", "de"] = "de-snooker"
+    burn_in_tau: float = Field(default=5.0, ge=0, description="burn-in, in autocorrelation times")
+    min_tau_multiple: float = Field(default=50.0, gt=0, description="chain length >= this many tau")
+
+
+class FitConfig(_Strict):
+    method: Literal["lm", "gauss-newton"] = "lm"
+    multistart: int = Field(default=8, ge=0)
+    max_iterations: int = Field(default=200, ge=1)
+
+
+class TruthNoise(_Strict):
+    strain_sd: float = Field(default=1.0e-4, ge=0)
+    stress_sd: float = Field(default=0.3, ge=0, description="MPa, on the observable stress")
+    force_sd: float = Field(default=0.0, ge=0, description="N, on the force signal")
+
+
+class TruthConfig(_Strict):
+    """Known parameters and test protocol for ``simulate`` (a synthetic test)."""
+
+    params: dict[str, float]
+    strain_rate: float = Field(gt=0, description="true (Hencky) strain rate of the ramp, 1/s")
+    strain_max: float = Field(gt=0, description="Hencky strain at the end of the ramp")
+    hold: float = Field(default=0.0, ge=0, description="length of the relaxation hold, s")
+    n_points: int | None = Field(default=None, ge=3)
+    sample_rate: float | None = Field(default=None, gt=0, description="Hz")
+    time_jitter: float = Field(default=0.0, ge=0, lt=0.5, description="relative, uniform ±")
+    noise: TruthNoise = Field(default_factory=TruthNoise)
+    seed: int = 0
+
+    @field_validator("params")
+    @classmethod
+    def _known_names(cls, v: dict[str, float]) -> dict[str, float]:
+        unknown = sorted(set(v) - set(PARAMETER_NAMES))
+        if unknown:
+            raise ValueError(f"unknown parameter(s) {unknown}; expected {list(PARAMETER_NAMES)}")
+        missing = [k for k in TENSILE_PARAMETERS if k not in v]
+        if missing:
+            raise ValueError(f"missing {missing}")
+        return v
+
+    @model_validator(mode="after")
+    def _sampling(self) -> TruthConfig:
+        if (self.n_points is None) == (self.sample_rate is None):
+            raise ValueError("give exactly one of n_points or sample_rate")
+        if self.hold > 0 and not all(k in self.params for k in RELAXATION_PARAMETERS):
+            raise ValueError("a hold needs params sigma_inf and tau_max_R")
+        return self
+
+
+class OutputConfig(_Strict):
+    dir: str | None = None
+
+
+class Config(_Strict):
+    name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
+    data: DataConfig
+    model: ModelConfig = Field(default_factory=ModelConfig)
+    parameters: dict[str, ParameterSpec] = Field(default_factory=dict)
+    noise: NoiseConfig = Field(default_factory=NoiseConfig)
+    sampler: SamplerConfig = Field(default_factory=SamplerConfig)
+    fit: FitConfig = Field(default_factory=FitConfig)
+    truth: TruthConfig | None = None
+    crosscheck: dict[str, Any] | None = None
+    output: OutputConfig = Field(default_factory=OutputConfig)
+    # where the config was read from (not a YAML key)
+    source: Path | None = Field(default=None, exclude=True)
+
+    @field_validator("parameters", mode="before")
+    @classmethod
+    def _known_parameters(cls, v: Any) -> Any:
+        if isinstance(v, dict):
+            unknown = sorted(set(v) - set(PARAMETER_NAMES))
+            if unknown:
+                raise ValueError(
+                    f"unknown parameter(s) {unknown}; expected some of {list(PARAMETER_NAMES)}")
+        return v
+
+    @model_validator(mode="after")
+    def _fill_parameters(self) -> Config:
+        wanted = list(TENSILE_PARAMETERS)
+        if self.has_relaxation:
+            wanted += list(RELAXATION_PARAMETERS)
+        else:
+            extra = [k for k in RELAXATION_PARAMETERS if k in self.parameters]
+            if extra:
+                raise ValueError(f"parameters {extra} need data.relaxation_start (auto or a time)")
+        filled = {k: self.parameters.get(k) or ParameterSpec(**DEFAULT_PRIORS[k]) for k in wanted}
+        self.parameters = filled
+        if not self.free_parameters:
+            raise ValueError("every parameter is fixed: nothing to identify")
+        return self
+
+    @property
+    def has_relaxation(self) -> bool:
+        return self.data.relaxation_start is not None
+
+    @property
+    def parameter_names(self) -> list[str]:
+        """All model parameters, in the canonical order."""
+        return [k for k in PARAMETER_NAMES if k in self.parameters]
+
+    @property
+    def free_parameters(self) -> list[str]:
+        return [k for k in self.parameter_names if not self.parameters[k].fixed]
+
+    @property
+    def fixed_values(self) -> dict[str, float]:
+        return {k: s.value for k, s in self.parameters.items() if s.fixed}  # type: ignore[misc]
+
+    @property
+    def base_dir(self) -> Path:
+        return self.source.parent if self.source is not None else Path.cwd()
+
+    @property
+    def data_path(self) -> Path:
+        p = Path(self.data.file)
+        return p if p.is_absolute() else self.base_dir / p
+
+    @property
+    def run_dir(self) -> Path:
+        """Where outputs go: output.dir, else the config's folder when it is named after the run,
+        else ``<config folder>/<name>/``."""
+        if self.output.dir is not None:
+            p = Path(self.output.dir)
+            return p if p.is_absolute() else self.base_dir / p
+        if self.base_dir.name == self.name:
+            return self.base_dir
+        return self.base_dir / self.name
+
+    def to_yaml(self) -> str:
+        """The config as resolved (defaults filled in), as YAML."""
+        return yaml.safe_dump(self.model_dump(mode="json", exclude_none=True), sort_keys=False)
+
+
+def _format_errors(err: ValidationError, where: str) -> str:
+    lines = []
+    for e in err.errors():
+        loc = ".".join(str(x) for x in e["loc"] if not str(x).startswith("function-after"))
+        # pydantic puts union member names in loc; drop the type tags to keep the key readable
+        loc = ".".join(p for p in loc.split(".") if not p[:1].isupper() and p not in (
+            "float", "literal['residuals']", "constrained-float"))
+        msg = e["msg"].removeprefix("Value error, ")
+        if e["type"] == "extra_forbidden":
+            msg = "unknown key (check the spelling; see docs/config.md)"
+        elif e["type"] == "missing":
+            msg = "required key is missing"
+        lines.append(f"{where}: {loc or '(top level)'}: {msg}")
+    # one line per distinct message, in order
+    return "\n".join(dict.fromkeys(lines))
+
+
+def parse_config(raw: dict[str, Any], source: Path | None = None) -> Config:
+    """Validate a config mapping; ``source`` anchors relative paths and names the file in errors."""
+    where = str(source) if source is not None else "config"
+    if not isinstance(raw, dict):
+        raise ConfigError(f"{where}: expected a mapping of keys at the top level")
+    try:
+        cfg = Config.model_validate(raw)
+    except ValidationError as err:
+        raise ConfigError(_format_errors(err, where)) from None
+    cfg.source = source
+    return cfg
+
+
+def load_config(path: str | Path) -> Config:
+    """Read and validate a YAML config. Errors name the file and the key."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"{path}: config file not found")
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as err:
+        raise ConfigError(f"{path}: not valid YAML: {err}") from None
+    return parse_config(raw, source=path.resolve())

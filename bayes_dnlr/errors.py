@@ -1,0 +1,9 @@
+"""Errors a user can act on. The CLI prints their message (no traceback) and exits with 2."""
+
+
+class BayesDnlrError(Exception):
+    """Base of every error caused by input, config or run state (not by a bug)."""
+
+
+class RunError(BayesDnlrError):
+    """A run directory is in a state that forbids the action (e.g. a result would be overwritten)."""
