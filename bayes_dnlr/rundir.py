@@ -1,0 +1,64 @@
+"""The run directory: where a run's outputs live, and fingerprints that tell a stale result.
+
+Layout (contract, DESIGN.md): config.yaml, fit.json, chains.h5, posterior.nc, summary.json,
+report.html, figures/. When the run directory is the folder of the user's own config.yaml,
+that file is left untouched and the resolved config goes to ``config.resolved.yaml``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+from typing import Any
+
+from bayes_dnlr.config import Config
+
+RESOLVED_CONFIG = "config.yaml"
+RESOLVED_CONFIG_BESIDE_SOURCE = "config.resolved.yaml"
+
+
+def file_sha256(path: Path) -> str:
+    """sha256 of a file's bytes."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def digest(obj: Any) -> str:
+    """sha256 of a JSON-able object in canonical form (sorted keys)."""
+    text = json.dumps(obj, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def config_digest(cfg: Config, sections: tuple[str, ...]) -> str:
+    """Fingerprint of the config sections a result depends on (e.g. data, model, parameters)."""
+    dumped = cfg.model_dump(mode="json")
+    return digest({k: dumped.get(k) for k in sections})
+
+
+def resolved_config_path(cfg: Config) -> Path:
+    run_dir = cfg.run_dir
+    target = run_dir / RESOLVED_CONFIG
+    if cfg.source is not None and target.resolve() == Path(cfg.source).resolve():
+        return run_dir / RESOLVED_CONFIG_BESIDE_SOURCE
+    return target
+
+
+def prepare_run_dir(cfg: Config) -> Path:
+    """Create the run directory and write the config as resolved (defaults filled in)."""
+    run_dir = cfg.run_dir
+    run_dir.mkdir(parents=True, exist_ok=True)
+    resolved_config_path(cfg).write_text(cfg.to_yaml())
+    return run_dir
+
+
+def find_config(run_dir: Path) -> Path:
+    """The resolved config of a run directory (for report/compare)."""
+    for name in (RESOLVED_CONFIG_BESIDE_SOURCE, RESOLVED_CONFIG):
+        p = Path(run_dir) / name
+        if p.is_file():
+            return p
+    raise FileNotFoundError(f"{run_dir}: no config.yaml in this run directory")
