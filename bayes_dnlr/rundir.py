@@ -9,8 +9,11 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 from pathlib import Path
 from typing import Any
+
+import yaml
 
 from bayes_dnlr.config import Config
 
@@ -47,11 +50,19 @@ def resolved_config_path(cfg: Config) -> Path:
     return target
 
 
+def resolved_config_text(cfg: Config) -> str:
+    """The config as resolved (defaults filled in), with paths that work from the run directory."""
+    raw = cfg.model_dump(mode="json", exclude_none=True)
+    raw["data"]["file"] = os.path.relpath(cfg.data_path, cfg.run_dir)
+    raw["output"] = {"dir": "."}
+    return yaml.safe_dump(raw, sort_keys=False)
+
+
 def prepare_run_dir(cfg: Config) -> Path:
     """Create the run directory and write the config as resolved (defaults filled in)."""
     run_dir = cfg.run_dir
     run_dir.mkdir(parents=True, exist_ok=True)
-    resolved_config_path(cfg).write_text(cfg.to_yaml())
+    resolved_config_path(cfg).write_text(resolved_config_text(cfg))
     return run_dir
 
 
