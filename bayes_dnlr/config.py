@@ -204,6 +204,19 @@ class NoiseConfig(_Strict):
     sigma0: Annotated[float, Field(gt=0)] | Literal["residuals"] | BaselineNoise | SampledNoise = (
         "residuals")
 
+    @field_validator("sigma0", mode="before")
+    @classmethod
+    def _plain_forms(cls, v: Any) -> Any:
+        expected = ("a positive number (MPa), 'residuals', {baseline: {time_max: ...}} "
+                    "or a prior such as {prior: half-normal, scale: 5}")
+        if isinstance(v, bool) or v is None:
+            raise ValueError(f"expected {expected}")
+        if isinstance(v, int | float) and not (math.isfinite(v) and v > 0):
+            raise ValueError(f"must be > 0, got {v}; expected {expected}")
+        if isinstance(v, str) and v != "residuals":
+            raise ValueError(f"unknown form {v!r}; expected {expected}")
+        return v
+
 
 class SamplerConfig(_Strict):
     walkers: int = Field(default=32, ge=2)
@@ -346,13 +359,18 @@ class Config(_Strict):
         return yaml.safe_dump(self.model_dump(mode="json", exclude_none=True), sort_keys=False)
 
 
+_UNION_TAGS = {"BaselineNoise", "SampledNoise", "float", "int", "str", "none", "constrained-float"}
+
+
+def _is_type_tag(part: str) -> bool:
+    return part in _UNION_TAGS or part.startswith(("function-", "literal["))
+
+
 def _format_errors(err: ValidationError, where: str) -> str:
     lines = []
     for e in err.errors():
-        loc = ".".join(str(x) for x in e["loc"] if not str(x).startswith("function-after"))
-        # pydantic puts union member names in loc; drop the type tags to keep the key readable
-        loc = ".".join(p for p in loc.split(".") if not p[:1].isupper() and p not in (
-            "float", "literal['residuals']", "constrained-float"))
+        # pydantic puts union member tags in loc; drop them to keep the key readable
+        loc = ".".join(str(x) for x in e["loc"] if not _is_type_tag(str(x)))
         msg = e["msg"].removeprefix("Value error, ")
         if e["type"] == "extra_forbidden":
             msg = "unknown key (check the spelling; see docs/config.md)"

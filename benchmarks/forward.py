@@ -90,7 +90,8 @@ def main() -> None:
         per_set = best_of(lambda m=model: m.stress_batch(batch, ["E", "G", "tau_max"]),
                           repeat=5, number=3) / len(batch)
         tau, p, h = relaxation_times(PARAMS["tau_max"], N), weights(N), haward_thackray(eps)
-        plain = best_of(lambda: plain_loop(t, eps, h, p, tau, PARAMS["E"], PARAMS["G"]))
+        args = (t, eps, h, p, tau, PARAMS["E"], PARAMS["G"])
+        plain = best_of(lambda a=args: plain_loop(*a))
         t0 = time.perf_counter()
         ref = lsoda(t, eps)
         t_lsoda = time.perf_counter() - t0

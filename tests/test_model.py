@@ -36,7 +36,7 @@ def reference(time, eps, params, modes=50, decades=6.0, relaxation_start=None, s
         relax = relaxation_start is not None and t1 > relaxation_start
         tau = relaxation_times(params["tau_max_R"], modes, decades) if relax else tau_t
 
-        def hr(t, t0=t0, i=i, rate=rate):
+        def hr(t, t0=t0, t1=t1, i=i, rate=rate):
             if smooth_h:
                 return haward_thackray(eps[i] + rate * (t - t0))
             return h[i] + (h[i + 1] - h[i]) * (t - t0) / (t1 - t0)
