@@ -274,6 +274,70 @@ class TruthConfig(_Strict):
         return self
 
 
+class PulseEchoCheck(_Strict):
+    """Pulse-echo measurement (eq. 38-39): a modulus as given, or density with wave speeds (m/s),
+    or density with thickness (mm) and echo periods (µs)."""
+
+    modulus: float | None = Field(default=None, gt=0, description="MPa, when already computed")
+    sd: float | None = Field(default=None, ge=0, description="MPa, reported uncertainty")
+    density: float | None = Field(default=None, gt=0, description="kg/m³")
+    v_l: float | None = Field(default=None, gt=0, description="longitudinal wave speed, m/s")
+    v_t: float | None = Field(default=None, gt=0, description="transverse wave speed, m/s")
+    thickness: float | None = Field(default=None, gt=0, description="sample thickness e, mm")
+    period_l: float | None = Field(default=None, gt=0, description="longitudinal echo period, µs")
+    period_t: float | None = Field(default=None, gt=0, description="transverse echo period, µs")
+
+    @model_validator(mode="after")
+    def _one_form(self) -> PulseEchoCheck:
+        speeds = self.v_l is not None or self.v_t is not None
+        periods = any(v is not None for v in (self.thickness, self.period_l, self.period_t))
+        if self.modulus is not None:
+            if speeds or periods or self.density is not None:
+                raise ValueError("give either modulus, or density with speeds/periods, not both")
+            return self
+        if self.density is None:
+            raise ValueError("give modulus (MPa), or density (kg/m³) with v_l, v_t or "
+                             "thickness, period_l, period_t")
+        if speeds == periods:
+            raise ValueError("give either v_l and v_t (m/s) or thickness (mm), period_l and "
+                             "period_t (µs)")
+        if speeds and (self.v_l is None or self.v_t is None):
+            raise ValueError("needs both v_l and v_t")
+        if periods and None in (self.thickness, self.period_l, self.period_t):
+            raise ValueError("needs thickness, period_l and period_t")
+        return self
+
+
+class NanoindentationCheck(_Strict):
+    """CSM nanoindentation (eq. 40-44): a modulus as given, or S_m (N/m), h (m), F (N)."""
+
+    modulus: float | None = Field(default=None, gt=0, description="MPa, when already computed")
+    sd: float | None = Field(default=None, ge=0, description="MPa, reported uncertainty")
+    S_m: float | None = Field(default=None, gt=0, description="modulated contact stiffness, N/m")
+    h: float | None = Field(default=None, gt=0, description="indentation depth, m")
+    F: float | None = Field(default=None, ge=0, description="force at depth h, N")
+    nu: float = Field(default=0.5, ge=-1, le=0.5, description="Poisson ratio of the sample")
+    phase_deg: float = Field(default=0.0, ge=0, lt=90, description="phase lag φ of eq. 40, degrees")
+    indenter_correction: bool = Field(default=False, description="eq. 42 with E_i = 1040 GPa")
+
+    @model_validator(mode="after")
+    def _one_form(self) -> NanoindentationCheck:
+        raw = [k for k in ("S_m", "h", "F") if getattr(self, k) is not None]
+        if self.modulus is not None and raw:
+            raise ValueError(f"give either modulus or S_m, h, F, not both (found {raw})")
+        if self.modulus is None and len(raw) != 3:
+            raise ValueError("give modulus (MPa), or all of S_m (N/m), h (m) and F (N)")
+        return self
+
+
+class CrossCheckConfig(_Strict):
+    """Independent measurements of E shown beside the model's in the report (paper Table 4)."""
+
+    manufacturer: float | None = Field(default=None, gt=0, description="data-sheet modulus, MPa")
+    pulse_echo: PulseEchoCheck | None = None
+    nanoindentation: NanoindentationCheck | None = None
+
+
 class OutputConfig(_Strict):
     dir: str | None = None
 
@@ -287,7 +351,7 @@ class Config(_Strict):
     sampler: SamplerConfig = Field(default_factory=SamplerConfig)
     fit: FitConfig = Field(default_factory=FitConfig)
     truth: TruthConfig | None = None
-    crosscheck: dict[str, Any] | None = None
+    crosscheck: CrossCheckConfig | None = None
     output: OutputConfig = Field(default_factory=OutputConfig)
     # where the config was read from (not a YAML key)
     source: Path | None = Field(default=None, exclude=True)
