@@ -1,0 +1,146 @@
+"""The log-posterior of the sampled parameters, vectorised over emcee walkers.
+
+    log p(z | y) = log prior(z) + log L(θ(z)),
+    log L(θ) = -½ Σ_i (y_i - σ_model(t_i; θ))² / σ0² - n ln σ0 - (n/2) ln 2π
+
+over the n samples of the identification window (the paper's least-squares criterion, eq. 27, is
+-2 σ0² log L up to constants: Gaussian, independent, homoscedastic noise of sd σ0).
+
+The model is linear in E, G and σ_inf for fixed time constants (eq. 18 and section 4.1), so each
+walker costs one basis integration (``DNLR.basis``) and a (n, 3) matrix-vector product. Outside the
+prior support the model is not run and the result is ``-inf``; a model failure (non-finite stress)
+also gives ``-inf``: the function never returns NaN and never raises for a bad point.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from bayes_dnlr.config import Config
+from bayes_dnlr.data import TestData
+from bayes_dnlr.inference.priors import PriorSet, build_priors
+from bayes_dnlr.model import DNLR
+
+_LOG_2PI = math.log(2.0 * math.pi)
+
+
+def build_model(cfg: Config, test: TestData) -> DNLR:
+    """The DNLR model on the test's strain history, from the first sample to the window's end."""
+    end = test.model_end
+    return DNLR(test.time[:end], test.strain_input[:end], modes=cfg.model.modes,
+                decades=cfg.model.decades, relaxation_start=test.relaxation_start)
+
+
+def window_rows(test: TestData) -> slice | np.ndarray:
+    """The compared samples as a slice when the window is contiguous (cheaper), else indices."""
+    rows = np.flatnonzero(test.window[: test.model_end])
+    if rows.size and rows[-1] - rows[0] + 1 == rows.size:
+        return slice(int(rows[0]), int(rows[-1]) + 1)
+    return rows
+
+
+class LogPosterior:
+    """Callable ``z (k, ndim) -> (k,)`` log-posterior in sampling coordinates (emcee vectorize=True).
+
+    ``sigma0``: the fixed noise sd (MPa), or None when ``sigma0`` is one of the sampled parameters.
+    """
+
+    def __init__(self, model: DNLR, observed: np.ndarray, rows: slice | np.ndarray,
+                 priors: PriorSet, fixed: Mapping[str, float], sigma0: float | None) -> None:
+        self.model = model
+        self.rows = rows
+        self.y = np.ascontiguousarray(observed, dtype=float)
+        self.n = int(self.y.size)
+        self.priors = priors
+        self.names = priors.names
+        self.ndim = priors.ndim
+        model_names = model.parameter_names()
+        unknown = [k for k in self.names if k not in model_names and k != "sigma0"]
+        if unknown:
+            raise ValueError(f"parameters {unknown} are not parameters of this model {model_names}")
+        missing = [k for k in model_names if k not in self.names and k not in fixed]
+        if missing:
+            raise ValueError(f"model parameters {missing} are neither sampled nor fixed")
+        if ("sigma0" in self.names) == (sigma0 is not None):
+            raise ValueError("give sigma0 (fixed) or sample it, not both and not neither")
+        if sigma0 is not None and not (math.isfinite(sigma0) and sigma0 > 0):
+            raise ValueError(f"sigma0 must be a positive number, got {sigma0}")
+        self.sigma0 = sigma0
+        # where each model quantity comes from: a column of theta, or a constant
+        self._source = {}
+        for k in (*model_names, "sigma0"):
+            if k in self.names:
+                self._source[k] = self.names.index(k)
+            elif k == "sigma0":
+                self._source[k] = float(sigma0)  # type: ignore[arg-type]
+            else:
+                self._source[k] = float(fixed[k])
+        self.has_relaxation = model.has_relaxation
+        self.n_evals = 0  # model evaluations (points inside the prior support)
+
+    def _col(self, theta: np.ndarray, name: str) -> np.ndarray:
+        src = self._source[name]
+        return theta[:, src] if isinstance(src, int) else np.full(theta.shape[0], src)
+
+    def predict(self, theta: np.ndarray) -> np.ndarray:
+        """Model stress on the window, (k, n), for physical parameters theta (k, ndim)."""
+        theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        out = np.empty((theta.shape[0], self.n))
+        for i, (e, g, t, s, tr) in enumerate(zip(*self._linear_and_times(theta), strict=True)):
+            out[i] = self._stress(e, g, t, s, tr)
+        return out
+
+    def _linear_and_times(self, theta: np.ndarray) -> tuple[np.ndarray, ...]:
+        e, g, t = (self._col(theta, k) for k in ("E", "G", "tau_max"))
+        if self.has_relaxation:
+            s, tr = self._col(theta, "sigma_inf"), self._col(theta, "tau_max_R")
+        else:
+            s = tr = np.zeros(theta.shape[0])
+        return e, g, t, s, tr
+
+    def _stress(self, e: float, g: float, t: float, s: float, tr: float) -> np.ndarray:
+        b = self.model.basis(t, tr if self.has_relaxation else None).values[self.rows]
+        if self.has_relaxation:
+            return b @ np.array([e, g, s])
+        return b[:, :2] @ np.array([e, g])
+
+    def log_likelihood(self, theta: np.ndarray) -> np.ndarray:
+        """Gaussian log-likelihood (k,) of physical parameters theta (k, ndim); -inf on failure."""
+        theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        sig = self._col(theta, "sigma0")
+        out = np.full(theta.shape[0], -np.inf)
+        cols = self._linear_and_times(theta)
+        for i in range(theta.shape[0]):
+            if not (sig[i] > 0 and np.isfinite(sig[i])):
+                continue
+            try:
+                r = self.y - self._stress(*(c[i] for c in cols))
+            except (ValueError, ZeroDivisionError, FloatingPointError):
+                continue
+            rss = float(r @ r)
+            if math.isfinite(rss):
+                out[i] = -0.5 * rss / sig[i] ** 2 - self.n * (math.log(sig[i]) + 0.5 * _LOG_2PI)
+        return out
+
+    def __call__(self, z: np.ndarray) -> np.ndarray:
+        z = np.atleast_2d(np.asarray(z, dtype=float))
+        lp = self.priors.log_prior(z)
+        ok = np.flatnonzero(np.isfinite(lp))
+        if ok.size:
+            theta = self.priors.to_physical(z[ok])
+            lp[ok] += self.log_likelihood(theta)
+            self.n_evals += ok.size
+        lp[~np.isfinite(lp)] = -np.inf
+        return lp
+
+
+def build_log_posterior(cfg: Config, test: TestData, sigma0: float | None,
+                        priors: PriorSet | None = None) -> LogPosterior:
+    """The log-posterior of a config and its test data; sigma0 None when it is sampled."""
+    model = build_model(cfg, test)
+    rows = window_rows(test)
+    observed = test.stress[: test.model_end][rows]
+    return LogPosterior(model, observed, rows, priors or build_priors(cfg), cfg.fixed_values, sigma0)

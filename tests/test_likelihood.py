@@ -1,0 +1,105 @@
+"""The vectorised log-posterior: equals the brute-force Gaussian density, -inf (never NaN) outside."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+from sampling_support import TRUTH, TRUTH_RELAX, make_test
+from scipy import stats
+
+from bayes_dnlr.config import parse_config
+from bayes_dnlr.inference.likelihood import build_log_posterior
+from bayes_dnlr.inference.priors import build_priors
+from bayes_dnlr.model import simulate
+
+
+def _cfg(relaxation: bool = False, sigma0: object = 0.3, parameters: dict | None = None):
+    raw = {"name": "t",
+           "data": {"file": "x.csv", "columns": {"time": "t", "strain": "e", "stress": "s"},
+                    "observable": "stress"},
+           "noise": {"sigma0": sigma0}}
+    if relaxation:
+        raw["data"]["relaxation_start"] = 80.0
+    if parameters:
+        raw["parameters"] = parameters
+    return parse_config(raw)
+
+
+def test_matches_brute_force_gaussian_density() -> None:
+    test = make_test()
+    cfg = _cfg()
+    post = build_log_posterior(cfg, test, sigma0=0.3)
+    assert post.names == ["E", "G", "tau_max"]
+    thetas = np.array([[2854.0, 2.32, 5.79], [2800.0, 2.5, 6.5], [3000.0, 2.0, 4.0]])
+    z = post.priors.from_physical(thetas)
+    lp = post(z)
+    for k, th in enumerate(thetas):
+        mu = simulate(test.time, test.strain, dict(zip(post.names, th, strict=True)))
+        ll = stats.norm(mu, 0.3).logpdf(test.stress).sum()
+        lprior = -math.log(19900.0) - math.log(50.0) - math.log(math.log(1.0e6))
+        # tau_max is sampled as ln(tau_max): the log-uniform density there is flat
+        assert lp[k] == pytest.approx(ll + lprior, rel=1e-11, abs=1e-8)
+    # vectorised over walkers == one by one
+    np.testing.assert_array_equal(lp, np.concatenate([post(zi[None]) for zi in z]))
+    assert post.n_evals == 6
+
+
+def test_fixed_parameter_and_sampled_sigma0() -> None:
+    test = make_test(sigma=0.5, seed=2)
+    cfg = _cfg(sigma0={"prior": "half-normal", "scale": 5.0},
+               parameters={"G": {"value": 2.32}})
+    post = build_log_posterior(cfg, test, sigma0=None)
+    assert post.names == ["E", "tau_max", "sigma0"]
+    th = np.array([[2854.0, 5.79, 0.5], [2854.0, 5.79, 0.7]])
+    lp = post(post.priors.from_physical(th))
+    for k in range(2):
+        mu = simulate(test.time, test.strain, {"E": th[k, 0], "G": 2.32, "tau_max": th[k, 1]})
+        ll = stats.norm(mu, th[k, 2]).logpdf(test.stress).sum()
+        lprior = (-math.log(19900.0) - math.log(math.log(1.0e6))
+                  + stats.halfnorm(scale=5.0).logpdf(th[k, 2]))
+        assert lp[k] == pytest.approx(ll + lprior, rel=1e-11)
+    assert lp[0] > lp[1]  # the true noise level is more likely
+
+
+def test_relaxation_model_with_window_gap() -> None:
+    window = np.ones(700, bool)
+    window[100:150] = False
+    test = make_test(relaxation=True, window=window)
+    cfg = _cfg(relaxation=True)
+    post = build_log_posterior(cfg, test, sigma0=0.3)
+    assert post.names == ["E", "G", "tau_max", "sigma_inf", "tau_max_R"]
+    th = np.array([[TRUTH_RELAX[k] for k in post.names]])
+    mu = simulate(test.time, test.strain, TRUTH_RELAX, relaxation_start=test.relaxation_start)
+    ll = stats.norm(mu[window], 0.3).logpdf(test.stress[window]).sum()
+    lprior = build_priors(cfg).log_prior(post.priors.from_physical(th))[0]
+    assert post(post.priors.from_physical(th))[0] == pytest.approx(ll + lprior, rel=1e-11)
+
+
+def test_outside_support_and_garbage_give_minus_inf_without_running_the_model() -> None:
+    test = make_test()
+    cfg = _cfg(parameters={"tau_max": {"prior": "uniform", "low": 0.0, "high": 100.0}})
+    post = build_log_posterior(cfg, test, sigma0=0.3)
+    z = np.array([[2854.0, 2.32, 5.79],
+                  [2854.0, 2.32, 0.0],        # on the support's edge: the model refuses tau = 0
+                  [2854.0, 2.32, -1.0],       # outside
+                  [50.0, 2.32, 5.79],         # E below its prior
+                  [np.nan, 2.32, 5.79],
+                  [np.inf, 2.32, 5.79],
+                  [2854.0, 2.32, np.inf]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        lp = post(z)
+    assert np.isfinite(lp[0])
+    assert np.all(lp[1:] == -np.inf)
+    assert post.n_evals == 2   # only the two points inside the support reached the model
+
+
+def test_true_parameters_are_near_the_maximum() -> None:
+    test = make_test(seed=5)
+    post = build_log_posterior(_cfg(), test, sigma0=0.3)
+    z0 = post.priors.from_physical(np.array([[TRUTH[k] for k in post.names]]))
+    far = z0 + np.array([[60.0, 0.0, 0.0]])   # 60 MPa off in E: many sd away for 2000 points
+    assert post(z0)[0] > post(far)[0] + 10.0
