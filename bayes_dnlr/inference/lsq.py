@@ -1,0 +1,422 @@
+"""Least-squares identification and the paper's stochastic analysis: ``fit`` (sections 3.2, 4, 5).
+
+``fit(cfg)`` loads the test, fits the free parameters on the window from a physics-based start
+(paper 4.1), checks the optimum from ``cfg.fit.multistart`` starts spread over the prior box, computes
+the sensitivities X (eq. 22), Δ (eq. 32), Err (eq. 33), ρ (eq. 34), Δ̃ (eq. 35), the residual
+diagnostics and identifiability warnings, and writes ``<run_dir>/fit.json``.
+
+Methods (``cfg.fit.method``):
+- ``lm``: variable projection (the model is linear in E, G, sigma_inf: they are solved by linear least
+  squares for each set of time constants, and the time constants by bounded trust-region least
+  squares), then a joint trust-region polish of all free parameters.
+- ``gauss-newton``: the paper's iteration (eq. 29) on all free parameters, with step control.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time as _time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bayes_dnlr.config import UNITS, Config
+from bayes_dnlr.errors import BayesDnlrError, RunError
+from bayes_dnlr.inference import optimize
+from bayes_dnlr.inference.diagnostics import residual_diagnostics
+from bayes_dnlr.inference.noise import resolve_sigma0
+from bayes_dnlr.inference.problem import LsqProblem
+from bayes_dnlr.inference.sensitivity import analyse, identifiability_warnings
+from bayes_dnlr.inference.start import clip_to, fallback, physics_start, spread_starts
+from bayes_dnlr.rundir import config_digest, file_sha256, prepare_run_dir
+
+FIT_FILE = "fit.json"
+SECTIONS = ("data", "model", "parameters", "noise", "fit")
+SAME_OPTIMUM_SD = 0.01      # multi-start end points within this many sd of the best: same optimum
+SAME_OPTIMUM_REL = 1.0e-6   # ... or within this relative distance (noise-free data: sd -> 0)
+
+
+@dataclass
+class FitResult:
+    """Outcome of ``fit``: estimates, the stochastic analysis (eq. 32-35) and diagnostics."""
+
+    name: str
+    names: list[str]                 # free parameters, canonical order
+    estimate: dict[str, float]       # all parameters, fixed ones included
+    sd: dict[str, float]             # free parameters, linearized (eq. 32)
+    covariance: np.ndarray           # Δ (eq. 32), p x p
+    correlation: np.ndarray          # ρ (eq. 34)
+    delta_tilde: np.ndarray          # Δ̃ (eq. 35): Err (fraction) on the diagonal, ρ off it
+    err: dict[str, float]            # Err (eq. 33), fraction
+    sigma0: float
+    sigma0_source: str
+    n_points: int
+    residuals: np.ndarray            # y^m - y on the window (eq. 19)
+    fitted: np.ndarray               # model stress on the window
+    time: np.ndarray                 # window samples: time (s)
+    strain: np.ndarray               # window samples: measured Hencky strain
+    diagnostics: dict[str, Any]      # residual statistics and verdict
+    method: str
+    iterations: int
+    evaluations: int
+    criterion: float                 # SSR (eq. 20)
+    converged: bool
+    message: str
+    multistart: dict[str, Any]
+    condition_number: float          # of the normalised X̃ᵀX̃ (eq. 37)
+    normalised_sensitivity_max: dict[str, float]   # max |X̃_j| on the window, MPa
+    warnings: list[str]
+    deborah_max: float | None        # tau_max · strain rate (eq. 45)
+    strain_rate: float
+    relaxation_start: float | None
+    window: dict[str, Any]
+    start: dict[str, float]          # the physics-based start actually used
+    start_notes: dict[str, str]
+    fixed: dict[str, float]
+    config_digest: str = ""
+    config_sections: dict[str, str] = field(default_factory=dict)
+    data_sha256: str = ""
+    wall_time_s: float = 0.0
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able content of fit.json."""
+        from bayes_dnlr import __version__
+
+        names = self.names
+        d = {
+            "name": self.name,
+            "parameters": names,
+            "estimate": self.estimate,
+            "sd": self.sd,
+            "err": self.err,
+            "units": {k: UNITS[k] for k in self.estimate},
+            "fixed": self.fixed,
+            "covariance": self.covariance.tolist(),
+            "correlation": self.correlation.tolist(),
+            "delta_tilde": self.delta_tilde.tolist(),
+            "sigma0": self.sigma0,
+            "sigma0_source": self.sigma0_source,
+            "n_points": self.n_points,
+            "window": self.window,
+            "residuals": self.diagnostics,
+            "method": self.method,
+            "iterations": self.iterations,
+            "evaluations": self.evaluations,
+            "criterion": self.criterion,
+            "converged": self.converged,
+            "message": self.message,
+            "multistart": self.multistart,
+            "start": self.start,
+            "start_notes": self.start_notes,
+            "condition_number": self.condition_number,
+            "normalised_sensitivity_max": self.normalised_sensitivity_max,
+            "warnings": self.warnings,
+            "deborah_max": self.deborah_max,
+            "strain_rate": self.strain_rate,
+            "relaxation_start": self.relaxation_start,
+            "config_digest": self.config_digest,
+            "config_sections": self.config_sections,
+            "data_sha256": self.data_sha256,
+            "version": __version__,
+            "wall_time_s": self.wall_time_s,
+        }
+        return _jsonable(d)
+
+    def table(self) -> str:
+        """Short console table: estimates, sd, Err %, Δ̃, residual verdict, warnings."""
+        lines = [f"fit {self.name}: {self.method}, {self.iterations} iterations, "
+                 f"{'converged' if self.converged else 'NOT converged'}; SSR = {self.criterion:.6g} "
+                 f"on {self.n_points} points; sigma0 = {self.sigma0:.4g} MPa ({self.sigma0_source})"]
+        w = max(len(k) for k in self.estimate) + 2
+        lines.append(f"{'parameter':<{w}}{'estimate':>14}{'sd':>12}{'Err %':>9}  unit")
+        for k, v in self.estimate.items():
+            if k in self.sd:
+                lines.append(f"{k:<{w}}{v:>14.6g}{self.sd[k]:>12.4g}{100 * self.err[k]:>9.3f}  {UNITS[k]}")
+            else:
+                lines.append(f"{k:<{w}}{v:>14.6g}{'fixed':>12}{'':>9}  {UNITS[k]}")
+        p = len(self.names)
+        lines.append("")
+        lines.append("Δ̃ (eq. 35): Err % on the diagonal, correlation ρ off it")
+        lines.append(" " * w + "".join(f"{k:>12}" for k in self.names))
+        for r in range(p):
+            cells = []
+            for s in range(p):
+                x = self.delta_tilde[r, s]
+                cells.append(f"{100 * x:>10.3f} %" if r == s else f"{x:>12.4f}")
+            lines.append(f"{self.names[r]:<{w}}" + "".join(cells))
+        lines.append(f"condition number of X̃ᵀX̃: {self.condition_number:.4g}")
+        lines.append("")
+        dg = self.diagnostics
+        lines.append(f"residuals: rms {dg['rms']:.4g} MPa; {dg['verdict']}")
+        ms = self.multistart
+        if ms["starts"]:
+            same = "all at the same optimum" if ms["same_optimum"] else "NOT all at the same optimum"
+            lines.append(f"multi-start: {ms['converged']}/{ms['starts']} converged, {same}")
+        if self.deborah_max is not None:
+            lines.append(f"De_max = tau_max · rate = {self.deborah_max:.4g} (eq. 45)")
+        if self.warnings:
+            lines.append("warnings:")
+            lines.extend(f"  - {m}" for m in self.warnings)
+        return "\n".join(lines)
+
+
+def _jsonable(obj: Any) -> Any:
+    """Plain JSON types; non-finite floats become null."""
+    if isinstance(obj, Mapping):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, np.bool_ | bool):
+        return bool(obj)
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, float | np.floating):
+        x = float(obj)
+        return x if math.isfinite(x) else None
+    if isinstance(obj, Path):
+        return str(obj)
+    return obj
+
+
+# ---------------------------------------------------------------- the fit itself (no files)
+
+def _run(problem: LsqProblem, method: str, beta0: np.ndarray, max_iterations: int) -> optimize.Optimum:
+    if method == "gauss-newton":
+        return optimize.gauss_newton(problem, beta0, max_iterations)
+    vp = optimize.variable_projection(problem, beta0, max_iterations)
+    polish = optimize.trust_region(problem, vp.beta, max_iterations)
+    better = polish if polish.criterion <= vp.criterion else vp
+    return optimize.Optimum(
+        beta=better.beta, criterion=better.criterion, iterations=vp.iterations + polish.iterations,
+        evaluations=vp.evaluations + polish.evaluations, converged=vp.converged or polish.converged,
+        message=f"variable projection: {vp.message}; joint polish: {polish.message}")
+
+
+def _window_info(cfg: Config, test, problem: LsqProblem) -> dict[str, Any]:
+    end = problem.mask.size
+    t = np.asarray(test.time)[:end][problem.mask]
+    e = np.asarray(test.strain)[:end][problem.mask]
+    return {"bounds": cfg.data.window.model_dump(mode="json", exclude_none=True),
+            "time": [float(t[0]), float(t[-1])], "strain": [float(e.min()), float(e.max())],
+            "n_points": int(t.size), "first_index": int(np.flatnonzero(problem.mask)[0]),
+            "model_end": int(end)}
+
+
+def _same(b: np.ndarray, ref: np.ndarray, sd: np.ndarray) -> bool:
+    tol = np.maximum(SAME_OPTIMUM_SD * np.nan_to_num(sd, nan=0.0, posinf=0.0),
+                     SAME_OPTIMUM_REL * np.abs(ref))
+    return bool(np.all(np.abs(b - ref) <= tol))
+
+
+def fit_test(cfg: Config, test) -> FitResult:
+    """The fit of ``test`` (a ``bayes_dnlr.data.TestData``) as configured by ``cfg``; writes nothing."""
+    t_start = _time.perf_counter()
+    names = cfg.free_parameters
+    specs = cfg.parameters
+    problem = LsqProblem(test.time, test.strain_input, test.stress, test.window, test.relaxation_start,
+                         names, cfg.fixed_values, {k: specs[k].bounds() for k in names},
+                         cfg.model.modes, cfg.model.decades)
+    if problem.n_points <= len(names):
+        raise BayesDnlrError(f"the window holds {problem.n_points} samples for {len(names)} free "
+                             "parameters: widen data.window")
+    method = cfg.fit.method
+    max_it = cfg.fit.max_iterations
+
+    # physics-based start (paper 4.1)
+    end = problem.mask.size
+    guess, notes = physics_start(test.time[:end], test.strain_input[:end], test.stress[:end],
+                                 problem.model.relaxation_start if problem.model.has_relaxation else None,
+                                 test.strain_rate, cfg.model.modes, cfg.model.decades)
+    beta0 = np.empty(len(names))
+    for j, k in enumerate(names):
+        if k in guess and math.isfinite(guess[k]):
+            beta0[j] = clip_to(specs[k], guess[k])
+        else:
+            beta0[j] = fallback(specs[k], k)
+            notes[k] = "centre of the prior box (no physics guess)"
+    start = dict(zip(names, (float(b) for b in beta0), strict=True))
+    best = _run(problem, method, beta0, max_it)
+    main = best
+
+    # multi-start over the prior box
+    n_ms = cfg.fit.multistart
+    ms_runs: list[tuple[np.ndarray, optimize.Optimum]] = []
+    if n_ms:
+        for s in spread_starts(specs, names, n_ms, seed=0):
+            ms_runs.append((s, _run(problem, method, s, max_it)))
+        # a meaningfully lower criterion (not rounding) replaces the physics-start optimum
+        cands = [o for _, o in ms_runs
+                 if o.converged and o.criterion < best.criterion * (1.0 - 1e-9) - 1e-300]
+        if cands:
+            best = min(cands, key=lambda o: o.criterion)
+
+    params = problem.params(best.beta)
+    residuals = problem.residuals(params)
+    fitted = problem.y - residuals
+    sigma0, source = resolve_sigma0(cfg, test, residuals)
+    X = problem.jacobian(params)
+    values = problem.vector(params)
+    zero = [k for k, c in zip(names, np.linalg.norm(X, axis=0), strict=True) if c == 0]
+    if zero:
+        raise BayesDnlrError(f"parameter(s) {zero} have no effect on the model over the window: fix "
+                             "them (value: ...) or widen data.window")
+    try:
+        sa = analyse(X, names, values, sigma0)
+    except np.linalg.LinAlgError as err:
+        raise BayesDnlrError(f"the sensitivity matrix is singular at the optimum ({err}): the free "
+                             f"parameters {names} cannot all be identified on this window") from None
+
+    warnings: list[str] = []
+    if not main.converged:
+        warnings.append(f"the fit from the physics start did not converge ({main.message}); "
+                        f"raise fit.max_iterations (now {max_it})")
+    if best is not main:
+        warnings.append("a multi-start found a lower criterion than the physics start "
+                        f"(SSR {best.criterion:.6g} < {main.criterion:.6g}): the estimate is that optimum")
+    multistart = _multistart_summary(ms_runs, best, names, sa.sd, main)
+    if n_ms and not multistart["same_optimum"]:
+        warnings.append(f"multi-start: {multistart['converged']}/{n_ms} converged, and not all to the same "
+                        "optimum: the criterion has several minima or flat directions in the prior box")
+    for j, k in enumerate(names):
+        lo, hi = specs[k].bounds()
+        v = values[j]
+        if (math.isfinite(lo) and abs(v - lo) <= 1e-6 * max(abs(lo), 1e-12 + abs(v))) or (
+                math.isfinite(hi) and abs(v - hi) <= 1e-6 * abs(hi)):
+            warnings.append(f"{k} = {v:.6g} sits on a bound of its prior [{lo:g}, {hi:g}]: the "
+                            "linearized sd and Δ̃ do not describe a constrained optimum")
+    warnings.extend(identifiability_warnings(sa))
+    diag = residual_diagnostics(residuals, sigma0, source)
+    if not diag["white"]:
+        warnings.append("residuals are not white (model bias, see the verdict): sd are a lower bound")
+
+    rate = float(test.strain_rate)
+    tau = params.get("tau_max")
+    return FitResult(
+        name=cfg.name, names=names, estimate=params,
+        sd=dict(zip(names, (float(x) for x in sa.sd), strict=True)),
+        covariance=sa.covariance, correlation=sa.correlation, delta_tilde=sa.delta_tilde,
+        err=dict(zip(names, (float(x) for x in sa.err), strict=True)),
+        sigma0=float(sigma0), sigma0_source=source, n_points=problem.n_points,
+        residuals=residuals, fitted=fitted,
+        time=np.asarray(test.time)[:end][problem.mask], strain=np.asarray(test.strain)[:end][problem.mask],
+        diagnostics=diag, method=method, iterations=main.iterations if best is main else best.iterations,
+        evaluations=problem.evaluations, criterion=float(best.criterion), converged=bool(best.converged),
+        message=best.message, multistart=multistart, condition_number=sa.condition_number,
+        normalised_sensitivity_max=dict(zip(names, (float(x) for x in sa.max_normalised), strict=True)),
+        warnings=warnings, deborah_max=float(tau * rate) if tau is not None else None,
+        strain_rate=rate, relaxation_start=test.relaxation_start, window=_window_info(cfg, test, problem),
+        start=start, start_notes=notes, fixed=dict(cfg.fixed_values),
+        wall_time_s=_time.perf_counter() - t_start)
+
+
+def _multistart_summary(runs: list[tuple[np.ndarray, optimize.Optimum]], best: optimize.Optimum,
+                        names: list[str], sd: np.ndarray, main: optimize.Optimum) -> dict[str, Any]:
+    """starts, converged, same_optimum, and the spread of the end points per parameter."""
+    if not runs:
+        return {"starts": 0, "converged": 0, "same_optimum": None, "spread": {}, "runs": []}
+    ends = np.array([o.beta for _, o in runs])
+    conv = [o.converged for _, o in runs]
+    same = [o.converged and _same(o.beta, best.beta, sd) for _, o in runs]
+    same_main = _same(main.beta, best.beta, sd)
+    spread = {}
+    for j, k in enumerate(names):
+        lo, hi = float(ends[:, j].min()), float(ends[:, j].max())
+        spread[k] = {"min": lo, "max": hi,
+                     "range_in_sd": (hi - lo) / sd[j] if sd[j] > 0 else (0.0 if hi == lo else math.inf)}
+    return {
+        "starts": len(runs), "converged": int(sum(conv)), "same_optimum": bool(all(same) and same_main),
+        "spread": spread,
+        "runs": [{"start": dict(zip(names, map(float, s), strict=True)),
+                  "end": dict(zip(names, map(float, o.beta), strict=True)),
+                  "criterion": o.criterion, "iterations": o.iterations, "converged": o.converged,
+                  "same_optimum": sm} for (s, o), sm in zip(runs, same, strict=True)],
+    }
+
+
+# ---------------------------------------------------------------- files
+
+def _fit_path(run_dir: Path) -> Path:
+    return Path(run_dir) / FIT_FILE
+
+
+def load_fit(run_dir: str | Path) -> dict[str, Any]:
+    """The content of ``<run_dir>/fit.json``."""
+    path = _fit_path(Path(run_dir))
+    if not path.is_file():
+        raise RunError(f"{path}: no fit.json in this run directory (run `fit` first)")
+    try:
+        return json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise RunError(f"{path}: not a readable fit.json ({err}); run `fit --force` to redo it") from None
+
+
+def _sections(cfg: Config) -> dict[str, str]:
+    return {s: config_digest(cfg, (s,)) for s in SECTIONS}
+
+
+def _stale_reason(saved: Mapping[str, Any], cfg: Config, sha256: str) -> str | None:
+    """Why a saved fit.json does not belong to this config and data (None when it does)."""
+    reasons = []
+    if saved.get("config_digest") != config_digest(cfg, SECTIONS):
+        old = saved.get("config_sections") or {}
+        diff = [s for s, d in _sections(cfg).items() if old.get(s) != d]
+        reasons.append(f"a different config (sections {', '.join(diff) or SECTIONS})")
+    if saved.get("data_sha256") != sha256:
+        reasons.append("a different data file (sha256 differs)")
+    return " and ".join(reasons) or None
+
+
+def fit_is_current(cfg: Config) -> bool:
+    """True when ``cfg.run_dir/fit.json`` exists and was made from this config and data file."""
+    path = _fit_path(cfg.run_dir)
+    if not path.is_file() or not cfg.data_path.is_file():
+        return False
+    try:
+        saved = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError, OSError):
+        return False
+    return _stale_reason(saved, cfg, file_sha256(cfg.data_path)) is None
+
+
+def _write_json(path: Path, content: dict[str, Any]) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(content, indent=2, allow_nan=False) + "\n")
+    os.replace(tmp, path)
+
+
+def fit(cfg: Config, *, overwrite: bool = False, write: bool = True) -> FitResult:
+    """Least-squares fit of the configured test; writes ``cfg.run_dir/fit.json`` (unless write=False).
+
+    An existing fit.json made from another config (sections data, model, parameters, noise, fit) or
+    another data file is never replaced silently: RunError unless ``overwrite`` (CLI ``--force``).
+    """
+    from bayes_dnlr.data import load_test
+
+    t0 = _time.perf_counter()
+    test = load_test(cfg)
+    path = _fit_path(cfg.run_dir)
+    if write and not overwrite and path.exists():
+        try:
+            saved = json.loads(path.read_text())
+            reason = _stale_reason(saved, cfg, test.sha256)
+        except (json.JSONDecodeError, UnicodeDecodeError) as err:
+            reason = f"an unreadable file ({err})"
+        if reason is not None:
+            raise RunError(f"{path} exists and was made from {reason}; pass --force "
+                           "(overwrite=True) to replace it")
+    result = fit_test(cfg, test)
+    result.config_digest = config_digest(cfg, SECTIONS)
+    result.config_sections = _sections(cfg)
+    result.data_sha256 = test.sha256
+    result.wall_time_s = _time.perf_counter() - t0
+    if write:
+        prepare_run_dir(cfg)
+        _write_json(path, result.to_dict())
+    return result
