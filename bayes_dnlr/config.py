@@ -11,7 +11,15 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
 from bayes_dnlr.errors import BayesDnlrError
 
@@ -72,12 +80,25 @@ class DataConfig(_Strict):
     columns: Columns
     area0: float | None = Field(default=None, description="initial cross-section S0, mm²")
     strain_measure: Literal["hencky", "nominal"] = "hencky"
-    observable: Literal["sigma_star", "sigma", "stress"] = "sigma_star"
+    observable: Literal["sigma_star", "sigma", "stress"] = Field(default="sigma_star", validate_default=True)
     strain_rate: float | None = Field(default=None, gt=0)
     strain_input: Literal["smoothed", "measured"] = "smoothed"
     window: Window = Field(default_factory=Window)
     relaxation_start: Literal["auto"] | float | None = None
     delimiter: str = ","
+
+    @field_validator("observable")
+    @classmethod
+    def _observable_columns(cls, v: str, info: ValidationInfo) -> str:
+        c = info.data.get("columns")
+        if c is None:  # columns failed validation: reported there
+            return v
+        if v in ("sigma_star", "sigma") and c.force is None:
+            eq = "eq. 6" if v == "sigma_star" else "eq. 2"
+            raise ValueError(f"'{v}' ({eq}) is computed from the force: give columns.force (with "
+                             f"area0), or use observable: stress to take the stress column as the "
+                             f"true stress")
+        return v
 
     @field_validator("area0")
     @classmethod
@@ -95,8 +116,6 @@ class DataConfig(_Strict):
             raise ValueError("observable 'sigma' (eq. 2) needs the transverse strain column eps22")
         if self.observable == "stress" and c.stress is None:
             raise ValueError("observable 'stress' needs a stress column (columns.stress)")
-        if self.observable in ("sigma_star", "sigma") and c.force is None and c.stress is None:
-            raise ValueError(f"observable '{self.observable}' needs columns.force")
         if c.time is None and self.strain_rate is None:
             raise ValueError("without a time column, give strain_rate (t = strain / strain_rate)")
         return self
