@@ -249,7 +249,9 @@ def fit_test(cfg: Config, test) -> FitResult:
     n_ms = cfg.fit.multistart
     ms_runs: list[tuple[np.ndarray, optimize.Optimum]] = []
     if n_ms:
-        for s in spread_starts(specs, names, n_ms, seed=0):
+        tm = problem.model.time
+        span = (float(np.median(np.diff(tm))), float(tm[-1] - tm[0]))
+        for s in spread_starts(specs, names, n_ms, seed=0, time_span=span):
             ms_runs.append((s, _run(problem, method, s, max_it)))
         # a meaningfully lower criterion (not rounding) replaces the physics-start optimum
         cands = [o for _, o in ms_runs

@@ -135,18 +135,25 @@ def box(spec: ParameterSpec) -> tuple[float, float, bool]:
 
 
 def spread_starts(specs: Mapping[str, ParameterSpec], names: Sequence[str], n: int,
-                  seed: int = 0) -> np.ndarray:
+                  seed: int = 0, time_span: tuple[float, float] | None = None) -> np.ndarray:
     """``n`` starts (n, p) spread over the prior box of each parameter in ``names``.
 
     Stratified: start k sits at quantile (k + 1/2)/n of the box of each parameter; the strata are
     paired across parameters by a fixed random permutation (Latin hypercube), so every start differs
     in every parameter. Time constants are log-spaced when the box spans more than one decade.
+    ``time_span`` = (sampling step, test duration) caps the box of the time constants to
+    [step, 10 x duration]: outside it every mode is relaxed within a step, or frozen over the whole
+    test, and the model does not depend on the time constant (a flat criterion, not a start).
     """
     rng = np.random.default_rng(seed)
     q = (np.arange(n) + 0.5) / n
     out = np.empty((n, len(names)))
     for j, k in enumerate(names):
         lo, hi, log = box(specs[k])
+        if k in TIME_CONSTANTS and time_span is not None:
+            c_lo, c_hi = time_span[0], 10.0 * time_span[1]
+            if max(lo, c_lo) < min(hi, c_hi):
+                lo, hi = max(lo, c_lo), min(hi, c_hi)
         if k in TIME_CONSTANTS and lo > 0 and hi / lo > 10.0:
             log = True
         if log and lo <= 0:
