@@ -1,0 +1,45 @@
+"""Shared fixtures: small configs and CSV files in a temporary folder."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from bayes_dnlr.config import Config, parse_config
+
+DEFAULT_DATA: dict[str, Any] = {
+    "file": "test.csv",
+    "columns": {"time": "t_s", "force": "F_N", "eps11": "eps11"},
+    "area0": 24.0,
+}
+
+
+@pytest.fixture
+def write_csv(tmp_path: Path) -> Callable[[str, str], Path]:
+    """write_csv(text, name='test.csv') -> path of the file in tmp_path."""
+
+    def write(text: str, name: str = "test.csv") -> Path:
+        path = tmp_path / name
+        path.write_text(text)
+        return path
+
+    return write
+
+
+@pytest.fixture
+def make_config(tmp_path: Path) -> Callable[..., Config]:
+    """make_config(name='t', truth=None, **data_keys) -> a validated Config anchored in tmp_path.
+
+    data keys override DEFAULT_DATA (e.g. columns=..., window=...); ``truth`` adds a truth: section.
+    """
+
+    def make(truth: dict[str, Any] | None = None, **data: Any) -> Config:
+        raw: dict[str, Any] = {"name": "t", "data": {**DEFAULT_DATA, **data}}
+        if truth is not None:
+            raw["truth"] = truth
+        return parse_config(raw, source=tmp_path / "config.yaml")
+
+    return make
