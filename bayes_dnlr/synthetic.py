@@ -1,0 +1,250 @@
+"""Synthetic tests: ``simulate_test(cfg)`` writes the CSV that ``cfg.data`` describes, from ``cfg.truth``.
+
+The protocol is the paper's: a ramp at a constant true (Hencky) strain rate up to ``strain_max``,
+then optionally a hold (relaxation, section 4.1 and Fig. 10). The true stress is the DNLR model
+(eq. 18) driven by the noise-free strain; the file holds what a real test would give: the *noisy
+measured* strain (Gaussian, sd ``strain_sd``), the force computed so that σ* (eq. 6) or σ (eq. 2)
+from the file equals the true stress plus Gaussian noise of sd ``stress_sd``, plus ``force_sd`` on
+the force. Random draws, from ``numpy.random.default_rng(seed)`` in this order: time jitter, axial
+strain noise, stress noise, force noise, transverse strain noise.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from bayes_dnlr.config import Config, ConfigError, TruthConfig
+from bayes_dnlr.data import DataError, nominal_from_hencky
+
+FORMAT = "%.10g"
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """The noise-free test: time grid, Hencky strain and the time the hold starts (or None)."""
+
+    time: np.ndarray
+    strain: np.ndarray
+    relaxation_start: float | None
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """What ``simulate_test`` made: the file, the noise-free truth and whether it was written."""
+
+    path: Path
+    status: str                  # "written" | "up to date"
+    name: str
+    truth: TruthConfig
+    time: np.ndarray             # s
+    strain: np.ndarray           # noise-free Hencky strain
+    stress: np.ndarray           # noise-free true stress, MPa
+    relaxation_start: float | None
+    notes: tuple[str, ...] = ()
+
+    @property
+    def n_points(self) -> int:
+        return int(self.time.size)
+
+    def considere(self) -> tuple[float, float] | None:
+        """First maximum of the nominal stress σ·exp(-ε) (first Considère point): (strain, true stress)."""
+        nominal = self.stress * np.exp(-self.strain)
+        d = np.diff(nominal)
+        peaks = np.flatnonzero((d[:-1] > 0) & (d[1:] <= 0)) + 1
+        if peaks.size == 0:
+            return None
+        i = int(peaks[0])
+        return float(self.strain[i]), float(self.stress[i])
+
+    def summary(self) -> str:
+        """A few lines for a person: file, points, duration, strain range, stresses, noise."""
+        tr = self.truth
+        hold = (f", then a {tr.hold:g} s hold from t = {self.relaxation_start:g} s"
+                if self.relaxation_start is not None else "")
+        peak = self.considere()
+        peak_text = ("none (the nominal stress never falls)" if peak is None else
+                     f"strain {peak[0]:.4f}, true stress {peak[1]:.2f} MPa")
+        params = ", ".join(f"{k} {v:g}" for k, v in tr.params.items())
+        lines = [
+            f"{self.name}: {_display(self.path)}: {self.status}",
+            f"  {self.n_points} points over {self.time[-1] - self.time[0]:g} s (ramp at "
+            f"{tr.strain_rate:g} 1/s{hold})",
+            f"  strain (Hencky, noise-free) {self.strain.min():.4g} to {self.strain.max():.4g}",
+            f"  true stress: max {self.stress.max():.2f} MPa, final {self.stress[-1]:.2f} MPa",
+            f"  nominal-stress maximum (first Considère point): {peak_text}",
+            f"  truth: {params}",
+            f"  noise: strain sd {tr.noise.strain_sd:g}, stress sd {tr.noise.stress_sd:g} MPa, "
+            f"force sd {tr.noise.force_sd:g} N; seed {tr.seed}",
+        ]
+        return "\n".join(lines + [f"  note: {n}" for n in self.notes])
+
+
+def _display(path: Path) -> str:
+    try:
+        return os.path.relpath(path)
+    except ValueError:  # pragma: no cover - another drive on Windows
+        return str(path)
+
+
+def _rounded(x: np.ndarray) -> np.ndarray:
+    """Values as they will read back from the file (FORMAT), so the model sees the written grid."""
+    return np.array([float(FORMAT % v) for v in x])
+
+
+def _segment(duration: float, steps: int, jitter: float, rng: np.random.Generator) -> np.ndarray:
+    """``steps`` step lengths that add up to ``duration``, each jittered by a relative ±``jitter``."""
+    dt = np.ones(steps)
+    if jitter > 0:
+        dt *= 1.0 + rng.uniform(-jitter, jitter, steps)
+    return dt * (duration / dt.sum())
+
+
+def protocol(truth: TruthConfig, rng: np.random.Generator) -> Protocol:
+    """Ramp at truth.strain_rate to truth.strain_max, then the hold; the kink falls on a sample.
+
+    With n_points the samples are shared between ramp and hold in proportion to their lengths;
+    with sample_rate each segment gets round(duration · rate) steps. Jitter moves the samples inside
+    each segment, never the kink.
+    """
+    ramp = truth.strain_max / truth.strain_rate
+    total = ramp + truth.hold
+    if truth.n_points is not None:
+        n_ramp = max(1, round((truth.n_points - 1) * ramp / total))
+        n_hold = truth.n_points - 1 - n_ramp
+        if truth.hold > 0 and n_hold < 1:
+            raise ConfigError(f"truth.n_points {truth.n_points} leaves no sample for the hold")
+    else:
+        n_ramp = max(1, round(ramp * truth.sample_rate))
+        n_hold = round(truth.hold * truth.sample_rate) if truth.hold > 0 else 0
+        if truth.hold > 0 and n_hold < 1:
+            raise ConfigError(f"truth.sample_rate {truth.sample_rate:g} Hz leaves no sample for the hold")
+    steps = [_segment(ramp, n_ramp, truth.time_jitter, rng)]
+    if n_hold:
+        steps.append(_segment(truth.hold, n_hold, truth.time_jitter, rng))
+    time = _rounded(np.concatenate([[0.0], np.cumsum(np.concatenate(steps))]))
+    time[n_ramp] = float(FORMAT % ramp)  # the kink exactly on a sample
+    if n_hold:
+        time[-1] = float(FORMAT % total)
+    if np.any(np.diff(time) <= 0):
+        raise ConfigError("truth: the sampling is too fine for the file's precision (steps below 1e-9 s)")
+    kink = time[n_ramp]
+    strain = truth.strain_max * np.minimum(time, kink) / kink
+    return Protocol(time, strain, kink if n_hold else None)
+
+
+def _check(cfg: Config) -> TruthConfig:
+    where = cfg.source if cfg.source is not None else "config"
+    truth = cfg.truth
+    if truth is None:
+        raise ConfigError(f"{where}: truth: section is missing: simulate needs the known parameters "
+                          f"and the test protocol (see docs/data-input.md)")
+    c = cfg.data.columns
+    if c.time is None and (truth.hold > 0 or truth.noise.strain_sd > 0
+                           or not np.isclose(cfg.data.strain_rate, truth.strain_rate, rtol=1e-12)):
+        raise ConfigError(f"{where}: data.columns.time: a synthetic test without a time column must be "
+                          f"a noise-free ramp (truth.noise.strain_sd 0, no hold) at data.strain_rate")
+    if c.force is not None and cfg.data.area0 is None:
+        raise ConfigError(f"{where}: data.area0: needed to write the force column")
+    return truth
+
+
+def _columns(cfg: Config, truth: TruthConfig, p: Protocol, stress: np.ndarray,
+             rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """header -> values, in the order time, axial strain, eps22, force, stress."""
+    noise, c, d = truth.noise, cfg.data.columns, cfg.data
+    n = p.time.size
+    eps11 = p.strain + rng.normal(0.0, noise.strain_sd, n) if noise.strain_sd > 0 else p.strain.copy()
+    observed = stress + rng.normal(0.0, noise.stress_sd, n) if noise.stress_sd > 0 else stress.copy()
+    force_noise = rng.normal(0.0, noise.force_sd, n) if noise.force_sd > 0 else np.zeros(n)
+    eps22 = -0.5 * p.strain
+    if c.eps22 is not None and noise.strain_sd > 0:
+        eps22 = eps22 + rng.normal(0.0, noise.strain_sd, n)
+    out: dict[str, np.ndarray] = {}
+    as_written = nominal_from_hencky if d.strain_measure == "nominal" else np.asarray
+    if c.time is not None:
+        out[c.time] = p.time
+    out[c.eps11 or c.strain] = as_written(eps11)
+    if c.eps22 is not None:
+        out[c.eps22] = as_written(eps22)
+    if c.force is not None:
+        # σ* = F/S0·exp(ε11) (eq. 6) or σ = F/S0·exp(-2ε22) (eq. 2) gives back the observed stress
+        shrink = np.exp(2.0 * eps22) if d.observable == "sigma" else np.exp(-eps11)
+        out[c.force] = observed * d.area0 * shrink + force_noise
+    if c.stress is not None:
+        out[c.stress] = observed
+    return out
+
+
+def _csv_bytes(columns: dict[str, np.ndarray], delimiter: str) -> bytes:
+    buf = io.StringIO()
+    w = csv.writer(buf, delimiter=delimiter, lineterminator="\n")
+    w.writerow(list(columns))
+    rows = np.column_stack(list(columns.values()))
+    w.writerows([[FORMAT % v for v in row] for row in rows])
+    return buf.getvalue().encode()
+
+
+def _same_numbers(old: bytes, new: bytes, delimiter: str = ",") -> bool:
+    """Same header and the same numbers up to the last printed digit (another CPU's rounding)."""
+    try:
+        a, b = old.decode().splitlines(), new.decode().splitlines()
+    except UnicodeDecodeError:
+        return False
+    if len(a) != len(b) or not a or a[0] != b[0]:
+        return False
+    try:
+        x = np.array([r.split(delimiter) for r in a[1:]], dtype=float)
+        y = np.array([r.split(delimiter) for r in b[1:]], dtype=float)
+    except ValueError:
+        return False
+    return x.shape == y.shape and bool(np.allclose(x, y, rtol=1e-8, atol=1e-12))
+
+
+def _write(path: Path, data: bytes, overwrite: bool, source: object, delimiter: str = ","
+           ) -> tuple[str, list[str]]:
+    """Write unless identical; never replace a different file without ``overwrite``."""
+    if path.is_file():
+        old = path.read_bytes()
+        if old == data:
+            return "up to date", []
+        if not overwrite:
+            if _same_numbers(old, data, delimiter):
+                return "up to date", ["the file differs from this machine's output only in the last "
+                                      "printed digit (floating-point rounding); kept"]
+            raise DataError(f"{path}: exists and differs from what simulate makes from {source} "
+                            f"(truth: section); not overwritten. Use --force (overwrite=True) to "
+                            f"replace it, or point data.file elsewhere")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_bytes(data)
+    os.replace(tmp, path)
+    return "written", []
+
+
+def simulate_test(cfg: Config, overwrite: bool = False) -> SimulationResult:
+    """Write the synthetic test of ``cfg.truth`` to ``cfg.data_path`` (see the module docstring)."""
+    from bayes_dnlr.model import simulate
+
+    truth = _check(cfg)
+    rng = np.random.default_rng(truth.seed)
+    p = protocol(truth, rng)
+    stress = simulate(p.time, p.strain, truth.params, modes=cfg.model.modes,
+                      decades=cfg.model.decades, relaxation_start=p.relaxation_start)
+    columns = _columns(cfg, truth, p, stress, rng)
+    source = cfg.source if cfg.source is not None else "the config"
+    data = _csv_bytes(columns, cfg.data.delimiter)
+    status, notes = _write(cfg.data_path, data, overwrite, source, cfg.data.delimiter)
+    rs = cfg.data.relaxation_start
+    if isinstance(rs, float) and p.relaxation_start is not None and not np.isclose(rs, p.relaxation_start):
+        notes.append(f"data.relaxation_start is {rs:g} s but the hold starts at {p.relaxation_start:g} s")
+    if p.relaxation_start is not None and rs is None:
+        notes.append("the test has a hold but data.relaxation_start is null: the fit will treat it as "
+                     "tensile")
+    return SimulationResult(cfg.data_path, status, cfg.name, truth, p.time, p.strain, stress,
+                            p.relaxation_start, tuple(notes))
