@@ -321,24 +321,29 @@ def fit_test(cfg: Config, test) -> FitResult:
 def _multistart_summary(runs: list[tuple[np.ndarray, optimize.Optimum]], best: optimize.Optimum,
                         names: list[str], sd: np.ndarray, main: optimize.Optimum) -> dict[str, Any]:
     """starts, converged, same_optimum, and the spread of the end points per parameter."""
+    physics = {"end": dict(zip(names, map(float, main.beta), strict=True)), "criterion": main.criterion,
+               "iterations": main.iterations, "converged": main.converged,
+               "same_optimum": bool(main.converged and _same(main.beta, best.beta, sd))}
     if not runs:
-        return {"starts": 0, "converged": 0, "same_optimum": None, "spread": {}, "runs": []}
+        return {"starts": 0, "converged": 0, "same_optimum": None, "spread": {}, "runs": [],
+                "physics_start": physics}
     ends = np.array([o.beta for _, o in runs])
     conv = [o.converged for _, o in runs]
     same = [o.converged and _same(o.beta, best.beta, sd) for _, o in runs]
-    same_main = _same(main.beta, best.beta, sd)
     spread = {}
     for j, k in enumerate(names):
         lo, hi = float(ends[:, j].min()), float(ends[:, j].max())
         spread[k] = {"min": lo, "max": hi,
                      "range_in_sd": (hi - lo) / sd[j] if sd[j] > 0 else (0.0 if hi == lo else math.inf)}
     return {
-        "starts": len(runs), "converged": int(sum(conv)), "same_optimum": bool(all(same) and same_main),
+        "starts": len(runs), "converged": int(sum(conv)),
+        "same_optimum": bool(all(same) and physics["same_optimum"]),
         "spread": spread,
         "runs": [{"start": dict(zip(names, map(float, s), strict=True)),
                   "end": dict(zip(names, map(float, o.beta), strict=True)),
                   "criterion": o.criterion, "iterations": o.iterations, "converged": o.converged,
                   "same_optimum": sm} for (s, o), sm in zip(runs, same, strict=True)],
+        "physics_start": physics,
     }
 
 
