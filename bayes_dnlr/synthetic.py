@@ -86,9 +86,10 @@ class SimulationResult:
 
 
 def _display(path: Path) -> str:
+    """The path relative to the working folder when it lies inside it, else as it is."""
     try:
-        return os.path.relpath(path)
-    except ValueError:  # pragma: no cover - another drive on Windows
+        return str(path.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
         return str(path)
 
 
