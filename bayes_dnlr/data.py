@@ -91,7 +91,7 @@ def true_stress(force: np.ndarray, area0: float, eps22: np.ndarray) -> np.ndarra
     return np.asarray(force, dtype=float) / area0 * np.exp(-2.0 * np.asarray(eps22, dtype=float))
 
 
-def isovolumic_stress(force: np.ndarray, area0: float, eps11: np.ndarray) -> np.ndarray:
+def sigma_star(force: np.ndarray, area0: float, eps11: np.ndarray) -> np.ndarray:
     """Isovolumic true stress σ* = F/S0·exp(ε11) (eq. 4-6: ν = 0.5, ε22* = ε33* = -ε11/2).
 
     force in N, area0 in mm², result in MPa.
@@ -575,7 +575,7 @@ def _observable(cfg: Config, table: _Table, strain: np.ndarray, eps22: np.ndarra
                         f"force into a stress, got {area0}")
     if d.observable == "sigma":
         return true_stress(table.values["force"], area0, eps22)
-    return isovolumic_stress(table.values["force"], area0, strain)
+    return sigma_star(table.values["force"], area0, strain)
 
 
 def _nominal_stress(cfg: Config, table: _Table, strain: np.ndarray) -> np.ndarray | None:
