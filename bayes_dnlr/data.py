@@ -12,6 +12,7 @@ Equation numbers refer to Blaise et al. (shared/paper); see docs/data-input.md.
 from __future__ import annotations
 
 import csv
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -471,6 +472,11 @@ def smooth_segment(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, float]:
     return make_smoothing_spline(x, y, lam=lam)(x), lam
 
 
+def segment_edges(n: int, breaks: Sequence[int]) -> list[int]:
+    """First and last sample of each segment (neighbours share their break sample)."""
+    return [0, *sorted({int(b) for b in breaks if 0 < b < n - 1}), n - 1]
+
+
 def smooth_strain(time: np.ndarray, strain: np.ndarray, breaks: Sequence[int] = ()
                   ) -> tuple[np.ndarray, list[float]]:
     """The strain that drives the model: a GCV smoothing spline per segment, split at ``breaks``.
@@ -479,7 +485,7 @@ def smooth_strain(time: np.ndarray, strain: np.ndarray, breaks: Sequence[int] = 
     averaged, so a kink in the strain history is kept rather than rounded off. Segments with
     fewer than 5 samples keep the measured values. Returns the smoothed strain and the λ used.
     """
-    edges = [0, *sorted(int(b) for b in breaks if 0 < b < time.size - 1), time.size - 1]
+    edges = segment_edges(time.size, breaks)
     weight = np.zeros(time.size)
     acc = np.zeros(time.size)
     lams = []
@@ -615,6 +621,19 @@ def _relaxation_start(cfg: Config, time: np.ndarray, strain: np.ndarray, path: P
     return float(rs), []
 
 
+def _smoothing_note(time: np.ndarray, breaks: list[int], lams: list[float]) -> str:
+    """λ per segment; 'at the bound' when GCV ran to the end of the search range (0, n)."""
+    edges = segment_edges(time.size, breaks)
+    parts = []
+    for a, b, lam in zip(edges[:-1], edges[1:], lams, strict=True):
+        n = b + 1 - a
+        text = "raw (< 5 samples)" if math.isnan(lam) else f"λ = {lam:.4g}"
+        if lam > 0.999 * n:
+            text += " (the search bound n: the measured strain is nearly straight)"
+        parts.append(f"{time[a]:g}-{time[b]:g} s: {text}")
+    return "strain_input: smoothed (GCV smoothing spline per segment; " + "; ".join(parts) + ")"
+
+
 def load_test(cfg: Config) -> TestData:
     """Read the test that ``cfg.data`` describes (see docs/data-input.md)."""
     from bayes_dnlr.rundir import file_sha256
@@ -637,8 +656,7 @@ def load_test(cfg: Config) -> TestData:
     if d.strain_input == "smoothed":
         breaks = [] if rs is None else [int(np.searchsorted(time, rs))]
         strain_input, lams = smooth_strain(time, strain, breaks)
-        notes.append("strain_input: smoothed (GCV smoothing spline per segment, λ = "
-                     + ", ".join(f"{lam:.4g}" for lam in lams) + ")")
+        notes.append(_smoothing_note(time, breaks, lams))
     else:
         strain_input = strain
     stress = _observable(cfg, table, strain, eps22)

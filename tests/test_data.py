@@ -411,3 +411,13 @@ def test_baseline_needs_ten_samples(write_csv, make_config):
         baseline_sd(test, Window(time_max=2.0))
     msg = str(err.value)
     assert f"{path}: noise.sigma0.baseline {{time_max: 2}} selects 3 sample(s), at least 10" in msg
+
+
+@pytest.mark.parametrize(("rs", "segments"), [(18.5, 1), (10.0, 2), (0.5, 2)])
+def test_smoothing_segments_follow_relaxation_start(write_csv, make_config, rs, segments):
+    t = np.arange(20.0)
+    write_csv(csv_text({"t_s": t, "F_N": t, "eps11": 0.01 * np.minimum(t, rs)}))
+    test = load_test(make_config(relaxation_start=rs))
+    note = next(n for n in test.notes if n.startswith("strain_input: smoothed"))
+    assert note.count(" s: ") == segments
+    assert test.relaxation_start == rs
