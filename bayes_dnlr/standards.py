@@ -18,11 +18,12 @@ ASTM D638 (modulus of elasticity, with the toe compensation of its Annex A1)
     The modulus is the slope of the initial linear portion; a toe region (slack, seating) is removed
     by extending that straight line to zero stress, which gives the corrected zero strain (A1.2);
     a curve with no linear region uses the tangent of maximum slope at the inflection point (A1.3).
-    Our rule, which covers both cases: slide a strain window of width ``width`` (default 0.25 %,
-    the ISO span) in steps of width/2 over the rising part of the curve (from the first sample to
-    the sample where the nominal stress first reaches ``search_fraction`` = 50 % of its maximum),
-    fit a least-squares line in each window holding at least ``min_points`` samples, and keep the
-    **steepest** window. Its slope is the modulus; its zero-stress intercept is the corrected zero.
+    Our rule, which covers both cases: slide a window of consecutive samples spanning ``width`` of
+    nominal strain (default 0.25 %, the ISO span; at least ``min_points`` = 5 samples, more strain
+    when the record is sparse) in steps of half a window over the rising part of the curve (from the
+    first sample to the one where the nominal stress first reaches ``search_fraction`` = 50 % of its
+    maximum), fit a least-squares line in each window and keep the **steepest** one. Its slope is
+    the modulus; its zero-stress intercept is the corrected zero.
     For a concave viscoelastic curve with no toe (HDPE) the steepest window is the first one, so the
     ASTM and ISO values come out close, as in the paper's Table 1. With noisy data the maximum over
     windows is biased upwards by about one standard error of a window slope (half-overlapping
@@ -145,10 +146,10 @@ def astm_d638_modulus(nominal_strain: np.ndarray, nominal_stress: np.ndarray, wi
                       search_fraction: float = 0.5, min_points: int = 5) -> StandardModulus:
     """ASTM D638 modulus of elasticity (MPa) with the toe compensation of its Annex A1.
 
-    The steepest least-squares line over sliding windows of nominal strain ``width`` (steps of
-    width/2) on the rising part of the curve (up to ``search_fraction`` of the maximum stress);
-    its zero-stress intercept is the corrected zero strain (A1.2, A1.3). When the data are so
-    sparse that a window holds fewer than ``min_points`` samples, the window is widened to hold them.
+    The steepest least-squares line over half-overlapping windows of consecutive samples spanning
+    ``width`` of nominal strain (at least ``min_points`` samples) on the rising part of the curve
+    (up to ``search_fraction`` of the maximum stress); its zero-stress intercept is the corrected
+    zero strain (A1.2, A1.3).
     """
     e, s = _clean(nominal_strain, nominal_stress)
     name = "ASTM D638"
@@ -163,32 +164,30 @@ def astm_d638_modulus(nominal_strain: np.ndarray, nominal_stress: np.ndarray, wi
     end = int(np.flatnonzero(s >= search_fraction * smax)[0]) + 1
     end = max(end, min(min_points, e.size))
     e, s = e[:end], s[:end]
-    lo_all, hi_all = float(e.min()), float(e.max())
-    if hi_all - lo_all <= 0:
+    if float(e.max() - e.min()) <= 0:
         return StandardModulus(name, None, method, reason="no strain increase before the search limit")
     w = float(width)
-    if e.size >= min_points:
-        order = np.sort(e)
-        # widen the window when the data are too sparse to put min_points samples in it
-        w = max(w, float(np.median(order[min_points - 1:] - order[: order.size - min_points + 1])))
-    best: tuple[float, float, float, int] | None = None   # slope, intercept, start, n
-    start = lo_all
-    while True:
-        inside = (e >= start) & (e <= start + w)
-        n = int(inside.sum())
-        if n >= min_points:
-            b, a = _slope(e[inside], s[inside])
-            if best is None or b > best[0]:
-                best = (b, a, start, n)
-        if start + w >= hi_all:
+    best: tuple[float, float, int, int] | None = None   # slope, intercept, first, last (inclusive)
+    i = 0
+    while i + min_points <= e.size:
+        # the window: samples i..j in test order, spanning `width` of strain, at least min_points
+        over = np.flatnonzero(e[i:] > e[i] + w)
+        j = i + int(over[0]) - 1 if over.size else e.size - 1
+        j = max(j, i + min_points - 1)
+        b, a = _slope(e[i:j + 1], s[i:j + 1])
+        if best is None or b > best[0]:
+            best = (b, a, i, j)
+        if j >= e.size - 1:
             break
-        start += w / 2
+        # half-overlapping windows: the next one starts half a window further on
+        nxt = np.flatnonzero(e[i + 1:] >= e[i] + w / 2)
+        i = max(i + 1, min(i + 1 + int(nxt[0]) if nxt.size else e.size, i + (j - i + 1) // 2))
     if best is None or not best[0] > 0:
         return StandardModulus(name, None, method, reason=(
-            f"no window of {100 * w:.3f} % strain with {min_points} samples and a positive slope "
+            f"no window of {min_points} samples with a positive slope "
             f"before {100 * search_fraction:.0f} % of the maximum stress"))
-    b, a, start, n = best
-    return StandardModulus(name, b, method, (start, min(start + w, hi_all)), n, corrected_zero=-a / b)
+    b, a, i, j = best
+    return StandardModulus(name, b, method, (float(e[i]), float(e[j])), j - i + 1, corrected_zero=-a / b)
 
 
 def nominal_curve(test) -> tuple[np.ndarray, np.ndarray, str | None]:
