@@ -1,0 +1,551 @@
+"""Posterior sampling with emcee: ``sample(cfg)`` -> Posterior (``python -m bayes_dnlr sample``).
+
+1. Posterior: priors from the config, Gaussian likelihood with σ0 fixed (number, residuals,
+   baseline: resolved once, from fit.json) or sampled (``sigma0`` with its prior); see likelihood.py.
+2. Start: the walkers are drawn from the Gauss-Newton estimate and its linearized covariance
+   (fit.json, eq. 32; ``fit`` runs first when fit.json is missing or stale), in sampling coordinates,
+   scaled by ``START_SCALE``; every start is checked finite.
+3. Stop: at each checkpoint, emcee's integrated autocorrelation time τ of every parameter is
+   estimated on the chain after a burn-in of ``burn_in_tau`` τ; the run stops when every
+   ESS = kept steps × walkers / τ >= ``target_ess`` and the kept chain is >= ``min_tau_multiple`` τ
+   long ("converged"), or at ``max_steps`` ("max_steps").
+4. Storage: chains.h5 (store.py), appended every ``checkpoint_every`` steps; a re-run resumes from
+   the last checkpoint and continues the same chain bit-exactly; a changed config or data file is
+   refused (RunError) unless ``restart``; a finished, current run is not sampled again.
+5. Outputs: posterior.nc, summary.json (posterior.py).
+
+emcee and ArviZ are imported inside the functions that need them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bayes_dnlr.config import Config, ConfigError, SampledNoise
+from bayes_dnlr.errors import RunError
+from bayes_dnlr.inference.likelihood import LogPosterior, build_log_posterior
+from bayes_dnlr.inference.posterior import (
+    POSTERIOR_FILE,
+    SUMMARY_FILE,
+    Posterior,
+    build_datatree,
+    load_posterior,
+    read_summary,
+    summarize,
+    write_outputs,
+)
+from bayes_dnlr.inference.priors import PriorSet, build_priors, sampled_names
+from bayes_dnlr.inference.store import ChainWriter, SamplerState, StoredRun, read_attrs, read_run
+from bayes_dnlr.rundir import config_digest, digest, prepare_run_dir, resolved_config_text
+
+CHAINS_FILE = "chains.h5"
+# config sections that change the posterior or the chain; max_steps, target_ess, checkpoint_every,
+# burn_in_tau and min_tau_multiple only decide how long to sample and what to keep.
+POSTERIOR_SECTIONS = ("data", "model", "parameters", "noise")
+SAMPLER_KEYS = ("walkers", "seed", "moves")
+START_SCALE = 1.0       # walkers start as a draw of the linearized (Laplace) posterior
+MIN_STEPS_FOR_TAU = 20  # shorter chains: no τ estimate, no stopping decision
+MOVES = {
+    "de-snooker": "DEMove (0.8) + DESnookerMove (0.2)",
+    "de": "DEMove",
+    "stretch": "StretchMove (a = 2)",
+}
+
+
+# ---------------------------------------------------------------- configuration
+
+def make_moves(kind: str) -> Any:
+    """emcee moves for ``sampler.moves`` (benchmarks/moves.py compares them)."""
+    import emcee
+
+    if kind == "stretch":
+        return emcee.moves.StretchMove()
+    if kind == "de":
+        return emcee.moves.DEMove()
+    if kind == "de-snooker":
+        return [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
+    raise ConfigError(f"sampler.moves: unknown moves {kind!r}; expected one of {list(MOVES)}")
+
+
+def check_sampler(cfg: Config, names: list[str]) -> None:
+    """Sampler settings that depend on the number of sampled parameters (before anything runs)."""
+    where = str(cfg.source) if cfg.source is not None else "config"
+    ndim = len(names)
+    if cfg.sampler.walkers < 2 * ndim:
+        raise ConfigError(
+            f"{where}: sampler.walkers: {cfg.sampler.walkers} walkers for {ndim} sampled parameters "
+            f"({', '.join(names)}); the ensemble moves need at least 2 × {ndim} = {2 * ndim} "
+            f"(32 is a good choice)")
+
+
+def fingerprint_parts(cfg: Config, data_sha256: str) -> dict[str, str]:
+    """Digests of what the chain depends on: config sections, sampler walkers/seed/moves, data file."""
+    parts = {s: config_digest(cfg, (s,)) for s in POSTERIOR_SECTIONS}
+    sampler = cfg.sampler.model_dump(mode="json")
+    parts["sampler"] = digest({k: sampler[k] for k in SAMPLER_KEYS})
+    parts["data file"] = data_sha256
+    return parts
+
+
+def stale_reason(attrs: dict[str, Any], parts: dict[str, str]) -> str | None:
+    """Why a stored chain does not belong to this config and data (None when it does)."""
+    try:
+        old = json.loads(attrs.get("fingerprint_parts", "{}"))
+    except (TypeError, json.JSONDecodeError):
+        old = {}
+    changed = [k for k, v in parts.items() if old.get(k) != v]
+    if not changed:
+        return None
+    what = []
+    sections = [("sampler." + "/".join(SAMPLER_KEYS) if k == "sampler" else k)
+                for k in changed if k != "data file"]
+    if sections:
+        what.append(f"config section(s) {', '.join(sections)} changed")
+    if "data file" in changed:
+        what.append("the data file changed (sha256 differs)")
+    return " and ".join(what)
+
+
+# ---------------------------------------------------------------- stopping rule
+
+@dataclass(frozen=True)
+class Convergence:
+    """emcee τ per parameter on the kept chain, the burn-in and the ESS it implies."""
+
+    tau: np.ndarray          # (ndim,) steps
+    burn_in: int             # steps discarded
+    kept: int                # steps kept
+    ess: np.ndarray          # (ndim,) kept × walkers / τ
+    converged: bool
+    needed_steps: int        # estimated total steps for the stopping rule
+
+    @property
+    def min_ess(self) -> float:
+        return float(np.min(self.ess)) if self.ess.size else 0.0
+
+
+def _tau(chain: np.ndarray) -> np.ndarray:
+    from emcee.autocorr import integrated_time
+
+    return np.asarray(integrated_time(chain, c=5, tol=0, quiet=True), dtype=float)
+
+
+def convergence(chain: np.ndarray, burn_in_tau: float, min_tau_multiple: float,
+                target_ess: float) -> Convergence:
+    """The stopping rule on a chain (steps, walkers, ndim) in physical units.
+
+    τ is estimated on the whole chain to set the burn-in (``burn_in_tau`` τ), then again on the
+    kept part; converged when the kept part is >= ``min_tau_multiple`` τ long, every ESS >=
+    ``target_ess`` and the burn-in is >= ``burn_in_tau`` times the final τ.
+    """
+    n, w, d = chain.shape
+    if n < MIN_STEPS_FOR_TAU:
+        tau = np.full(d, float(max(n, 1)))
+        return Convergence(tau, 0, n, n * w / tau, False, 10 * MIN_STEPS_FOR_TAU)
+    tau_all = _tau(chain)
+    burn = min(int(math.ceil(burn_in_tau * tau_all.max())), n - MIN_STEPS_FOR_TAU)
+    kept = n - burn
+    tau = _tau(chain[burn:])
+    tau_max = float(max(tau.max(), tau_all.max()))
+    ess = kept * w / tau
+    converged = bool(kept >= min_tau_multiple * tau.max() and np.all(ess >= target_ess)
+                     and burn >= burn_in_tau * tau.max() - 1e-9)
+    need_kept = max(min_tau_multiple * tau_max, target_ess * tau_max / w)
+    needed = int(math.ceil(burn_in_tau * tau_max + need_kept))
+    return Convergence(tau, burn, kept, ess, converged, needed)
+
+
+def stop_reason(conv: Convergence | None, steps: int, max_steps: int) -> str | None:
+    if conv is not None and conv.converged:
+        return "converged"
+    if steps >= max_steps:
+        return "max_steps"
+    return None
+
+
+# ---------------------------------------------------------------- start
+
+def start_ensemble(post: LogPosterior, fit: dict[str, Any], sigma0_start: float | None,
+                   walkers: int, seed: int, scale: float = START_SCALE) -> tuple[np.ndarray, np.ndarray]:
+    """Walkers drawn from the Gauss-Newton estimate and its linearized covariance (sampling
+    coordinates); only finite log-posteriors are kept (redrawn otherwise)."""
+    priors: PriorSet = post.priors
+    names = post.names
+    est = fit.get("estimate") or {}
+    fit_names = list(fit.get("parameters") or [])
+    missing = [k for k in names if k != "sigma0" and k not in est]
+    if missing:
+        raise RunError(f"fit.json has no estimate for {missing}: run `fit --force`")
+    x0 = np.array([sigma0_start if k == "sigma0" else est[k] for k in names], dtype=float)
+    cov = np.zeros((len(names), len(names)))
+    try:
+        fcov = np.asarray(fit.get("covariance"), dtype=float)
+        idx = [fit_names.index(k) for k in names if k != "sigma0"]
+        sub = fcov[np.ix_(idx, idx)]
+    except (TypeError, ValueError, IndexError):
+        sub = np.full((len(idx := [k for k in names if k != "sigma0"]),) * 2, np.nan)
+    model_pos = [j for j, k in enumerate(names) if k != "sigma0"]
+    cov[np.ix_(model_pos, model_pos)] = sub
+    fit_sigma = fit.get("sigma0")
+    if post.sigma0 is not None and fit_sigma and fit_sigma > 0:
+        cov *= (post.sigma0 / fit_sigma) ** 2     # the covariance scales with σ0²
+    if "sigma0" in names:
+        j = names.index("sigma0")
+        cov[j, j] = sigma0_start ** 2 / (2.0 * post.n)   # sd of a variance estimate from n points
+    jac = priors.jacobian(x0)
+    cov_z = cov * np.outer(jac, jac)
+    z0 = priors.from_physical(x0)
+    if not np.all(np.isfinite(z0)) or not np.isfinite(post(z0[None])[0]):
+        raise RunError(
+            "the Gauss-Newton estimate " + ", ".join(f"{k} = {v:.6g}" for k, v in zip(names, x0,
+                                                                                      strict=True))
+            + " has a zero posterior density (outside the prior support?): check the priors in "
+            "parameters: and fit.json")
+    if np.all(np.isfinite(cov_z)):
+        vals, vecs = np.linalg.eigh(0.5 * (cov_z + cov_z.T))
+        vals = np.clip(vals, max(vals.max(), 0.0) * 1e-12, None)
+        root = vecs * np.sqrt(vals)
+    else:
+        root = np.diag(1e-4 * np.maximum(np.abs(z0), 1e-3))
+    if not np.any(root):
+        root = np.diag(1e-4 * np.maximum(np.abs(z0), 1e-3))
+    rng = np.random.default_rng([int(seed) % 2**63, 0x5A4D])
+    coords = z0 + scale * rng.standard_normal((walkers, len(names))) @ root.T
+    lp = post(coords)
+    for _ in range(100):
+        bad = ~np.isfinite(lp)
+        if not bad.any():
+            break
+        coords[bad] = z0 + scale * rng.standard_normal((int(bad.sum()), len(names))) @ root.T
+        lp[bad] = post(coords[bad])
+    if not np.all(np.isfinite(lp)):
+        raise RunError(f"{int((~np.isfinite(lp)).sum())} of {walkers} starting walkers have a zero "
+                       "posterior density after 100 redraws; the Gauss-Newton estimate is probably "
+                       "at a prior bound")
+    return coords, lp
+
+
+# ---------------------------------------------------------------- helpers
+
+class _Growing:
+    """An array that grows along axis 0 with amortised O(1) appends."""
+
+    def __init__(self, initial: np.ndarray) -> None:
+        self._a = np.empty((max(2 * initial.shape[0], 256), *initial.shape[1:]), initial.dtype)
+        self.n = initial.shape[0]
+        self._a[: self.n] = initial
+
+    def extend(self, block: np.ndarray) -> None:
+        m = block.shape[0]
+        if self.n + m > self._a.shape[0]:
+            bigger = np.empty((2 * (self.n + m), *self._a.shape[1:]), self._a.dtype)
+            bigger[: self.n] = self._a[: self.n]
+            self._a = bigger
+        self._a[self.n: self.n + m] = block
+        self.n += m
+
+    @property
+    def array(self) -> np.ndarray:
+        return self._a[: self.n]
+
+
+def _resolve_sigma0(cfg: Config, fit: dict[str, Any], test) -> tuple[float | None, str, float | None]:
+    """(σ0 for the likelihood or None when sampled, its source, a starting value when sampled)."""
+    spec = cfg.noise.sigma0
+    if isinstance(spec, int | float):
+        return float(spec), "config", None
+    fit_sigma = fit.get("sigma0")
+    if isinstance(spec, SampledNoise):
+        start = float(fit_sigma) if fit_sigma else None
+        if start is None:
+            from bayes_dnlr.inference.noise import resolve_sigma0
+
+            start = resolve_sigma0(cfg, test)[0]
+        return None, "sampled", start
+    if fit_sigma and math.isfinite(fit_sigma) and fit_sigma > 0:
+        return float(fit_sigma), str(fit.get("sigma0_source") or spec), None
+    from bayes_dnlr.inference.noise import resolve_sigma0
+
+    value, source = resolve_sigma0(cfg, test)
+    return float(value), source, None
+
+
+def _standards(test) -> dict[str, float | None] | None:
+    try:
+        from bayes_dnlr.standards import standard_moduli
+    except ImportError:
+        return None
+    try:
+        return standard_moduli(test)
+    except Exception as err:  # noqa: BLE001 - a failed standard modulus must not lose a posterior
+        print(f"note: standard moduli not computed ({err})", file=sys.stderr)
+        return None
+
+
+def _settings(cfg: Config) -> dict[str, Any]:
+    s = cfg.sampler
+    return {"burn_in_tau": s.burn_in_tau, "min_tau_multiple": s.min_tau_multiple,
+            "target_ess": s.target_ess, "max_steps": s.max_steps}
+
+
+def _remove_outputs(run_dir: Path) -> None:
+    for name in (CHAINS_FILE, POSTERIOR_FILE, SUMMARY_FILE):
+        p = run_dir / name
+        if p.exists():
+            p.unlink()
+
+
+def _progress_bar(progress: bool, initial: int, total: int):
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, initial=initial, unit="step", desc="sampling", disable=not progress,
+                dynamic_ncols=True, file=sys.stderr, leave=True)
+
+
+# ---------------------------------------------------------------- sampling
+
+def sample(cfg: Config, *, restart: bool = False, progress: bool = True) -> Posterior:
+    """Sample the posterior of ``cfg`` to convergence (or max_steps); resumable. See the module doc."""
+    names = sampled_names(cfg)
+    check_sampler(cfg, names)
+    priors = build_priors(cfg)
+    make_moves(cfg.sampler.moves)   # validate early
+
+    from bayes_dnlr.data import load_test
+
+    test = load_test(cfg)
+    run_dir = cfg.run_dir
+    chains = run_dir / CHAINS_FILE
+    parts = fingerprint_parts(cfg, test.sha256)
+    fp = digest(parts)
+    sc = cfg.sampler
+
+    stored: StoredRun | None = None
+    if chains.exists() and restart:
+        _remove_outputs(run_dir)
+    elif chains.exists():
+        try:
+            attrs = read_attrs(chains)
+            reason = stale_reason(attrs, parts)
+        except OSError as err:
+            raise RunError(f"{chains}: cannot read the stored chain ({err}); sample --restart "
+                           "(restart=True) discards it and starts again") from None
+        if reason is not None:
+            raise RunError(f"{chains} was sampled from another config or data: {reason}. Refusing to "
+                           "mix chains; sample --restart (restart=True) discards it and starts again, "
+                           "or set output.dir to sample into another run directory")
+        try:
+            stored = read_run(chains)
+        except OSError as err:
+            raise RunError(f"{chains}: no usable checkpoint ({err}); sample --restart discards it") from None
+        done = _finished_result(cfg, stored, fp)
+        if done is not None:
+            return done
+
+    from bayes_dnlr.inference.lsq import fit as run_fit
+    from bayes_dnlr.inference.lsq import fit_is_current, load_fit
+
+    if not fit_is_current(cfg):
+        if progress:
+            print("fit.json missing or stale: running the least-squares fit first", file=sys.stderr)
+        run_fit(cfg, overwrite=True)
+    fit = load_fit(run_dir)
+    prepare_run_dir(cfg)
+    sigma0, sigma0_source, sigma0_start = _resolve_sigma0(cfg, fit, test)
+    post = build_log_posterior(cfg, test, sigma0, priors)
+
+    import emcee
+
+    walkers, ndim = sc.walkers, len(names)
+    if stored is None:
+        coords, lp = start_ensemble(post, fit, sigma0_start, walkers, sc.seed)
+        state0 = SamplerState(coords, lp, np.random.RandomState(sc.seed).get_state())
+        meta = {
+            "names": names, "log_space": [bool(v) for v in priors.log_space], "walkers": walkers,
+            "ndim": ndim, "config": resolved_config_text(cfg), "fingerprint": fp,
+            "fingerprint_parts": json.dumps(parts), "data_sha256": test.sha256,
+            "data_file": str(test.path), "version": _version(), "modes": cfg.model.modes,
+            "decades": cfg.model.decades, "moves": sc.moves, "seed": sc.seed,
+            "sigma0": float("nan") if sigma0 is None else sigma0, "sigma0_source": sigma0_source,
+            "created": datetime.now(UTC).isoformat(timespec="seconds"),
+        }
+        writer = ChainWriter.create(chains, meta, walkers, ndim, state0, priors.to_physical,
+                                    chunk_steps=sc.checkpoint_every, n_evals=0)
+        chain0 = np.empty((0, walkers, ndim))
+        lp0, acc0 = np.empty((0, walkers)), np.empty((0, walkers), bool)
+        elapsed0, evals0, state = 0.0, 0, state0
+        fresh = True
+    else:
+        writer = ChainWriter.resume(chains, priors.to_physical)
+        chain0, lp0, acc0 = stored.chain, stored.log_prob, stored.accepted
+        elapsed0, evals0, state = stored.elapsed, stored.n_evals, stored.state
+        post(state.coords[:1])      # numba: load/compile outside the timed loop
+        post.n_evals = 0
+        fresh = False
+
+    chain = _Growing(chain0)
+    lps = _Growing(lp0)
+    acc = _Growing(acc0)
+    sampler = emcee.EnsembleSampler(walkers, ndim, post, moves=make_moves(sc.moves), vectorize=True)
+    every = sc.checkpoint_every
+    conv = None
+    reason = None
+    t_session = time.perf_counter()
+    evals_start = post.n_evals
+    bar = _progress_bar(progress, chain.n, sc.max_steps)
+    try:
+        with bar:
+            while True:
+                n = chain.n
+                if n % every == 0 or n >= sc.max_steps:
+                    conv = (convergence(chain.array, sc.burn_in_tau, sc.min_tau_multiple, sc.target_ess)
+                            if n >= MIN_STEPS_FOR_TAU else None)
+                    reason = stop_reason(conv, n, sc.max_steps)
+                    if conv is not None:
+                        bar.total = int(min(sc.max_steps, max(conv.needed_steps, n + every)))
+                        bar.set_postfix_str(f"ESS {conv.min_ess:.0f}/{sc.target_ess:.0f}, "
+                                            f"tau {conv.tau.max():.1f}", refresh=False)
+                    if reason is not None:
+                        break
+                m = min(every - n % every, sc.max_steps - n)
+                block = np.empty((m, walkers, ndim))
+                block_lp = np.empty((m, walkers))
+                block_acc = np.empty((m, walkers), bool)
+                prev = state.coords
+                done = 0
+                try:
+                    for i, st in enumerate(sampler.sample(
+                            emcee.State(state.coords, log_prob=state.log_prob,
+                                        random_state=state.rng),
+                            iterations=m, store=False,
+                            skip_initial_state_check=not (fresh and n == 0))):
+                        block[i] = st.coords
+                        block_lp[i] = st.log_prob
+                        block_acc[i] = np.any(st.coords != prev, axis=1)
+                        prev = block[i]
+                        last = st
+                        done = i + 1
+                        bar.update(1)
+                finally:
+                    if done:
+                        state = SamplerState(block[done - 1].copy(), block_lp[done - 1].copy(),
+                                             last.random_state)
+                        chain.extend(priors.to_physical(block[:done]))
+                        lps.extend(block_lp[:done])
+                        acc.extend(block_acc[:done])
+                        elapsed = elapsed0 + time.perf_counter() - t_session
+                        writer.append(block[:done], block_lp[:done], block_acc[:done], state,
+                                      elapsed, evals0 + post.n_evals - evals_start)
+    except BaseException:
+        writer.close()
+        if progress:
+            print(f"\nstopped at step {chain.n}; the chain is saved in {chains}: run `sample` again "
+                  "to continue", file=sys.stderr)
+        raise
+    session_evals = post.n_evals - evals_start
+    elapsed = elapsed0 + time.perf_counter() - t_session
+    store_time = writer.store_time
+    writer.finish({"stop_reason": reason, "steps": chain.n,
+                   "finished": datetime.now(UTC).isoformat(timespec="seconds")})
+    run = read_run(chains)
+    return _write_result(cfg, run, fit, conv, reason, fp, test, sigma0_source,
+                         wall_time=elapsed, store_time=store_time,
+                         evals=evals0 + session_evals)
+
+
+def _version() -> str:
+    from bayes_dnlr import __version__
+
+    return __version__
+
+
+def _finished_result(cfg: Config, stored: StoredRun, fp: str) -> Posterior | None:
+    """For a finished run whose stopping rule still holds: its Posterior (outputs rewritten only
+    when missing or made with other settings). None when sampling must continue."""
+    if not stored.finished:
+        return None
+    sc = cfg.sampler
+    n = stored.steps
+    conv = (convergence(stored.chain, sc.burn_in_tau, sc.min_tau_multiple, sc.target_ess)
+            if n >= MIN_STEPS_FOR_TAU else None)
+    reason = stop_reason(conv, n, sc.max_steps)
+    if reason is None:
+        return None       # e.g. max_steps or target_ess raised: sample on from the last state
+    summary = read_summary(cfg.run_dir)
+    note = (f"{cfg.run_dir / CHAINS_FILE}: finished earlier ({reason} at step {n}); nothing sampled "
+            "(sample --restart to sample again)")
+    if (summary is not None and summary.get("fingerprint") == fp and summary.get("steps") == n
+            and summary.get("settings") == _settings(cfg)
+            and (cfg.run_dir / POSTERIOR_FILE).is_file()):
+        return load_posterior(cfg.run_dir, note=note)
+    # outputs missing or made with other burn-in/stopping settings: rebuild them from the chain
+    from bayes_dnlr.data import load_test
+    from bayes_dnlr.inference.lsq import fit as run_fit
+    from bayes_dnlr.inference.lsq import fit_is_current, load_fit
+
+    if not fit_is_current(cfg):
+        run_fit(cfg, overwrite=True)
+    fit = load_fit(cfg.run_dir)
+    test = load_test(cfg)
+    post = _write_result(cfg, stored, fit, conv, reason, fp, test,
+                         str(stored.attrs.get("sigma0_source", "")), wall_time=stored.elapsed,
+                         store_time=stored.store_time, evals=stored.n_evals)
+    post.note = note + "; summary.json and posterior.nc rewritten from the chain"
+    return post
+
+
+def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Convergence | None,
+                  reason: str | None, fp: str, test, sigma0_source: str, *, wall_time: float,
+                  store_time: float, evals: int) -> Posterior:
+    """posterior.nc and summary.json from the stored chain."""
+    sc = cfg.sampler
+    names = run.names
+    if conv is None:
+        conv = convergence(run.chain, sc.burn_in_tau, sc.min_tau_multiple, sc.target_ess)
+    burn = conv.burn_in
+    draws = run.chain[burn:]
+    lp = run.log_prob[burn:]
+    sigma_stored = run.attrs.get("sigma0")
+    if "sigma0" in names:
+        sigma0 = float(draws[:, :, names.index("sigma0")].mean())
+    else:
+        sigma0 = float(sigma_stored)
+    sampling = max(wall_time - store_time, 1e-12)
+    acc = float(run.accepted[burn:].mean()) if run.accepted.size else float("nan")
+    warnings = []
+    if reason != "converged":
+        warnings.append(f"not converged: stopped at max_steps = {sc.max_steps} with min ESS "
+                        f"{conv.min_ess:.0f} < {sc.target_ess:.0f} or chain < {sc.min_tau_multiple:g} tau "
+                        f"(about {conv.needed_steps} steps needed)")
+    extra = {
+        "sigma0": sigma0, "n_points": int(test.n_points), "steps": int(run.steps),
+        "wall_time_s": wall_time, "standards": _standards(test), "deborah_max": fit.get("deborah_max"),
+        "name": cfg.name, "stop_reason": reason, "converged": reason == "converged",
+        "burn_in": int(burn), "target_ess": sc.target_ess, "moves": MOVES.get(sc.moves, sc.moves),
+        "seed": sc.seed, "acceptance_fraction": acc, "sigma0_source": sigma0_source,
+        "storage_time_s": store_time, "storage_overhead": store_time / sampling,
+        "log_prob_evals": int(evals), "log_prob_evals_per_s": evals / sampling,
+        "settings": _settings(cfg), "fingerprint": fp, "data_sha256": test.sha256,
+        "version": _version(),
+    }
+    attrs = {"burn_in": int(burn), "stop_reason": reason, "walkers": int(run.chain.shape[1]),
+             "steps": int(run.steps), "moves": sc.moves, "seed": sc.seed, "run": cfg.name,
+             "sampling_coordinates": json.dumps({k: ("log" if ls else "linear") for k, ls in
+                                                 zip(names, run.attrs.get("log_space", []),
+                                                     strict=False)})}
+    dt = build_datatree(names, draws, lp, attrs)
+    summary = summarize(names, draws, fit=fit, tau=conv.tau, extra=extra)
+    summary["warnings"] = warnings + [
+        f"R-hat of {k} is {summary['posterior'][k]['r_hat']:.4f} > 1.01"
+        for k in names if (summary["posterior"][k]["r_hat"] or 0) > 1.01]
+    write_outputs(cfg.run_dir, dt, summary)
+    return Posterior(cfg.run_dir, summary, dt)

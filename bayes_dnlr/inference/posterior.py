@@ -1,0 +1,243 @@
+"""The sampled posterior as a result: ArviZ DataTree (posterior.nc), summary.json, console table.
+
+Statistics of the kept draws (after burn-in), in physical units:
+- mean, sd, median, 90 % highest-density interval (ArviZ ``hdi``);
+- ``ess_bulk`` and ``ess_tail`` (ArviZ, every walker taken as a chain; tail = min of the 5 % and 95 %
+  quantile ESS, Vehtari et al. 2021);
+- ``r_hat``: rank-normalised split R-hat (ArviZ) with the walkers split into 4 groups, each group
+  one "chain" whose draws run step by step (so the split halves compare early and late steps, and
+  the groups compare disjoint sets of walkers);
+- emcee's integrated autocorrelation time τ and the ESS it implies, (kept steps × walkers) / τ.
+
+summary.json keys are a contract (DESIGN.md); extra keys are documented in docs/sampling.md.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bayes_dnlr.config import UNITS
+
+POSTERIOR_FILE = "posterior.nc"
+SUMMARY_FILE = "summary.json"
+RHAT_GROUPS = 4
+HDI_PROB = 0.9
+
+
+def build_datatree(names: list[str], draws: np.ndarray, log_prob: np.ndarray,
+                   attrs: dict[str, Any] | None = None):
+    """DataTree with groups posterior (one variable per parameter) and sample_stats (lp).
+
+    draws: (steps, walkers, ndim) physical units; every walker is a chain: dims (chain, draw).
+    """
+    import arviz as az
+
+    post = {k: np.ascontiguousarray(draws[:, :, j].T) for j, k in enumerate(names)}
+    stats = {"lp": np.ascontiguousarray(log_prob.T)}
+    flat_attrs = {k: (json.dumps(v) if isinstance(v, dict | list) else v)
+                  for k, v in (attrs or {}).items() if v is not None}
+    # 32 walkers may outnumber the draws of a short run: that is not a naming mistake
+    dt = az.from_dict({"posterior": post, "sample_stats": stats},
+                      attrs={"posterior": flat_attrs}, check_conventions=False)
+    for k in names:
+        dt["posterior"][k].attrs["units"] = UNITS.get(k, "")
+    return dt
+
+
+def walker_groups(x: np.ndarray, groups: int = RHAT_GROUPS) -> np.ndarray:
+    """(steps, walkers) -> (groups, steps * walkers_per_group), draws ordered step by step.
+
+    Walkers beyond a multiple of ``groups`` are left out of this statistic.
+    """
+    n, w = x.shape
+    g = min(groups, w)
+    m = w // g
+    return x[:, : g * m].reshape(n, g, m).transpose(1, 0, 2).reshape(g, n * m)
+
+
+def parameter_stats(draws: np.ndarray) -> dict[str, float | list[float]]:
+    """Summary statistics of one parameter's kept draws (steps, walkers)."""
+    import arviz as az
+
+    flat = draws.ravel()
+    by_walker = np.ascontiguousarray(draws.T)     # (chain = walker, draw = step)
+    lo, hi = (float(v) for v in np.asarray(az.hdi(flat, prob=HDI_PROB)))
+    return {
+        "mean": float(flat.mean()),
+        "sd": float(flat.std(ddof=1)),
+        "median": float(np.median(flat)),
+        "hdi_90": [lo, hi],
+        "ess_bulk": float(az.ess(by_walker, method="bulk")),
+        "ess_tail": float(az.ess(by_walker, method="tail", prob=0.05)),
+        "r_hat": float(az.rhat(walker_groups(draws))),
+    }
+
+
+def correlation(draws: np.ndarray) -> np.ndarray:
+    """Posterior correlation matrix of (steps, walkers, ndim) draws."""
+    flat = draws.reshape(-1, draws.shape[-1])
+    if flat.shape[1] == 1:
+        return np.ones((1, 1))
+    return np.corrcoef(flat, rowvar=False)
+
+
+def _clean(obj: Any) -> Any:
+    """JSON-able: numpy to Python, NaN/inf to None."""
+    if isinstance(obj, dict):
+        return {str(k): _clean(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_clean(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _clean(obj.tolist())
+    if isinstance(obj, np.generic):
+        return _clean(obj.item())
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def gauss_newton_block(fit: dict[str, Any]) -> dict[str, Any]:
+    """The linearized (Gauss-Newton) results of fit.json, in summary.json's layout."""
+    names = list(fit.get("parameters") or fit.get("names") or [])
+    return {
+        "parameters": names,
+        "estimate": {k: fit["estimate"][k] for k in names if k in fit.get("estimate", {})},
+        "sd": {k: fit["sd"][k] for k in names if k in fit.get("sd", {})},
+        "correlation": fit.get("correlation"),
+        "delta_tilde": fit.get("delta_tilde"),
+    }
+
+
+def summarize(names: list[str], draws: np.ndarray, *, fit: dict[str, Any], tau: np.ndarray,
+              extra: dict[str, Any]) -> dict[str, Any]:
+    """summary.json content. ``extra`` carries the run facts (sigma0, n_points, walkers, steps, ...)."""
+    n, w, _ = draws.shape
+    post = {k: parameter_stats(draws[:, :, j]) for j, k in enumerate(names)}
+    summary: dict[str, Any] = {
+        "parameters": list(names),
+        "posterior": post,
+        "posterior_correlation": correlation(draws),
+        "gauss_newton": gauss_newton_block(fit),
+        "sigma0": extra.pop("sigma0"),
+        "n_points": extra.pop("n_points"),
+        "walkers": int(w),
+        "steps": extra.pop("steps"),
+        "autocorr_time": {k: float(t) for k, t in zip(names, tau, strict=True)},
+        "wall_time_s": extra.pop("wall_time_s"),
+        "standards": extra.pop("standards"),
+        "deborah_max": extra.pop("deborah_max"),
+        "ess_autocorr": {k: float(n * w / t) if t > 0 else None for k, t in zip(names, tau, strict=True)},
+        "kept_steps": int(n),
+        "draws": int(n * w),
+    }
+    summary.update(extra)
+    return _clean(summary)
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def write_outputs(run_dir: Path, datatree, summary: dict[str, Any]) -> None:
+    """posterior.nc and summary.json, each replaced atomically."""
+    run_dir = Path(run_dir)
+    nc = run_dir / POSTERIOR_FILE
+    tmp = run_dir / f".{POSTERIOR_FILE}.{os.getpid()}.tmp"
+    datatree.to_netcdf(tmp, engine="h5netcdf")
+    os.replace(tmp, nc)
+    _write_atomic(run_dir / SUMMARY_FILE, json.dumps(summary, indent=2, allow_nan=False) + "\n")
+
+
+def read_summary(run_dir: Path) -> dict[str, Any] | None:
+    """summary.json of a run directory, or None when missing or unreadable."""
+    path = Path(run_dir) / SUMMARY_FILE
+    try:
+        return json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError, UnicodeDecodeError):
+        return None
+
+
+def _g(v: float | None) -> str:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "-"
+    return f"{v:.4g}"
+
+
+@dataclass
+class Posterior:
+    """What ``sample`` returns: the DataTree of kept draws, the run directory and summary.json."""
+
+    run_dir: Path
+    summary: dict[str, Any]
+    _datatree: Any = None
+    note: str = ""
+    extras: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def datatree(self):
+        """ArviZ DataTree of the kept draws (loaded from posterior.nc when needed)."""
+        if self._datatree is None:
+            import arviz as az
+
+            dt = az.from_netcdf(self.run_dir / POSTERIOR_FILE)
+            self._datatree = dt.load()
+            dt.close()
+        return self._datatree
+
+    @property
+    def parameters(self) -> list[str]:
+        return list(self.summary["parameters"])
+
+    def table(self) -> str:
+        """Console table: posterior mean ± sd, 90 % HDI, Gauss-Newton estimate ± sd, ESS, R-hat, τ."""
+        s = self.summary
+        gn = s.get("gauss_newton") or {}
+        head = ["parameter", "unit", "posterior mean ± sd", "90 % HDI", "Gauss-Newton ± sd",
+                "ESS bulk", "ESS tail", "R-hat", "tau"]
+        rows = []
+        for k in s["parameters"]:
+            p = s["posterior"][k]
+            est, sd = (gn.get("estimate") or {}).get(k), (gn.get("sd") or {}).get(k)
+            rows.append([k, UNITS.get(k, ""), f"{_g(p['mean'])} ± {_g(p['sd'])}",
+                         f"[{_g(p['hdi_90'][0])}, {_g(p['hdi_90'][1])}]",
+                         "-" if est is None else f"{_g(est)} ± {_g(sd)}",
+                         f"{p['ess_bulk']:.0f}" if p.get("ess_bulk") else "-",
+                         f"{p['ess_tail']:.0f}" if p.get("ess_tail") else "-",
+                         f"{p['r_hat']:.4f}" if p.get("r_hat") else "-",
+                         _g((s.get("autocorr_time") or {}).get(k))])
+        widths = [max(len(r[i]) for r in [head, *rows]) for i in range(len(head))]
+        fmt = "  ".join(f"{{:<{w}}}" if i < 2 else f"{{:>{w}}}" for i, w in enumerate(widths))
+        lines = []
+        if self.note:
+            lines.append(self.note)
+        reason = {"converged": f"converged (every ESS >= {_g(s.get('target_ess'))})",
+                  "max_steps": "stopped at max_steps: NOT converged"}.get(s.get("stop_reason", ""),
+                                                                            s.get("stop_reason", ""))
+        lines.append(f"{s.get('name', self.run_dir.name)}: {s['walkers']} walkers x {s['steps']} steps "
+                     f"(burn-in {s.get('burn_in', '-')}, {s.get('draws', '-')} draws kept), "
+                     f"moves {s.get('moves', '-')}, {reason}, sigma0 = {_g(s.get('sigma0'))} MPa, "
+                     f"{_g(s.get('wall_time_s'))} s")
+        lines.append(fmt.format(*head))
+        lines.append(fmt.format(*("-" * w for w in widths)))
+        lines += [fmt.format(*r) for r in rows]
+        warn = s.get("warnings") or []
+        lines += [f"warning: {w}" for w in warn]
+        lines.append(f"outputs: {self.run_dir}/{{chains.h5, {POSTERIOR_FILE}, {SUMMARY_FILE}}}")
+        return "\n".join(lines)
+
+
+def load_posterior(run_dir: Path, note: str = "") -> Posterior:
+    """The Posterior of a finished run from its summary.json (DataTree loaded lazily)."""
+    summary = read_summary(run_dir)
+    if summary is None:
+        raise FileNotFoundError(f"{run_dir}: no readable {SUMMARY_FILE}")
+    return Posterior(Path(run_dir), summary, note=note)
