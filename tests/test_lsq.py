@@ -314,6 +314,26 @@ def test_fit_json_is_strict_json(tmp_path: Path):
     json.loads((cfg.run_dir / "fit.json").read_text(), parse_constant=lambda c: pytest.fail(c))
 
 
+# ---------------------------------------------------------------- real data (optional)
+
+REAL_ETFE = REPO.parent / "shared" / "data" / "real" / "ETFE_MD_CSR_0p1pct_per_s_T40C_3specimens.csv"
+
+
+@pytest.mark.skipif(not REAL_ETFE.is_file(), reason="../shared/data/real is absent (not part of the project)")
+def test_real_etfe_specimen_converges_and_its_residuals_are_called_biased(tmp_path: Path):
+    a = np.genfromtxt(REAL_ETFE, delimiter=",")
+    t, e, s = a[:, 0], a[:, 7], a[:, 9]          # specimen 0: time, Hencky strain (SOI), true stress
+    keep = np.isfinite(t) & np.isfinite(e) & np.isfinite(s)
+    cfg = write_run(tmp_path, t[keep], e[keep], s[keep], fit={"multistart": 4},
+                    data={"strain_input": "smoothed"})
+    r = fit(cfg)
+    print("ETFE specimen 0:", r.estimate, "rms", r.diagnostics["rms"])
+    assert r.converged and r.multistart["same_optimum"]
+    assert 1500 < r.estimate["E"] < 3000                 # README: roughly 1.9-2.4 GPa
+    assert 1.0 < r.diagnostics["rms"] < 2.5              # README: 1.3-2.0 MPa
+    assert r.diagnostics["white"] is False and "model bias" in r.diagnostics["verdict"]
+
+
 # ---------------------------------------------------------------- coverage (slow)
 
 @pytest.mark.slow

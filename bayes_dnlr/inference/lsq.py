@@ -254,8 +254,8 @@ def fit_test(cfg: Config, test) -> FitResult:
         for s in spread_starts(specs, names, n_ms, seed=0, time_span=span):
             ms_runs.append((s, _run(problem, method, s, max_it)))
         # a meaningfully lower criterion (not rounding) replaces the physics-start optimum
-        cands = [o for _, o in ms_runs
-                 if o.converged and o.criterion < best.criterion * (1.0 - 1e-9) - 1e-300]
+        margin = 1e-9 * best.criterion + 1e-20 * float(problem.y @ problem.y)
+        cands = [o for _, o in ms_runs if o.converged and o.criterion < best.criterion - margin]
         if cands:
             best = min(cands, key=lambda o: o.criterion)
 
