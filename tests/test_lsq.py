@@ -14,7 +14,7 @@ import yaml
 from bayes_dnlr.config import load_config, parse_config
 from bayes_dnlr.data import TestData
 from bayes_dnlr.errors import BayesDnlrError, RunError
-from bayes_dnlr.inference.lsq import FitResult, fit, fit_is_current, fit_test, load_fit
+from bayes_dnlr.inference.lsq import FitResult, fit, fit_is_current, fit_test, load_fit, stochastic_analysis
 from bayes_dnlr.inference.noise import resolve_sigma0
 from bayes_dnlr.inference.start import physics_start, spread_starts
 from bayes_dnlr.model import simulate
@@ -137,6 +137,20 @@ def test_interval_II_recovers_table3_from_physics_start_and_every_multistart(met
     assert r.deborah_max == pytest.approx(r.estimate["tau_max"] * RATE)
     assert r.diagnostics["white"] is True
     assert any("ρ(E, tau_max)" in w for w in r.warnings)        # the paper's -0.9988: a warning
+
+
+def test_stochastic_analysis_at_given_parameters_matches_the_fit():
+    t, e, y, _ = synthetic(seed=24)
+    cfg = config(noise={"sigma0": 0.3}, fit={"multistart": 0})
+    td = test_data(t, e, y)
+    r = fit_test(cfg, td)
+    a = stochastic_analysis(cfg, td, r.estimate, 0.3)
+    np.testing.assert_allclose(a.covariance, r.covariance, rtol=1e-10)
+    np.testing.assert_allclose(a.delta_tilde, r.delta_tilde, rtol=1e-10, atol=1e-14)
+    assert a.Xn.shape == (2000, 3)
+    # at the true parameters, a-priori (Table 2 style): same bands as the paper's
+    b = stochastic_analysis(cfg, td, TABLE3, 0.3)
+    assert b.correlation[0, 2] <= -0.99
 
 
 def test_both_methods_reach_the_same_optimum():

@@ -31,7 +31,7 @@ from bayes_dnlr.inference import optimize
 from bayes_dnlr.inference.diagnostics import residual_diagnostics
 from bayes_dnlr.inference.noise import resolve_sigma0
 from bayes_dnlr.inference.problem import LsqProblem
-from bayes_dnlr.inference.sensitivity import analyse, identifiability_warnings
+from bayes_dnlr.inference.sensitivity import StochasticAnalysis, analyse, identifiability_warnings
 from bayes_dnlr.inference.start import clip_to, fallback, physics_start, spread_starts
 from bayes_dnlr.rundir import config_digest, file_sha256, prepare_run_dir
 
@@ -316,6 +316,22 @@ def fit_test(cfg: Config, test) -> FitResult:
         strain_rate=rate, relaxation_start=test.relaxation_start, window=_window_info(cfg, test, problem),
         start=start, start_notes=notes, fixed=dict(cfg.fixed_values),
         wall_time_s=_time.perf_counter() - t_start)
+
+
+def stochastic_analysis(cfg: Config, test, params: Mapping[str, float],
+                        sigma0: float) -> StochasticAnalysis:
+    """X (eq. 22), X̃ (eq. 37), Δ, Err, ρ, Δ̃ (eq. 32-35) of the free parameters at ``params``, on the
+    window of ``test``, for a given sigma0: the paper's a-priori analysis (Table 2, Fig. 11-12).
+
+    ``params`` holds at least the free parameters; fixed ones come from the config. The rows of X are
+    the window samples (``test.time[test.window]``).
+    """
+    names = cfg.free_parameters
+    problem = LsqProblem(test.time, test.strain_input, test.stress, test.window, test.relaxation_start,
+                         names, cfg.fixed_values, {k: cfg.parameters[k].bounds() for k in names},
+                         cfg.model.modes, cfg.model.decades)
+    full = problem.params([params[k] for k in names])
+    return analyse(problem.jacobian(full), names, problem.vector(full), sigma0)
 
 
 def _multistart_summary(runs: list[tuple[np.ndarray, optimize.Optimum]], best: optimize.Optimum,
