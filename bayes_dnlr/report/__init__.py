@@ -1,0 +1,18 @@
+"""Reports: figures, tables and the self-contained HTML page of a run; ``compare`` across runs.
+
+The only package that imports matplotlib, corner and ArviZ's plotting (inside the functions).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def build_report(run_dir: Path | str) -> Path:
+    """Write run_dir/report.html and run_dir/figures/*.png; return the path of report.html."""
+    from bayes_dnlr.report.html import build_report as _build
+
+    return _build(run_dir)
+
+
+__all__ = ["build_report"]

@@ -1,0 +1,285 @@
+"""The report's figures (matplotlib, corner, ArviZ). Arrays in, a PNG file out; every figure is closed.
+
+- ``corner_plot``: posterior pairs with the Gauss-Newton estimate and its linearized 1σ/2σ ellipses
+  (eq. 32) and the true values of a synthetic test.
+- ``fit_plot``: data, posterior-median model and 90 % bands, residuals below (paper Figs 6-10).
+- ``sensitivity_plot``: normalised sensitivities X̃_j = β_j ∂σ/∂β_j (eq. 37) against strain (Fig. 11).
+- ``sensitivity_xy_plot``: X̃(E) against X̃(tau_max) (Fig. 12).
+- ``trace_plot`` / ``rank_plot``: ArviZ trace and rank plots of the walkers.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+DPI = 110
+LABELS = {"E": r"$E$ (MPa)", "G": r"$G$ (MPa)", "tau_max": r"$\tau_{max}$ (s)",
+          "sigma_inf": r"$\sigma_\infty$ (MPa)", "tau_max_R": r"$\tau^R_{max}$ (s)",
+          "sigma0": r"$\sigma_0$ (MPa)"}
+SYMBOLS = {"E": r"$E$", "G": r"$G$", "tau_max": r"$\tau_{max}$", "sigma_inf": r"$\sigma_\infty$",
+           "tau_max_R": r"$\tau^R_{max}$", "sigma0": r"$\sigma_0$"}
+C_DATA, C_MODEL, C_GN, C_TRUTH = "0.35", "#c0392b", "#1f5fa8", "#2e8b57"
+
+
+def _plt():
+    import matplotlib
+
+    if matplotlib.get_backend().lower() != "agg":
+        matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(fig, path: Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=DPI, bbox_inches="tight")
+    _plt().close(fig)
+    return path
+
+
+def ellipse_xy(mean: Sequence[float], cov: np.ndarray, k: float, n: int = 200) -> np.ndarray:
+    """Points (n, 2) of the ellipse (x - m)ᵀ C⁻¹ (x - m) = k² of a 2-D Gaussian."""
+    w, v = np.linalg.eigh(np.asarray(cov, dtype=float))
+    w = np.clip(w, 0.0, None)
+    a = np.linspace(0.0, 2.0 * math.pi, n)
+    circle = np.stack([np.cos(a), np.sin(a)])
+    return (np.asarray(mean, dtype=float)[:, None] + k * (v * np.sqrt(w)) @ circle).T
+
+
+def _ranges(samples: np.ndarray, est: np.ndarray | None, sd: np.ndarray | None,
+            truths: Sequence[float | None] | None) -> list[tuple[float, float]]:
+    out = []
+    for j in range(samples.shape[1]):
+        lo, hi = np.quantile(samples[:, j], [0.002, 0.998])
+        if est is not None and sd is not None and np.isfinite(sd[j]):
+            lo, hi = min(lo, est[j] - 2.3 * sd[j]), max(hi, est[j] + 2.3 * sd[j])
+        if truths is not None and truths[j] is not None:
+            lo, hi = min(lo, truths[j]), max(hi, truths[j])
+        pad = 0.05 * (hi - lo) if hi > lo else max(abs(lo) * 1e-3, 1e-12)
+        out.append((float(lo - pad), float(hi + pad)))
+    return out
+
+
+def corner_plot(samples: np.ndarray, names: Sequence[str], path: Path,
+                gn_estimate: Sequence[float] | None = None, gn_covariance: np.ndarray | None = None,
+                truths: Sequence[float | None] | None = None) -> Path:
+    """Posterior corner plot; Gauss-Newton estimate (blue cross) with its linearized 1σ and 2σ ellipses
+    (Mahalanobis distance 1 and 2 of N(β̂, Δ), eq. 32) and 1-D normal densities; truths in green.
+
+    The posterior contours are drawn at the same two probability levels (39 % and 86 %), so a
+    posterior contour on top of its ellipse means the linearization holds.
+    """
+    import corner
+
+    plt = _plt()
+    samples = np.asarray(samples, dtype=float)
+    p = samples.shape[1]
+    est = None if gn_estimate is None else np.asarray(gn_estimate, dtype=float)
+    cov = None if gn_covariance is None else np.asarray(gn_covariance, dtype=float)
+    sd = None if cov is None else np.sqrt(np.diag(cov))
+    has_truth = truths is not None and any(t is not None for t in truths)
+    ranges = _ranges(samples, est, sd, truths if has_truth else None)
+    levels = (1 - math.exp(-0.5), 1 - math.exp(-2.0))
+    fig = plt.figure(figsize=(2.3 * p + 1.0, 2.3 * p + 1.0))
+    corner.corner(samples, fig=fig, labels=[LABELS.get(n, n) for n in names], range=ranges,
+                  truths=[t if t is not None else None for t in truths] if has_truth else None,
+                  truth_color=C_TRUTH, levels=levels, color="0.2", bins=30, smooth=1.0,
+                  plot_datapoints=False, fill_contours=True, hist_kwargs={"density": True},
+                  label_kwargs={"fontsize": 11}, max_n_ticks=4)
+    axes = np.array(fig.axes).reshape(p, p)
+    if est is not None and cov is not None:
+        for i in range(p):
+            ax = axes[i, i]
+            x = np.linspace(*ranges[i], 300)
+            if sd[i] > 0:
+                ax.plot(x, np.exp(-0.5 * ((x - est[i]) / sd[i]) ** 2) / (sd[i] * math.sqrt(2 * math.pi)),
+                        color=C_GN, lw=1.4)
+            ax.axvline(est[i], color=C_GN, lw=1.0, ls="--")
+            for j in range(i):
+                ax = axes[i, j]
+                sub = cov[np.ix_([j, i], [j, i])]
+                for k, ls in ((1.0, "-"), (2.0, "--")):
+                    xy = ellipse_xy(est[[j, i]], sub, k)
+                    ax.plot(xy[:, 0], xy[:, 1], color=C_GN, lw=1.3, ls=ls)
+                ax.plot(est[j], est[i], marker="x", color=C_GN, ms=7, mew=2)
+    from matplotlib.lines import Line2D
+
+    handles = [Line2D([], [], color="0.2", lw=6, alpha=0.5, label="posterior (39 %, 86 % contours)")]
+    if est is not None:
+        handles += [Line2D([], [], color=C_GN, lw=1.3, label="Gauss-Newton: linearized 1σ"),
+                    Line2D([], [], color=C_GN, lw=1.3, ls="--", label="Gauss-Newton: linearized 2σ"),
+                    Line2D([], [], color=C_GN, marker="x", ls="", mew=2, label="Gauss-Newton estimate")]
+    if has_truth:
+        handles.append(Line2D([], [], color=C_TRUTH, lw=1.5, label="true value (synthetic test)"))
+    fig.legend(handles=handles, loc="upper right", frameon=False, fontsize=10,
+               bbox_to_anchor=(0.98, 0.98))
+    return _save(fig, path)
+
+
+def fit_plot(x: np.ndarray, data: np.ndarray, path: Path, *, window: np.ndarray,
+             median: np.ndarray | None = None, band: tuple[np.ndarray, np.ndarray] | None = None,
+             predictive: tuple[np.ndarray, np.ndarray] | None = None,
+             gn_curve: np.ndarray | None = None, sigma0: float | None = None,
+             xlabel: str = r"true strain $\varepsilon_{11}$", inset_xmax: float | None = None) -> Path:
+    """Data and model (paper Figs 6-10) with the residuals below.
+
+    median: pointwise posterior median of the model curve; band: its 90 % credible band;
+    predictive: the 90 % posterior predictive band (model + noise σ0); gn_curve: the least-squares
+    fit, used for the residuals when there is no posterior. Points outside ``window`` are grey.
+    """
+    plt = _plt()
+    x, data = np.asarray(x), np.asarray(data)
+    window = np.asarray(window, bool)
+    centre = median if median is not None else gn_curve
+    fig, (ax, axr) = plt.subplots(2, 1, figsize=(9.0, 7.0), sharex=True,
+                                  gridspec_kw={"height_ratios": [2.2, 1.0], "hspace": 0.06})
+    ax.plot(x[window], data[window], ".", color=C_DATA, ms=2.5, label="data (identification window)")
+    if (~window).any():
+        ax.plot(x[~window], data[~window], ".", color="0.75", ms=2.0, label="data (outside window)")
+    if predictive is not None:
+        ax.fill_between(x, *predictive, color=C_MODEL, alpha=0.15, lw=0, label="90 % posterior predictive")
+    if band is not None:
+        ax.fill_between(x, *band, color=C_MODEL, alpha=0.45, lw=0, label="90 % credible band of the model")
+    if median is not None:
+        ax.plot(x, median, color=C_MODEL, lw=1.2, label="posterior median model")
+    if gn_curve is not None:
+        ax.plot(x, gn_curve, color=C_GN, lw=1.0, ls="--", label="least-squares fit (Gauss-Newton)")
+    ax.set_ylabel("true stress (MPa)")
+    ax.legend(loc="lower right", fontsize=9, frameon=False)
+    ax.grid(alpha=0.3)
+    if inset_xmax is not None and centre is not None:
+        ins = ax.inset_axes([0.08, 0.5, 0.35, 0.42])
+        sel = x <= inset_xmax
+        ins.plot(x[sel & window], data[sel & window], ".", color=C_DATA, ms=2.5)
+        if predictive is not None:
+            ins.fill_between(x[sel], predictive[0][sel], predictive[1][sel], color=C_MODEL, alpha=0.15, lw=0)
+        ins.plot(x[sel], centre[sel], color=C_MODEL if median is not None else C_GN, lw=1.2)
+        ins.set_xlim(x[sel].min(), inset_xmax)
+        ins.tick_params(labelsize=8)
+        ins.grid(alpha=0.3)
+        ins.set_title(f"zoom: strain up to {inset_xmax:g} (the paper's interval I)", fontsize=8)
+    if centre is not None:
+        r = data - centre
+        axr.plot(x[window], r[window], ".", color=C_DATA, ms=2.0)
+        if predictive is not None:
+            axr.fill_between(x, predictive[0] - centre, predictive[1] - centre, color=C_MODEL, alpha=0.15,
+                             lw=0, label="90 % predictive")
+        if band is not None:
+            axr.fill_between(x, band[0] - centre, band[1] - centre, color=C_MODEL, alpha=0.45, lw=0)
+        if sigma0 is not None:
+            for s in (-sigma0, sigma0):
+                axr.axhline(s, color=C_GN, lw=0.8, ls=":")
+        axr.axhline(0.0, color="k", lw=0.8)
+        lim = np.nanquantile(np.abs(r[window]), 0.995) * 1.3 if window.any() else 1.0
+        if np.isfinite(lim) and lim > 0:
+            axr.set_ylim(-lim, lim)
+    axr.set_ylabel("residual (MPa)")
+    axr.set_xlabel(xlabel)
+    axr.grid(alpha=0.3)
+    if sigma0 is not None:
+        axr.text(0.01, 0.95, f"dotted: ±σ0 = ±{sigma0:.3g} MPa", transform=axr.transAxes, fontsize=8,
+                 va="top")
+    return _save(fig, path)
+
+
+def sensitivity_plot(strain: np.ndarray, sens: Mapping[str, np.ndarray], path: Path,
+                     window: np.ndarray | None = None,
+                     xlabel: str = r"true strain $\varepsilon_{11}$") -> Path:
+    """Normalised sensitivities X̃_j = β_j ∂σ/∂β_j in MPa (eq. 37) against strain (Fig. 11)."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(9.0, 4.8))
+    for name, s in sens.items():
+        ax.plot(strain, s, lw=1.4, label=rf"$\tilde X$({SYMBOLS.get(name, name)})")
+    if window is not None and not np.all(window):
+        w = np.asarray(window, bool)
+        ax.axvspan(np.min(strain[w]), np.max(strain[w]), color="0.9", zorder=0, label="identification window")
+    ax.axhline(0.0, color="k", lw=0.6)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(r"$\beta_j\,\partial\sigma/\partial\beta_j$ (MPa)")
+    ax.legend(fontsize=9, frameon=False)
+    ax.grid(alpha=0.3)
+    return _save(fig, path)
+
+
+def sensitivity_xy_plot(x_tau: np.ndarray, x_e: np.ndarray, strain: np.ndarray, path: Path,
+                        mark_strain: float = 0.13) -> Path:
+    """X̃(E) against X̃(tau_max) coloured by strain (Fig. 12); a straight line through the origin
+    would mean E and tau_max cannot be told apart. The point at ``mark_strain`` is marked; the right
+    panel zooms on the rest of the test, where the two sensitivities part (the paper's insert)."""
+    plt = _plt()
+    from matplotlib.colors import Normalize
+
+    fig, axes = plt.subplots(1, 2, figsize=(10.5, 4.4), gridspec_kw={"wspace": 0.45})
+    zoom = mark_strain
+    for ax, sel in ((axes[0], np.ones(strain.size, bool)), (axes[1], strain >= 0.8 * zoom)):
+        norm = Normalize(float(np.min(strain[sel])), float(np.max(strain[sel])))
+        sc = ax.scatter(x_tau[sel], x_e[sel], c=strain[sel], s=4, cmap="viridis", norm=norm)
+        fig.colorbar(sc, ax=ax, label=r"strain $\varepsilon_{11}$", shrink=0.9, pad=0.02)
+        k = int(np.argmin(np.abs(strain - mark_strain)))
+        if sel[k]:
+            ax.plot(x_tau[k], x_e[k], "o", mfc="none", mec=C_MODEL, ms=9, mew=1.5)
+            ax.annotate(rf"$\varepsilon$ = {mark_strain:g}", (x_tau[k], x_e[k]), textcoords="offset points",
+                        xytext=(-70, -14), color=C_MODEL, fontsize=9)
+        if ax is axes[0]:
+            ax.axhline(0, color="k", lw=0.5)
+            ax.axvline(0, color="k", lw=0.5)
+        ax.set_xlabel(r"$\tilde X(\tau_{max})$ (MPa)")
+        ax.set_ylabel(r"$\tilde X(E)$ (MPa)")
+        ax.grid(alpha=0.3)
+    axes[0].set_title("whole test", fontsize=10)
+    axes[1].set_title(rf"zoom on $\varepsilon \geq$ {zoom:g} (after the rise)", fontsize=10)
+    return _save(fig, path)
+
+
+def _posterior_tree(draws: Mapping[str, np.ndarray], max_chains: int | None, max_draws: int,
+                    thin: int = 1):
+    """A DataTree (chain, draw) for ArviZ from {name: (chain, draw)} arrays.
+
+    Each walker is thinned by ``thin`` (e.g. its autocorrelation time); with ``max_chains``, walkers
+    are then pooled into that many groups (the rank ECDF of a group does not depend on the order of
+    its draws); at most ``max_draws`` draws per chain are kept, evenly spaced."""
+    import arviz as az
+
+    out = {}
+    for k, v in draws.items():
+        v = np.asarray(v, dtype=float)[:, :: max(1, int(thin))]
+        if max_chains is not None and v.shape[0] > max_chains:
+            groups = np.array_split(np.arange(v.shape[0]), max_chains)
+            n = min(len(g) for g in groups) * v.shape[1]
+            v = np.stack([v[g].T.reshape(-1)[:n] for g in groups])
+        step = max(1, int(math.ceil(v.shape[1] / max_draws)))
+        out[k] = v[:, ::step]
+    return az.from_dict({"posterior": out})
+
+
+def trace_plot(draws: Mapping[str, np.ndarray], path: Path, max_draws: int = 1000) -> Path:
+    """ArviZ trace and marginal plot of every walker (draws thinned to ``max_draws`` per walker)."""
+    import arviz as az
+
+    plt = _plt()
+    dt = _posterior_tree(draws, None, max_draws)
+    pc = az.plot_trace_dist(dt, sample_dims=["chain", "draw"], compact=True)
+    pc.savefig(str(path), dpi=DPI, bbox_inches="tight")
+    plt.close("all")
+    return Path(path)
+
+
+def rank_plot(draws: Mapping[str, np.ndarray], path: Path, groups: int = 8, max_draws: int = 400,
+              thin: int = 1) -> Path:
+    """ArviZ rank (ECDF difference) plot. Walkers are thinned by ``thin`` (pass the autocorrelation
+    time: the envelope assumes independent draws), pooled into ``groups`` groups, and at most
+    ``max_draws`` draws per group are kept (the envelope costs seconds per thousand draws)."""
+    import arviz as az
+
+    plt = _plt()
+    dt = _posterior_tree(draws, groups, max_draws, thin)
+    pc = az.plot_rank(dt, sample_dims=["chain", "draw"])
+    pc.savefig(str(path), dpi=DPI, bbox_inches="tight")
+    plt.close("all")
+    return Path(path)

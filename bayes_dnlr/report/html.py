@@ -1,0 +1,371 @@
+"""The self-contained report: run_dir/report.html (figures embedded as base64 PNG) and run_dir/figures/.
+
+``build_report(run_dir)`` reads what the run directory holds: with only fit.json it shows the fit part
+and says that the posterior is missing; with summary.json and posterior.nc it adds the corner plot,
+the posterior predictive band, the posterior/linearized comparison and the ArviZ diagnostics.
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import html
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from bayes_dnlr import __version__
+from bayes_dnlr.report import figures as figs
+from bayes_dnlr.report import tables as tb
+from bayes_dnlr.report.tables import RunResults, fmt, load_run
+
+N_DRAWS = 200          # posterior draws pushed through the model for the bands
+INTERVAL_I = 0.13      # the paper's interval I (strain at yield), marked on Fig. 12
+
+
+@dataclass
+class Curves:
+    """Model curves on the data grid (up to the last window sample)."""
+
+    x: np.ndarray
+    xlabel: str
+    data: np.ndarray
+    window: np.ndarray
+    strain: np.ndarray
+    median: np.ndarray | None = None
+    band: tuple[np.ndarray, np.ndarray] | None = None
+    predictive: tuple[np.ndarray, np.ndarray] | None = None
+    gn_curve: np.ndarray | None = None
+    sensitivities: dict[str, np.ndarray] | None = None
+
+
+def _model(run: RunResults):
+    from bayes_dnlr.model import DNLR
+
+    t = run.test
+    n = t.model_end
+    return DNLR(t.time[:n], t.strain_input[:n], run.cfg.model.modes, run.cfg.model.decades,
+                t.relaxation_start), n
+
+
+def _stress(basis_values: np.ndarray, p: dict[str, float]) -> np.ndarray:
+    s = p["E"] * basis_values[:, 0] + p["G"] * basis_values[:, 1]
+    if "sigma_inf" in p:
+        s = s + p["sigma_inf"] * basis_values[:, 2]
+    return s
+
+
+def sensitivities(model, params: dict[str, float], names: list[str]) -> dict[str, np.ndarray]:
+    """Normalised sensitivities X̃_j = β_j ∂σ/∂β_j (eq. 37), MPa, on the model grid."""
+    b = model.basis(params["tau_max"], params.get("tau_max_R"), grad=True)
+    out = {}
+    for n in names:
+        if n in ("E", "G", "sigma_inf"):
+            out[n] = params[n] * b.values[:, {"E": 0, "G": 1, "sigma_inf": 2}[n]]
+        elif n in ("tau_max", "tau_max_R"):
+            g = b.grad_tau_max if n == "tau_max" else b.grad_tau_max_R
+            if g is not None:
+                out[n] = _stress(g, params)   # ∂σ/∂ln tau = tau ∂σ/∂tau
+    return out
+
+
+def model_curves(run: RunResults, n_draws: int = N_DRAWS, seed: int = 0) -> Curves:
+    """Data, posterior median and 90 % bands (credible and predictive), the GN curve, sensitivities."""
+    t = run.test
+    model, n = _model(run)
+    relax = t.relaxation_start is not None
+    x = t.time[:n] if relax else t.strain_input[:n]
+    c = Curves(x=x, xlabel="time (s)" if relax else r"true strain $\varepsilon_{11}$",
+               data=np.asarray(t.stress[:n], dtype=float), window=np.asarray(t.window[:n], bool),
+               strain=np.asarray(t.strain_input[:n], dtype=float))
+    fixed = run.cfg.fixed_values
+    point = run.point()
+    if all(k in point for k in model.parameter_names()):
+        if run.gn() is not None:
+            c.gn_curve = _stress(model.basis(point["tau_max"], point.get("tau_max_R")).values, point)
+        c.sensitivities = sensitivities(model, point, [k for k in model.parameter_names()
+                                                       if k in run.model_names])
+    if run.draws is not None and all(k in run.draws or k in fixed for k in model.parameter_names()):
+        rng = np.random.default_rng(seed)
+        total = next(iter(run.draws.values())).size
+        pick = rng.choice(total, size=min(n_draws, total), replace=False)
+        flat = {k: v.reshape(-1)[pick] for k, v in run.draws.items()}
+        sig = flat.get("sigma0")
+        s0 = run.sigma0()
+        curves = np.empty((pick.size, n))
+        for i in range(pick.size):
+            p = dict(fixed)
+            p.update({k: float(flat[k][i]) for k in model.parameter_names() if k in flat})
+            curves[i] = _stress(model.basis(p["tau_max"], p.get("tau_max_R")).values, p)
+        c.median = np.median(curves, axis=0)
+        lo, hi = np.quantile(curves, [0.05, 0.95], axis=0)
+        c.band = (lo, hi)
+        # predictive band: model spread and noise combined as a normal (a smooth band; 200 noise
+        # replicates per point would make it ragged): mean ± 1.645 sqrt(var_model + E[σ0²])
+        s2 = float(np.mean(sig**2)) if sig is not None else (s0**2 if s0 is not None else 0.0)
+        half = 1.6448536269514722 * np.sqrt(curves.var(axis=0) + s2)
+        mean = curves.mean(axis=0)
+        plo, phi = mean - half, mean + half
+        c.predictive = (plo, phi)
+    return c
+
+
+# ---------------------------------------------------------------------------------------------
+
+CSS = """
+body{font-family:-apple-system,"Segoe UI",Roboto,Helvetica,Arial,sans-serif;color:#222;max-width:1080px;
+margin:0 auto;padding:24px 28px 60px;line-height:1.45;background:#fff}
+h1{font-size:1.7em;margin:0 0 4px}h2{font-size:1.3em;margin:34px 0 10px;border-bottom:1px solid #ddd;
+padding-bottom:4px}h3{font-size:1.05em;margin:20px 0 6px}
+.meta{color:#666;font-size:.9em;margin-bottom:18px}
+.box{background:#f5f7fa;border:1px solid #dde3ea;border-radius:6px;padding:12px 16px;margin:14px 0}
+.warn{background:#fff6e5;border-color:#f0c36d}.ok{background:#eef8f0;border-color:#a6d8b0}
+table{border-collapse:collapse;margin:10px 0 6px;font-size:.92em}
+caption{text-align:left;font-weight:600;padding:4px 0;color:#333}
+th,td{border:1px solid #d8dde3;padding:4px 9px}thead th{background:#eef1f5}
+tbody th{text-align:left;font-weight:600;background:#fafbfc}
+table.num td{text-align:right;font-variant-numeric:tabular-nums}
+td.flag{background:#fde2d4;font-weight:600}
+table.num td{white-space:nowrap}table.num td.text{white-space:normal;text-align:left}
+.pair{display:flex;gap:28px;flex-wrap:wrap;align-items:flex-start}
+figure{margin:14px 0 22px}figure img{max-width:100%;border:1px solid #eee}
+figcaption{color:#444;font-size:.92em;margin-top:4px}
+.note{color:#555;font-size:.88em;margin:2px 0 12px}
+ul.flags li{margin:4px 0}code{background:#f1f3f5;padding:1px 4px;border-radius:3px}
+footer{margin-top:40px;color:#888;font-size:.85em;border-top:1px solid #eee;padding-top:8px}
+"""
+
+
+def _img(path: Path, alt: str, caption: str) -> str:
+    data = base64.b64encode(Path(path).read_bytes()).decode("ascii")
+    return (f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,{data}">'
+            f"<figcaption>{caption}</figcaption></figure>")
+
+
+def _p(text: str) -> str:
+    return f"<p>{html.escape(text)}</p>"
+
+
+def _ul(items: list[str], cls: str = "") -> str:
+    c = f' class="{cls}"' if cls else ""
+    return f"<ul{c}>" + "".join(f"<li>{html.escape(i)}</li>" for i in items) + "</ul>"
+
+
+def _headline(run: RunResults, std: dict | None) -> str:
+    e, e_sd, src = tb.e_model(run)
+    parts = []
+    if e is not None:
+        s = f"<b>E = {fmt(e)} ± {fmt(e_sd)} MPa</b> ({src} ± sd"
+        post = (run.summary or {}).get("posterior") or {}
+        if "E" in post and post["E"].get("hdi_90"):
+            lo, hi = post["E"]["hdi_90"]
+            s += f"; 90 % HDI [{fmt(lo)}, {fmt(hi)}]"
+        s += ")"
+        gn = run.gn()
+        if gn is not None and src != "Gauss-Newton" and "E" in gn["estimate"]:
+            s += f"; least squares {fmt(gn['estimate']['E'])} ± {fmt((gn['sd'] or {}).get('E'))} MPa"
+        parts.append(s + ".")
+    iso = ((run.summary or {}).get("standards") or {}).get("iso527_1")
+    if iso is None and std and std.get("iso527_1") is not None:
+        iso = std["iso527_1"].modulus
+    if iso is not None and e:
+        parts.append(f"ISO 527-1 on the same curve: {fmt(iso)} MPa, {iso / e:.2f} × E.")
+    de, de_sd, _ = tb.deborah(run)
+    if de is not None:
+        parts.append(f"De<sub>max</sub> = τ<sub>max</sub>·ε̇ = {fmt(de, 3)} (eq. 45).")
+    truth = run.truth
+    if truth and "E" in truth and e is not None:
+        parts.append(f"Synthetic test: true E = {fmt(truth['E'])} MPa "
+                     f"({(e - truth['E']) / e_sd if e_sd else float('nan'):+.1f} sd away).")
+    return '<div class="box">' + " ".join(parts) + "</div>"
+
+
+def _warnings(run: RunResults) -> list[str]:
+    out = list(run.problems)
+    for src in (run.fit, run.summary):
+        if src:
+            out += [str(w) for w in src.get("warnings") or [] if str(w) not in out]
+    post = (run.summary or {}).get("posterior") or {}
+    for k, v in post.items():
+        rh, ess = v.get("r_hat"), v.get("ess_bulk")
+        if rh is not None and rh > 1.01:
+            out.append(f"{k}: R-hat {rh:.3f} > 1.01: the walkers have not converged to one distribution.")
+        if ess is not None and ess < 400:
+            out.append(f"{k}: bulk ESS {ess:.0f} < 400: the posterior summaries are noisy.")
+    if run.data_error:
+        out.append(f"The test data could not be loaded ({run.data_error}): no fit or sensitivity figure.")
+    return out
+
+
+def build_report(run_dir: Path | str) -> Path:
+    """Write run_dir/report.html and run_dir/figures/*.png; return the path of report.html."""
+    t0 = time.perf_counter()
+    run_dir = Path(run_dir)
+    run = load_run(run_dir)
+    figdir = run_dir / "figures"
+    figdir.mkdir(exist_ok=True)
+    for old in figdir.glob("*.png"):     # figures of an earlier report that may not apply any more
+        old.unlink()
+    std = None
+    if run.test is not None:
+        from bayes_dnlr.standards import standard_results
+
+        std = standard_results(run.test)
+    curves = model_curves(run) if run.test is not None else None
+    names = run.model_names
+    gn = run.gn()
+    sec: list[str] = []
+
+    cfg = run.cfg
+    w = cfg.data.window
+    window_txt = ", ".join(f"{k} {v:g}" for k, v in w.model_dump().items() if v is not None) or "whole test"
+    n_pts = (run.fit or run.summary or {}).get("n_points") or (run.test.n_points if run.test else None)
+    meta = (f"Data: <code>{html.escape(cfg.data.file)}</code> · observable {cfg.data.observable} · "
+            f"window: {html.escape(window_txt)} · {fmt(n_pts)} points · strain rate "
+            f"{fmt(run.strain_rate(), 3)} 1/s · model: {cfg.model.modes} modes over {cfg.model.decades:g} "
+            f"decades · free parameters: {', '.join(names)}")
+    sec.append(f"<h1>{html.escape(run.name)}: identification report</h1><div class='meta'>{meta}</div>")
+    sec.append(_headline(run, std))
+    if not run.has_posterior:
+        sec.append('<div class="box warn"><b>No posterior yet.</b> This run has no summary.json/'
+                   "posterior.nc: the report shows the least-squares part only. Run "
+                   "<code>python -m bayes_dnlr sample "
+                   f"{html.escape(str(run_dir))}/config.yaml</code>, then this report again.</div>")
+    if run.fit is None:
+        sec.append('<div class="box warn"><b>No fit.json.</b> The least-squares results (estimate, '
+                   "linearized covariance, residual diagnostics) are missing: run <code>python -m bayes_dnlr "
+                   "fit</code>.</div>")
+    warns = _warnings(run)
+    if warns:
+        sec.append('<div class="box warn"><b>Warnings</b>' + _ul(warns) + "</div>")
+
+    # 1. parameters
+    sec.append("<h2>1. Parameters</h2>")
+    sec.append(tb.parameter_table(run).html())
+
+    # 2. corner
+    if run.draws is not None and all(n in run.draws for n in names):
+        sec.append("<h2>2. Posterior and its linearization</h2>")
+        samples = np.column_stack([run.draws[n].reshape(-1) for n in names])
+        est = cov = None
+        if gn is not None and gn["covariance"] is not None and all(n in gn["names"] for n in names):
+            idx = [gn["names"].index(n) for n in names]
+            est = [gn["estimate"][n] for n in names]
+            cov = gn["covariance"][np.ix_(idx, idx)]
+        truths = [run.truth.get(n) for n in names] if run.truth else None
+        p = figs.corner_plot(samples, names, figdir / "corner.png", est, cov, truths)
+        sec.append(_img(p, "corner plot", (
+            "Posterior of the free parameters (grey: histograms and the 39 % / 86 % contours) with the "
+            "Gauss-Newton estimate and the linearized 1σ and 2σ ellipses of Δ = σ0²(XᵀX)⁻¹ (eq. 32, blue)"
+            + ("; green: the true values of this synthetic test" if truths else "")
+            + ". Where the grey contours and the blue ellipses coincide, the linearization holds.")))
+    elif run.has_posterior:
+        sec.append("<h2>2. Posterior and its linearization</h2>")
+        sec.append(_p("posterior.nc is missing or unreadable: no corner plot (summary tables below)."))
+
+    # 3. correlations and disagreements
+    post_t, lin_t = tb.correlation_tables(run)
+    if post_t or lin_t:
+        sec.append("<h2>3. Correlations: posterior against Δ̃ (eq. 35)</h2>")
+        sec.append('<div class="pair">' + "".join(t.html() for t in (post_t, lin_t) if t) + "</div>")
+        comp = tb.comparison_table(run)
+        if comp is not None:
+            sec.append(comp.html())
+            dis = [d for d in tb.disagreements(run) if d.kind in ("sd", "rho")]
+            notes = [d for d in tb.disagreements(run) if d.kind == "mean"]
+            if dis:
+                sec.append('<div class="box warn"><b>Where the linearization fails</b>'
+                           + _ul([d.text for d in dis], "flags") + "</div>")
+            else:
+                sec.append('<div class="box ok">The posterior agrees with the linearized analysis: every sd '
+                           f"within {tb.SD_TOLERANCE:.0%} and every correlation within {tb.RHO_TOLERANCE}."
+                           "</div>")
+            if notes:
+                sec.append(_ul([d.text for d in notes]))
+
+    # 4. fit and residuals
+    sec.append("<h2>4. Fit and residuals</h2>")
+    if curves is not None:
+        inset = None if run.test.relaxation_start is not None else INTERVAL_I
+        p = figs.fit_plot(curves.x, curves.data, figdir / "fit.png", window=curves.window,
+                          median=curves.median, band=curves.band, predictive=curves.predictive,
+                          gn_curve=curves.gn_curve, sigma0=run.sigma0(), xlabel=curves.xlabel,
+                          inset_xmax=inset)
+        n_used = min(N_DRAWS, next(iter(run.draws.values())).size) if run.draws else 0
+        what = (f"the posterior median of the model over {n_used} posterior draws, its 90 % credible band "
+                "(dark) and the 90 % posterior predictive band (model + noise σ0, light)"
+                if curves.median is not None else "the least-squares fit")
+        sec.append(_img(p, "fit and residuals", (
+            f"Data (grey dots) and {what}; the dashed blue line is the least-squares fit. Residuals "
+            "(data - model) below, with ±σ0 dotted: without model bias they scatter evenly around zero "
+            "(paper Figs 6-10).")))
+    else:
+        sec.append(_p("No fit figure: the test data could not be loaded."))
+    sec.append("<h3>Residual diagnostics (fit.json)</h3>" + _ul(tb.residual_words(run.fit, run.sigma0())))
+
+    # 5. sensitivities
+    if curves is not None and curves.sensitivities:
+        sec.append("<h2>5. Sensitivities (eq. 37)</h2>")
+        p = figs.sensitivity_plot(curves.x, curves.sensitivities, figdir / "sensitivity.png",
+                                  window=curves.window, xlabel=curves.xlabel)
+        sec.append(_img(p, "sensitivities", (
+            "Normalised sensitivities X̃<sub>j</sub> = β<sub>j</sub> ∂σ/∂β<sub>j</sub> (eq. 37, MPa) at the "
+            "least-squares estimate (paper Fig. 11). Parameters are identifiable where their curves differ "
+            "in shape; proportional curves mean correlated parameters.")))
+        s = curves.sensitivities
+        if "E" in s and "tau_max" in s:
+            tens = curves.strain if run.test.relaxation_start is None else curves.strain
+            keep = np.ones(tens.size, bool)
+            if run.test.relaxation_start is not None:
+                keep = run.test.time[: tens.size] <= run.test.relaxation_start
+            p = figs.sensitivity_xy_plot(s["tau_max"][keep], s["E"][keep], tens[keep],
+                                         figdir / "sensitivity_xy.png", mark_strain=INTERVAL_I)
+            sec.append(_img(p, "X(E) against X(tau_max)", (
+                "X̃(E) against X̃(τ<sub>max</sub>) along the tensile test (paper Fig. 12). A straight "
+                "line through the origin would make E and τ<sub>max</sub> impossible to separate; "
+                "the bend near ε = 0.13 (right: zoom) is what identifies them.")))
+
+    # 6. standards, Deborah, cross-checks
+    sec.append("<h2>6. Standards, Deborah number and independent measurements</h2>")
+    sec.append(tb.standards_table(run, std).html())
+    sec.append(tb.deborah_table(run).html())
+    cc = tb.crosscheck_table(run, std)
+    if cc is not None:
+        sec.append(cc.html())
+
+    # 7. sampler diagnostics
+    if run.draws is not None:
+        sec.append("<h2>7. Sampler diagnostics</h2>")
+        st = tb.sampler_table(run)
+        if st is not None:
+            sec.append(st.html())
+        model_draws = {n: run.draws[n] for n in run.names if n in run.draws}
+        p = figs.trace_plot(model_draws, figdir / "trace.png")
+        sec.append(_img(p, "trace plot", (
+            "ArviZ trace plot: marginal density per walker (left) and the kept draws per walker (right). "
+            "Walkers that wander off or densities that disagree mean the chain is not converged.")))
+        tau = (run.summary or {}).get("autocorr_time")
+        thin = int(np.ceil(max(tau.values()))) if isinstance(tau, dict) and tau else 1
+        p = figs.rank_plot(model_draws, figdir / "rank.png", thin=thin)
+        sec.append(_img(p, "rank plot", (
+            f"ArviZ rank plot: walkers thinned by their autocorrelation time ({thin} steps) and pooled "
+            "into 8 groups; the ECDF of each group's ranks minus the uniform one. Lines inside the "
+            "envelope (p above α) mean the groups sample the same distribution; emcee walkers are not "
+            "independent chains, so read an excursion as a hint, not a proof.")))
+
+    elapsed = time.perf_counter() - t0
+    files = ", ".join(f for f in ("config.yaml", "fit.json", "summary.json", "posterior.nc", "chains.h5")
+                      if (run_dir / f).exists())
+    now = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    sec.append(f"<footer>bayes_dnlr {__version__} · {now} · run directory {html.escape(str(run_dir))} "
+               f"({html.escape(files)}) · built in {elapsed:.1f} s · Blaise et al., eq. and figure numbers "
+               "refer to the paper.</footer>")
+    page = ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
+            f"<meta name='viewport' content='width=device-width, initial-scale=1'>"
+            f"<title>{html.escape(run.name)} report</title><style>{CSS}</style></head><body>"
+            + "\n".join(sec) + "</body></html>")
+    out = run_dir / "report.html"
+    out.write_text(page, encoding="utf-8")
+    return out
