@@ -93,6 +93,13 @@ def corner_plot(samples: np.ndarray, names: Sequence[str], path: Path,
                   plot_datapoints=False, fill_contours=True, hist_kwargs={"density": True},
                   label_kwargs={"fontsize": 11}, max_n_ticks=4)
     axes = np.array(fig.axes).reshape(p, p)
+    from matplotlib.ticker import ScalarFormatter
+
+    for ax in axes.ravel():   # no "+1e2" offsets: show the values themselves
+        for axis in (ax.xaxis, ax.yaxis):
+            f = axis.get_major_formatter()
+            if isinstance(f, ScalarFormatter):
+                f.set_useOffset(False)
     if est is not None and cov is not None:
         for i in range(p):
             ax = axes[i, i]

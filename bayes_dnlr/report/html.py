@@ -268,7 +268,8 @@ def build_report(run_dir: Path | str) -> Path:
     # 3. correlations and disagreements
     post_t, lin_t = tb.correlation_tables(run)
     if post_t or lin_t:
-        sec.append("<h2>3. Correlations: posterior against Δ̃ (eq. 35)</h2>")
+        sec.append("<h2>3. Correlations: posterior against Δ̃ (eq. 35)</h2>" if post_t else
+                   "<h2>3. Correlations: the linearized Δ̃ (eq. 35)</h2>")
         sec.append('<div class="pair">' + "".join(t.html() for t in (post_t, lin_t) if t) + "</div>")
         comp = tb.comparison_table(run)
         if comp is not None:

@@ -320,7 +320,7 @@ def parameter_table(run: RunResults) -> Table:
             cell = fmt(t)
             if t is not None and post.get(n, {}).get("hdi_90"):
                 lo, hi = post[n]["hdi_90"]
-                cell += "" if lo <= t <= hi else " (outside the 90 % HDI) ⚑"
+                cell += "" if lo <= t <= hi else " ⚑"
             row.append(cell)
         rows.append(row)
     notes = []
@@ -330,7 +330,11 @@ def parameter_table(run: RunResults) -> Table:
     if gn is not None:
         notes.append("Gauss-Newton: least-squares estimate with the linearized sd √Δ_jj "
                      "(eq. 32, Δ = σ0² (XᵀX)⁻¹).")
-    return Table(header, rows, "Parameters: posterior and least squares", notes, css="num")
+    if truth and post:
+        notes.append("⚑ on a true value: outside the 90 % HDI (expected for about one parameter in ten).")
+    caption = ("Parameters: posterior and least squares" if post and gn is not None else
+               "Parameters: posterior" if post else "Parameters: least squares")
+    return Table(header, rows, caption, notes, css="num")
 
 
 def correlation_tables(run: RunResults) -> tuple[Table | None, Table | None]:

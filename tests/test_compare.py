@@ -1,0 +1,104 @@
+"""compare: Table 3/5 layout across runs and the consistency of E across strain rates."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from bayes_dnlr.cli import main
+from bayes_dnlr.errors import RunError
+from bayes_dnlr.report.compare import compare_runs, consistency_of_e
+
+CONFIG = """name: {name}
+data:
+  file: missing.csv
+  columns: {{time: t_s, strain: eps, stress: s}}
+  observable: stress
+"""
+
+
+def make_run(root: Path, name: str, rate: float, e: float, sd: float, tau: float = 5.0,
+             posterior: bool = True) -> Path:
+    """A run directory with fit.json (and summary.json) only: compare needs no data then."""
+    d = root / name
+    d.mkdir()
+    (d / "config.yaml").write_text(CONFIG.format(name=name))
+    names = ["E", "G", "tau_max"]
+    fit = {"parameters": names, "estimate": {"E": e + 1.0, "G": 2.3, "tau_max": tau},
+           "sd": {"E": sd * 1.02, "G": 0.001, "tau_max": 0.03}, "strain_rate": rate,
+           "deborah_max": tau * rate}
+    (d / "fit.json").write_text(json.dumps(fit))
+    if posterior:
+        post = {k: {"mean": v, "sd": s, "median": v, "hdi_90": [v - 1.6 * s, v + 1.6 * s],
+                    "ess_bulk": 1000, "ess_tail": 1000, "r_hat": 1.001}
+                for k, v, s in (("E", e, sd), ("G", 2.3, 0.001), ("tau_max", tau, 0.03))}
+        summary = {"parameters": names, "posterior": post, "standards": {"iso527_1": 0.65 * e,
+                                                                         "astm_d638": 0.6 * e},
+                   "deborah_max": tau * rate, "sigma0": 0.3}
+        (d / "summary.json").write_text(json.dumps(summary))
+    return d
+
+
+@pytest.fixture
+def three_runs(tmp_path) -> list[Path]:
+    root = tmp_path / "runs"
+    root.mkdir()
+    # given out of strain-rate order on purpose
+    return [make_run(root, "b-5e-3", 5e-3, 2850.0, 15.0, 6.0),
+            make_run(root, "c-1e-2", 1e-2, 2800.0, 25.0, 3.2),
+            make_run(root, "a-2.5e-3", 2.5e-3, 2900.0, 20.0, 11.0)]
+
+
+def test_table_and_consistency_by_hand(three_runs, tmp_path):
+    out = tmp_path / "out"
+    comp = compare_runs(three_runs, out)
+    assert [r["run"] for r in comp.rows] == ["a-2.5e-3", "b-5e-3", "c-1e-2"]   # by strain rate
+    # weights 1/sd²: 1/400, 1/225, 1/625
+    w = [1 / 400, 1 / 225, 1 / 625]
+    e = [2900.0, 2850.0, 2800.0]
+    mean = sum(wi * ei for wi, ei in zip(w, e, strict=True)) / sum(w)          # 2855.26 MPa
+    chi2 = sum(((ei - mean) / s) ** 2 for ei, s in zip(e, (20, 15, 25), strict=True))   # 10.01
+    c = comp.consistency
+    assert c.weighted_mean == pytest.approx(mean, rel=1e-12)
+    assert c.chi2 == pytest.approx(chi2, rel=1e-12) and c.dof == 2
+    assert c.p_value == pytest.approx(math.exp(-chi2 / 2), rel=1e-9)   # χ² with 2 dof: sf = e^(-x/2)
+    assert c.max_pair_sd == pytest.approx(100 / math.sqrt(400 + 625), rel=1e-12)   # 3.12
+    assert set(c.max_pair) == {"a-2.5e-3", "c-1e-2"}
+    assert c.spread == pytest.approx(100 / mean)
+    assert c.verdict.startswith("No:")
+    md = (out / "compare.md").read_text()
+    assert md == comp.markdown()
+    assert "| E posterior (MPa) | 2900 ± 20 | 2850 ± 15 | 2800 ± 25 |" in md
+    assert "| De_max = tau_max·ε̇ (eq. 45) | 0.0275 | 0.0300 | 0.0320 |" in md
+    assert "| ISO 527-1 / E | 0.650 | 0.650 | 0.650 |" in md
+    rows = list(csv.DictReader((out / "compare.csv").open()))
+    assert [r["run"] for r in rows] == ["a-2.5e-3", "b-5e-3", "c-1e-2"]
+    assert float(rows[0]["E_post"]) == 2900.0 and float(rows[2]["E_gn"]) == 2801.0
+    assert "sigma_inf_post" not in rows[0]                    # columns with no value are dropped
+
+
+def test_consistent_runs_say_yes(tmp_path):
+    rows = [{"run": f"r{i}", "E_post": 2850.0 + d, "E_post_sd": 20.0} for i, d in enumerate((-5, 0, 5))]
+    c = consistency_of_e(rows)
+    assert c.chi2 == pytest.approx(2 * (5 / 20) ** 2)
+    assert c.verdict.startswith("Yes:")
+    assert consistency_of_e(rows[:1]).p_value is None
+
+
+def test_gauss_newton_only_runs_and_cli(tmp_path, capsys, monkeypatch):
+    root = tmp_path / "runs"
+    root.mkdir()
+    a = make_run(root, "a", 5e-3, 2850.0, 15.0, posterior=False)
+    b = make_run(root, "b", 1e-2, 2860.0, 15.0, posterior=False)
+    monkeypatch.chdir(tmp_path)
+    assert main(["compare", str(a), str(b)]) == 0          # writes into the current directory
+    printed = capsys.readouterr().out
+    assert "E Gauss-Newton (MPa)" in printed and "Yes:" in printed
+    assert (tmp_path / "compare.md").is_file() and (tmp_path / "compare.csv").is_file()
+    assert "no posterior yet" in (tmp_path / "compare.md").read_text()
+    with pytest.raises(RunError):
+        compare_runs([tmp_path / "nope"])
