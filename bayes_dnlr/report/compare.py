@@ -165,7 +165,7 @@ def consistency_of_e(rows: Sequence[dict[str, Any]]) -> Consistency:
     c.verdict = (
         f"{'Yes' if ok else 'No'}: E = {fmt(mean)} MPa (weighted mean of {len(pts)} runs); "
         f"χ² = {c.chi2:.2f} on {c.dof} degrees of freedom, p = {c.p_value:.3g} "
-        f"({'consistent' if ok else 'not consistent'} with one E at the {P_CONSISTENT:.0%} level). "
+        f"({'consistent' if ok else 'not consistent'} with one E at the {100 * P_CONSISTENT:.0f} % level). "
         f"Largest pairwise difference: {c.max_pair_sd:.2f} combined sd ({c.max_pair[0]} vs {c.max_pair[1]}). "
         f"Spread (max - min)/E = {100 * c.spread:.2f} % (the paper: 2700-2950 MPa, ±4 %, across its "
         "tests). The test uses each run's statistical sd only: a model bias common to a run (signed "

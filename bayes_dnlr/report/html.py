@@ -280,9 +280,9 @@ def build_report(run_dir: Path | str) -> Path:
                 sec.append('<div class="box warn"><b>Where the linearization fails</b>'
                            + _ul([d.text for d in dis], "flags") + "</div>")
             else:
-                sec.append('<div class="box ok">The posterior agrees with the linearized analysis: every sd '
-                           f"within {tb.SD_TOLERANCE:.0%} and every correlation within {tb.RHO_TOLERANCE}."
-                           "</div>")
+                sec.append('<div class="box ok">The posterior agrees with the linearized analysis: '
+                           f"every sd within {100 * tb.SD_TOLERANCE:.0f} % and every correlation within "
+                           f"{tb.RHO_TOLERANCE}.</div>")
             if notes:
                 sec.append(_ul([d.text for d in notes]))
 

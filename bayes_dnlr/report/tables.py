@@ -461,7 +461,8 @@ def comparison_table(run: RunResults) -> Table | None:
                 rows.append([f"ρ({n}, {m})", f"{rp:.4f}", f"{rl:.4f}", f"{rp - rl:+.4f}{f}"])
     return Table(["quantity", "posterior", "linearized (eq. 32-35)", "difference"], rows,
                  "Posterior against the linearized analysis",
-                 [f"⚑: sd differs by more than {SD_TOLERANCE:.0%} or ρ by more than {RHO_TOLERANCE}."],
+                 [f"⚑: sd differs by more than {100 * SD_TOLERANCE:.0f} % "
+                  f"or ρ by more than {RHO_TOLERANCE}."],
                  css="num")
 
 
