@@ -243,7 +243,8 @@ class SamplerConfig(_Strict):
     target_ess: float = Field(default=1000.0, gt=0)
     seed: int = 1
     checkpoint_every: int = Field(default=100, ge=1)
-    moves: Literal["de-snooker", "stretch", "de"] = "de-snooker"
+    moves: Literal["de-snooker", "stretch", "de"] = Field(
+        default="de", description="emcee moves; DEMove alone mixes best here (benchmarks/moves.py)")
     burn_in_tau: float = Field(default=5.0, ge=0, description="burn-in, in autocorrelation times")
     min_tau_multiple: float = Field(default=50.0, gt=0, description="chain length >= this many tau")
 
