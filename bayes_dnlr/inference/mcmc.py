@@ -54,6 +54,7 @@ POSTERIOR_SECTIONS = ("data", "model", "parameters", "noise")
 SAMPLER_KEYS = ("walkers", "seed", "moves")
 START_SCALE = 1.0       # walkers start as a draw of the linearized (Laplace) posterior
 MIN_STEPS_FOR_TAU = 20  # shorter chains: no τ estimate, no stopping decision
+RHAT_MAX = 1.01         # convergence also needs R-hat (4 walker groups) <= this
 MOVES = {
     "de-snooker": "DEMove (0.8) + DESnookerMove (0.2)",
     "de": "DEMove",
@@ -119,7 +120,8 @@ def stale_reason(attrs: dict[str, Any], parts: dict[str, str]) -> str | None:
 
 @dataclass(frozen=True)
 class Convergence:
-    """emcee τ per parameter on the kept chain, the burn-in and the ESS it implies."""
+    """emcee τ per parameter on the kept chain, the burn-in and the ESS it implies; ArviZ's
+    diagnostics of the kept draws once emcee's criteria hold."""
 
     tau: np.ndarray          # (ndim,) steps
     burn_in: int             # steps discarded
@@ -127,6 +129,8 @@ class Convergence:
     ess: np.ndarray          # (ndim,) kept × walkers / τ
     converged: bool
     needed_steps: int        # estimated total steps for the stopping rule
+    arviz_ess: float | None = None   # min over parameters of ArviZ ess_bulk and ess_tail
+    r_hat: float | None = None       # max over parameters of R-hat (4 walker groups)
 
     @property
     def min_ess(self) -> float:
@@ -140,28 +144,43 @@ def _tau(chain: np.ndarray) -> np.ndarray:
 
 
 def convergence(chain: np.ndarray, burn_in_tau: float, min_tau_multiple: float,
-                target_ess: float) -> Convergence:
+                target_ess: float, check_arviz: bool = True) -> Convergence:
     """The stopping rule on a chain (steps, walkers, ndim) in physical units.
 
-    τ is estimated on the whole chain to set the burn-in (``burn_in_tau`` τ), then again on the
-    kept part; converged when the kept part is >= ``min_tau_multiple`` τ long, every ESS >=
-    ``target_ess`` and the burn-in is >= ``burn_in_tau`` times the final τ.
+    τ (emcee's estimator) on the whole chain sets the burn-in, ``burn_in_tau`` τ (τ re-estimated on
+    the kept part enlarges it when larger); τ on the kept part gives ESS = kept × walkers / τ.
+    Converged when the kept part is >= ``min_tau_multiple`` τ long and every ESS >= ``target_ess``;
+    then (``check_arviz``) also ArviZ's bulk and tail ESS >= ``target_ess`` and R-hat <= RHAT_MAX,
+    so that every figure summary.json reports meets the target.
     """
     n, w, d = chain.shape
     if n < MIN_STEPS_FOR_TAU:
         tau = np.full(d, float(max(n, 1)))
         return Convergence(tau, 0, n, n * w / tau, False, 10 * MIN_STEPS_FOR_TAU)
+    last = n - MIN_STEPS_FOR_TAU
     tau_all = _tau(chain)
-    burn = min(int(math.ceil(burn_in_tau * tau_all.max())), n - MIN_STEPS_FOR_TAU)
-    kept = n - burn
+    burn = min(int(math.ceil(burn_in_tau * tau_all.max())), last)
     tau = _tau(chain[burn:])
+    if burn_in_tau * tau.max() > burn and burn < last:
+        burn = min(int(math.ceil(burn_in_tau * tau.max())), last)
+        tau = _tau(chain[burn:])
+    kept = n - burn
     tau_max = float(max(tau.max(), tau_all.max()))
     ess = kept * w / tau
-    converged = bool(kept >= min_tau_multiple * tau.max() and np.all(ess >= target_ess)
-                     and burn >= burn_in_tau * tau.max() - 1e-9)
+    converged = bool(kept >= min_tau_multiple * tau.max() and np.all(ess >= target_ess))
     need_kept = max(min_tau_multiple * tau_max, target_ess * tau_max / w)
     needed = int(math.ceil(burn_in_tau * tau_max + need_kept))
-    return Convergence(tau, burn, kept, ess, converged, needed)
+    arviz_ess = r_hat = None
+    if converged and check_arviz:
+        from bayes_dnlr.inference.posterior import diagnostics
+
+        diag = [diagnostics(chain[burn:, :, j]) for j in range(d)]
+        arviz_ess = min(min(x["ess_bulk"], x["ess_tail"]) for x in diag)
+        r_hat = max(x["r_hat"] for x in diag)
+        if not (arviz_ess >= target_ess and r_hat <= RHAT_MAX):
+            converged = False
+            needed = max(needed, n + 1)
+    return Convergence(tau, burn, kept, ess, converged, needed, arviz_ess, r_hat)
 
 
 def stop_reason(conv: Convergence | None, steps: int, max_steps: int) -> str | None:

@@ -62,21 +62,31 @@ def walker_groups(x: np.ndarray, groups: int = RHAT_GROUPS) -> np.ndarray:
     return x[:, : g * m].reshape(n, g, m).transpose(1, 0, 2).reshape(g, n * m)
 
 
+def diagnostics(draws: np.ndarray) -> dict[str, float]:
+    """ArviZ ess_bulk, ess_tail (every walker a chain) and R-hat (4 walker groups) of one
+    parameter's draws (steps, walkers)."""
+    import arviz as az
+
+    by_walker = np.ascontiguousarray(draws.T)     # (chain = walker, draw = step)
+    return {
+        "ess_bulk": float(az.ess(by_walker, method="bulk")),
+        "ess_tail": float(az.ess(by_walker, method="tail", prob=0.05)),
+        "r_hat": float(az.rhat(walker_groups(draws))),
+    }
+
+
 def parameter_stats(draws: np.ndarray) -> dict[str, float | list[float]]:
     """Summary statistics of one parameter's kept draws (steps, walkers)."""
     import arviz as az
 
     flat = draws.ravel()
-    by_walker = np.ascontiguousarray(draws.T)     # (chain = walker, draw = step)
     lo, hi = (float(v) for v in np.asarray(az.hdi(flat, prob=HDI_PROB)))
     return {
         "mean": float(flat.mean()),
         "sd": float(flat.std(ddof=1)),
         "median": float(np.median(flat)),
         "hdi_90": [lo, hi],
-        "ess_bulk": float(az.ess(by_walker, method="bulk")),
-        "ess_tail": float(az.ess(by_walker, method="tail", prob=0.05)),
-        "r_hat": float(az.rhat(walker_groups(draws))),
+        **diagnostics(draws),
     }
 
 
