@@ -16,7 +16,7 @@ import pytest
 from bayes_dnlr.config import load_config
 from bayes_dnlr.model import simulate
 from bayes_dnlr.report import build_report
-from bayes_dnlr.report.tables import fmt
+from bayes_dnlr.report.tables import fmt, fmt_at
 
 FIGURES = {"corner.png", "fit.png", "sensitivity.png", "sensitivity_xy.png", "trace.png", "rank.png"}
 CONFIG = """name: tiny
@@ -87,12 +87,13 @@ def test_report_figures_and_numbers(finished_run, tmp_path):
     summary = json.loads((run / "summary.json").read_text())
     for name in summary["parameters"]:
         s = summary["posterior"][name]
-        for key in ("mean", "sd", "median"):
-            assert f">{fmt(s[key])}<" in page, (name, key)
+        for key in ("mean", "median"):
+            assert f">{fmt_at(s[key], s['sd'])}<" in page, (name, key)
+        assert f">{fmt(s['sd'])}<" in page
         lo, hi = s["hdi_90"]
-        assert f"[{fmt(lo)}, {fmt(hi)}]" in page
+        assert f"[{fmt_at(lo, s['sd'])}, {fmt_at(hi, s['sd'])}]" in page
         gn = summary["gauss_newton"]
-        assert f">{fmt(gn['estimate'][name])}<" in page
+        assert f">{fmt_at(gn['estimate'][name], s['sd'])}<" in page
         assert f">{fmt(gn['sd'][name])}<" in page
     # posterior correlation beside Δ̃ (eq. 35), Err in %
     rho = summary["posterior_correlation"][0][2]
@@ -135,8 +136,16 @@ def test_fit_only_report_says_the_posterior_is_missing(finished_run, tmp_path):
     assert {p.name for p in (run / "figures").glob("*.png")} == {"fit.png", "sensitivity.png",
                                                                    "sensitivity_xy.png"}
     fit = json.loads((run / "fit.json").read_text())
-    assert f">{fmt(fit['estimate']['E'])}<" in page
+    assert f">{fmt_at(fit['estimate']['G'], fit['sd']['G'])}<" in page
     assert "Parameters: least squares" in page
+
+
+def test_number_formats():
+    assert fmt(2854.3) == "2854" and fmt(5.7912) == "5.791" and fmt(0.0005876) == "0.0005876"
+    assert fmt(None) == "–" and fmt(32) == "32" and fmt(2.5e-6) == "2.500e-06"
+    assert fmt_at(2.3195047, 0.000606) == "2.31950"      # sd shown to two digits: 0.00061
+    assert fmt_at(2869.389, 13.4) == "2869"
+    assert fmt_at(5.761128, 0.0273) == "5.761"
 
 
 def test_crosscheck_section_table_4(finished_run, tmp_path):

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from bayes_dnlr.errors import RunError
-from bayes_dnlr.report.tables import RunResults, Table, deborah, fmt, load_run
+from bayes_dnlr.report.tables import RunResults, Table, deborah, fmt, fmt_at, load_run
 
 P_CONSISTENT = 0.05
 PARAMS = ("E", "G", "tau_max", "sigma_inf", "tau_max_R")
@@ -66,7 +66,8 @@ class Comparison:
             lines.append([f"{p} Gauss-Newton ({u})", *[_pm(r.get(f"{p}_gn"), r.get(f"{p}_gn_sd"))
                                                        for r in self.rows]])
             if any(r.get(f"{p}_true") is not None for r in self.rows):
-                lines.append([f"{p} true ({u})", *[fmt(r.get(f"{p}_true")) for r in self.rows]])
+                lines.append([f"{p} true ({u})", *[fmt_at(r.get(f"{p}_true"), r.get(f"{p}_post_sd")
+                                                          or r.get(f"{p}_gn_sd")) for r in self.rows]])
         lines.append(["De_max = tau_max·ε̇ (eq. 45)", *[fmt(r["de_max"], 3) for r in self.rows]])
         lines.append(["ISO 527-1 (MPa)", *[fmt(r["iso527_1"]) for r in self.rows]])
         lines.append(["ASTM D638 (MPa)", *[fmt(r["astm_d638"]) for r in self.rows]])
@@ -100,7 +101,7 @@ class Comparison:
 def _pm(v: float | None, sd: float | None) -> str:
     if v is None:
         return "–"
-    return fmt(v) if sd is None else f"{fmt(v)} ± {fmt(sd, 2)}"
+    return fmt(v) if sd is None else f"{fmt_at(v, sd)} ± {fmt(sd, 2)}"
 
 
 def run_row(run: RunResults) -> dict[str, Any]:

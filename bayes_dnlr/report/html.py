@@ -190,10 +190,14 @@ def _warnings(run: RunResults) -> list[str]:
     post = (run.summary or {}).get("posterior") or {}
     for k, v in post.items():
         rh, ess = v.get("r_hat"), v.get("ess_bulk")
-        if rh is not None and rh > 1.01:
-            out.append(f"{k}: R-hat {rh:.3f} > 1.01: the walkers have not converged to one distribution.")
+        issues = []
+        if rh is not None and rh > 1.01 and not any(f"R-hat of {k} " in w for w in out):
+            issues.append(f"R-hat {rh:.3f} > 1.01")
         if ess is not None and ess < 400:
-            out.append(f"{k}: bulk ESS {ess:.0f} < 400: the posterior summaries are noisy.")
+            issues.append(f"bulk ESS {ess:.0f} < 400")
+        if issues:
+            out.append(f"{k}: {', '.join(issues)}: the posterior summaries of {k} are not reliable yet "
+                       "(a longer chain: raise sampler.max_steps and run `sample` again).")
     if run.data_error:
         out.append(f"The test data could not be loaded ({run.data_error}): no fit or sensitivity figure.")
     return out
@@ -225,7 +229,8 @@ def build_report(run_dir: Path | str) -> Path:
     meta = (f"Data: <code>{html.escape(cfg.data.file)}</code> · observable {cfg.data.observable} · "
             f"window: {html.escape(window_txt)} · {fmt(n_pts)} points · strain rate "
             f"{fmt(run.strain_rate(), 3)} 1/s · model: {cfg.model.modes} modes over {cfg.model.decades:g} "
-            f"decades · free parameters: {', '.join(names)}")
+            f"decades · free parameters: {', '.join(names)}"
+            + (" (and sigma0, sampled)" if "sigma0" in run.names else ""))
     sec.append(f"<h1>{html.escape(run.name)}: identification report</h1><div class='meta'>{meta}</div>")
     sec.append(_headline(run, std))
     if not run.has_posterior:

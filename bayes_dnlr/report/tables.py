@@ -30,7 +30,7 @@ NAMES_TEXT = {"E": "E", "G": "G", "tau_max": "tau_max", "sigma_inf": "sigma_inf"
 
 
 def fmt(x: Any, sig: int = 4) -> str:
-    """A number with ``sig`` significant digits (fixed notation in 1e-3..1e5), '–' for none/NaN."""
+    """A number with ``sig`` significant digits (fixed notation in 1e-5..1e5), '–' for none/NaN."""
     if x is None:
         return "–"
     if isinstance(x, (int, np.integer)) and not isinstance(x, bool):
@@ -44,10 +44,24 @@ def fmt(x: Any, sig: int = 4) -> str:
     if x == 0:
         return "0"
     a = abs(x)
-    if a >= 1e5 or a < 1e-3:
+    if a >= 1e5 or a < 1e-5:
         return f"{x:.{sig - 1}e}"
     decimals = max(0, sig - 1 - int(math.floor(math.log10(a))))
     return f"{x:.{decimals}f}"
+
+
+def fmt_at(x: Any, sd: Any, sig: int = 4) -> str:
+    """A value with at least ``sig`` significant digits and enough decimals to show its sd to two
+    digits (G = 2.31952 with sd 0.00059, not 2.320)."""
+    try:
+        x, sd = float(x), float(sd)
+    except (TypeError, ValueError):
+        return fmt(x, sig)
+    if not (math.isfinite(x) and math.isfinite(sd) and sd > 0) or x == 0 or not 1e-5 <= abs(x) < 1e5:
+        return fmt(x, sig)
+    d_sig = sig - 1 - int(math.floor(math.log10(abs(x))))
+    d_sd = 1 - int(math.floor(math.log10(sd)))
+    return f"{x:.{min(10, max(0, d_sig, d_sd))}f}"
 
 
 def pct(x: float | None, digits: int = 2) -> str:
@@ -305,19 +319,20 @@ def parameter_table(run: RunResults) -> Table:
     rows = []
     for n in run.names:
         row = [NAMES_TEXT.get(n, n), _unit(n)]
+        prec = (post.get(n) or {}).get("sd") or ((gn or {}).get("sd") or {}).get(n)
         if post:
             s = post.get(n, {})
             hdi = s.get("hdi_90") or [None, None]
-            row += [fmt(s.get("mean")), fmt(s.get("sd")), fmt(s.get("median")),
-                    f"[{fmt(hdi[0])}, {fmt(hdi[1])}]", fmt(s.get("ess_bulk"), 3),
+            row += [fmt_at(s.get("mean"), prec), fmt(s.get("sd")), fmt_at(s.get("median"), prec),
+                    f"[{fmt_at(hdi[0], prec)}, {fmt_at(hdi[1], prec)}]", fmt(s.get("ess_bulk"), 3),
                     fmt(s.get("ess_tail"), 3), fmt(s.get("r_hat"), 4)]
         if gn is not None:
             est, sd = gn["estimate"].get(n), (gn["sd"] or {}).get(n)
             err = None if est in (None, 0) or sd is None else sd / abs(est)
-            row += [fmt(est), fmt(sd), pct(err)]
+            row += [fmt_at(est, prec), fmt(sd), pct(err)]
         if truth:
             t = truth.get(n)
-            cell = fmt(t)
+            cell = fmt_at(t, prec)
             if t is not None and post.get(n, {}).get("hdi_90"):
                 lo, hi = post[n]["hdi_90"]
                 cell += "" if lo <= t <= hi else " ⚑"
