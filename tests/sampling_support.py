@@ -73,3 +73,45 @@ def write_case(folder: Path, name: str = "syn", *, params: dict[str, float] | No
     path = run / "config.yaml"
     path.write_text(yaml.safe_dump(raw, sort_keys=False))
     return path
+
+
+def _replicate(args: tuple) -> dict[str, dict[str, float]]:
+    """One calibration replicate: fresh noise, fit, sample; per parameter mean, sd, 90 % HDI."""
+    folder, r, base_seed, sampler, noise = args
+    from bayes_dnlr.config import load_config
+    from bayes_dnlr.inference.mcmc import sample
+
+    path = write_case(Path(folder), f"rep{r:04d}", seed=base_seed + r, noise=noise,
+                      sampler={"max_steps": 20000, "target_ess": 1000, "checkpoint_every": 100,
+                               "seed": r + 1, **sampler})
+    s = sample(load_config(path), progress=False).summary
+    out = {k: {"mean": p["mean"], "sd": p["sd"], "lo": p["hdi_90"][0], "hi": p["hdi_90"][1],
+               "r_hat": p["r_hat"], "ess": min(p["ess_bulk"], p["ess_tail"])}
+           for k, p in s["posterior"].items()}
+    out["_run"] = {"steps": s["steps"], "converged": s["stop_reason"] == "converged"}
+    return out
+
+
+def calibration(n: int, folder: Path, *, jobs: int = 2, base_seed: int = 10_000,
+                sampler: dict | None = None, noise: object = 0.3) -> list[dict[str, dict[str, float]]]:
+    """n noisy replicates of the synthetic ramp test (TRUTH, noise 0.3 MPa, exact strain input)."""
+    args = [(str(folder), r, base_seed, sampler or {}, noise) for r in range(n)]
+    if jobs <= 1:
+        return [_replicate(a) for a in args]
+    import multiprocessing as mp
+
+    with mp.get_context("spawn").Pool(jobs) as pool:
+        return pool.map(_replicate, args, chunksize=1)
+
+
+def coverage(results: list[dict[str, dict[str, float]]], truth: dict[str, float]) -> dict[str, dict]:
+    """Per parameter: fraction of 90 % HDIs holding the truth, and the sd of z = (mean - truth)/sd."""
+    out = {}
+    for k in truth:
+        if k not in results[0]:
+            continue
+        inside = [r[k]["lo"] <= truth[k] <= r[k]["hi"] for r in results]
+        z = np.array([(r[k]["mean"] - truth[k]) / r[k]["sd"] for r in results])
+        out[k] = {"coverage": float(np.mean(inside)), "z_mean": float(z.mean()),
+                  "z_sd": float(z.std(ddof=1)), "n": len(results)}
+    return out

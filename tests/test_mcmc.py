@@ -200,3 +200,14 @@ def test_convergence_rule_on_independent_draws() -> None:
         x[i] = 0.95 * x[i - 1] + rng.normal(size=(32, 1))
     conv = convergence(x, 5, 50, 1000)
     assert not conv.converged and conv.tau[0] > 15 and conv.needed_steps > 400
+
+
+def test_one_sampler_per_run_directory(tmp_path: Path) -> None:
+    from bayes_dnlr.inference.mcmc import _run_lock
+
+    path = write_case(tmp_path, sampler={"max_steps": 20, "checkpoint_every": 10})
+    cfg = load_config(path)
+    with _run_lock(cfg.run_dir), pytest.raises(RunError, match="another `sample` is running"):
+        sample(cfg, progress=False)
+    assert not (cfg.run_dir / "chains.h5").exists()
+    assert sample(cfg, progress=False).summary["steps"] == 20    # the lock is released

@@ -23,6 +23,7 @@ import json
 import math
 import sys
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -48,6 +49,7 @@ from bayes_dnlr.inference.store import ChainWriter, SamplerState, StoredRun, rea
 from bayes_dnlr.rundir import config_digest, digest, prepare_run_dir, resolved_config_text
 
 CHAINS_FILE = "chains.h5"
+LOCK_FILE = "sample.lock"
 # config sections that change the posterior or the chain; max_steps, target_ess, checkpoint_every,
 # burn_in_tau and min_tau_multiple only decide how long to sample and what to keep.
 POSTERIOR_SECTIONS = ("data", "model", "parameters", "noise")
@@ -342,6 +344,32 @@ def sample(cfg: Config, *, restart: bool = False, progress: bool = True) -> Post
     from bayes_dnlr.data import load_test
 
     test = load_test(cfg)
+    with _run_lock(cfg.run_dir):
+        return _sample(cfg, test, priors, names, restart=restart, progress=progress)
+
+
+@contextmanager
+def _run_lock(run_dir: Path):
+    """One ``sample`` per run directory at a time (an advisory lock, released even on SIGKILL)."""
+    import fcntl
+
+    run_dir.mkdir(parents=True, exist_ok=True)
+    f = open(run_dir / LOCK_FILE, "a+")  # noqa: SIM115 - held for the whole run
+    try:
+        fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        f.close()
+        raise RunError(f"{run_dir}: another `sample` is running on this run directory; wait for it "
+                       "or stop it (its chain is kept and resumes)") from None
+    try:
+        yield
+    finally:
+        fcntl.flock(f, fcntl.LOCK_UN)
+        f.close()
+
+
+def _sample(cfg: Config, test, priors: PriorSet, names: list[str], *, restart: bool,
+            progress: bool) -> Posterior:
     run_dir = cfg.run_dir
     chains = run_dir / CHAINS_FILE
     parts = fingerprint_parts(cfg, test.sha256)
