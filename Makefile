@@ -15,8 +15,12 @@ $(VENV)/.installed: pyproject.toml scripts/find-python
 	$(PY) -m pip install --quiet --upgrade pip && \
 	$(PY) -m pip install --quiet -e '.[test]' && touch $@
 
+RUN_DIR = $(patsubst %/,%,$(dir $(EXAMPLE)))
+
 demo: install
-	$(PY) -m bayes_dnlr simulate $(EXAMPLE)
+	$(PY) -m bayes_dnlr sample $(EXAMPLE)
+	$(PY) -m bayes_dnlr report $(RUN_DIR)
+	@echo "open $(RUN_DIR)/report.html"
 
 test: install
 	$(PY) -m pytest -q
@@ -26,6 +30,8 @@ test-slow: install
 
 bench: install
 	$(PY) benchmarks/forward.py
+	$(PY) benchmarks/fit.py
+	$(PY) benchmarks/sample.py
 
 lint: install
 	$(PY) -m ruff check bayes_dnlr tests benchmarks
