@@ -74,7 +74,7 @@ def main() -> None:
     from bayes_dnlr.inference.mcmc import sample
 
     rows = []
-    for r in range(args.repeats):
+    for _ in range(args.repeats):
         with tempfile.TemporaryDirectory() as tmp:
             cfg = load_config(copy_run(config, Path(tmp), target_ess=1000, walkers=32))
             t0 = time.perf_counter()

@@ -99,9 +99,10 @@ def calibration(n: int, folder: Path, *, jobs: int = 2, base_seed: int = 10_000,
     if jobs <= 1:
         return [_replicate(a) for a in args]
     import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
 
-    with mp.get_context("spawn").Pool(jobs) as pool:
-        return pool.map(_replicate, args, chunksize=1)
+    with ProcessPoolExecutor(jobs, mp_context=mp.get_context("spawn")) as pool:
+        return list(pool.map(_replicate, args))
 
 
 def coverage(results: list[dict[str, dict[str, float]]], truth: dict[str, float]) -> dict[str, dict]:

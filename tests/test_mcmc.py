@@ -211,3 +211,14 @@ def test_one_sampler_per_run_directory(tmp_path: Path) -> None:
         sample(cfg, progress=False)
     assert not (cfg.run_dir / "chains.h5").exists()
     assert sample(cfg, progress=False).summary["steps"] == 20    # the lock is released
+
+
+def test_sigma0_from_residuals_is_resolved_once_by_the_fit(tmp_path: Path) -> None:
+    path = write_case(tmp_path, noise="residuals", sigma=0.4,
+                      sampler={"max_steps": 40, "target_ess": 1e9, "checkpoint_every": 20})
+    post = sample(load_config(path), progress=False)
+    fit = json.loads((path.parent / "fit.json").read_text())
+    assert post.summary["sigma0"] == fit["sigma0"]
+    assert post.summary["sigma0_source"] == fit["sigma0_source"]
+    assert fit["sigma0"] == pytest.approx(0.4, rel=0.05)
+    assert post.summary["parameters"] == ["E", "G", "tau_max"]

@@ -1,0 +1,27 @@
+"""Calibration at reduced size (benchmarks/calibration.py runs the full 100+ replicates).
+
+40 noisy replicates of the synthetic ramp test through the whole sample pipeline. For a calibrated
+90 % interval the number of covering replicates is Binomial(40, 0.9): P(coverage < 0.75) = 0.002,
+so the band is 0.75-1.0; the z = (mean - truth) / sd of a calibrated posterior have sd 1, whose
+estimate from 40 replicates has sd about 0.11: the band 0.7-1.35 is 3 of those.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from sampling_support import TRUTH, calibration, coverage
+
+
+@pytest.mark.slow
+def test_credible_intervals_cover_the_truth(tmp_path: Path) -> None:
+    results = calibration(40, tmp_path, jobs=2, base_seed=20_000)
+    cov = coverage(results, TRUTH)
+    for k, c in cov.items():
+        print(f"{k:<8} coverage {c['coverage']:.3f}  z mean {c['z_mean']:+.3f}  z sd {c['z_sd']:.3f}")
+    assert all(r["_run"]["converged"] for r in results)
+    for k, c in cov.items():
+        assert 0.75 <= c["coverage"] <= 1.0, k
+        assert 0.7 <= c["z_sd"] <= 1.35, k
+        assert abs(c["z_mean"]) <= 3 * 1.35 / 40 ** 0.5, k
