@@ -16,6 +16,7 @@ the shipped run is not touched), 32 walkers, target_ess 1000:
 from __future__ import annotations
 
 import argparse
+import os
 import shutil
 import subprocess
 import sys
@@ -57,11 +58,14 @@ def main() -> None:
     args = ap.parse_args()
     config = Path(args.config)
 
-    out = subprocess.run([sys.executable, "-c", COMPILE_PROBE], capture_output=True, text=True,
-                         check=True, cwd=ROOT)
-    imp, first, second = map(float, out.stdout.split())
-    print(f"numba (fresh process): import {imp:.2f} s, first evaluation {first:.3f} s "
-          f"(cache load or compile), next one {1e6 * second:.0f} µs")
+    with tempfile.TemporaryDirectory() as cache:
+        for label, env in (("cold compile (empty NUMBA_CACHE_DIR)", {"NUMBA_CACHE_DIR": cache}),
+                           ("cached", {})):
+            out = subprocess.run([sys.executable, "-c", COMPILE_PROBE], capture_output=True, text=True,
+                                 check=True, cwd=ROOT, env={**os.environ, **env})
+            imp, first, second = map(float, out.stdout.split())
+            print(f"numba, fresh process, {label}: import {imp:.2f} s, first evaluation {first:.3f} s, "
+                  f"next one {1e6 * second:.0f} µs")
 
     t0 = time.perf_counter()
     import arviz  # noqa: F401
