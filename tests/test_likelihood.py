@@ -103,3 +103,14 @@ def test_true_parameters_are_near_the_maximum() -> None:
     z0 = post.priors.from_physical(np.array([[TRUTH[k] for k in post.names]]))
     far = z0 + np.array([[60.0, 0.0, 0.0]])   # 60 MPa off in E: many sd away for 2000 points
     assert post(z0)[0] > post(far)[0] + 10.0
+
+
+def test_overflowing_parameters_give_minus_inf_silently() -> None:
+    test = make_test()
+    cfg = _cfg(parameters={"E": {"prior": "normal", "mean": 3000.0, "sd": 1000.0}})
+    post = build_log_posterior(cfg, test, sigma0=0.3)
+    z = post.priors.from_physical(np.array([[1.0e200, 2.32, 5.79], [-1.0e300, 2.32, 5.79]]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        lp = post(z)
+    assert np.all(lp == -np.inf)

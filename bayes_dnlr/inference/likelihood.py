@@ -117,10 +117,11 @@ class LogPosterior:
             if not (sig[i] > 0 and np.isfinite(sig[i])):
                 continue
             try:
-                r = self.y - self._stress(*(c[i] for c in cols))
+                with np.errstate(all="ignore"):     # overflow -> inf -> -inf below, silently
+                    r = self.y - self._stress(*(c[i] for c in cols))
+                    rss = float(r @ r)
             except (ValueError, ZeroDivisionError, FloatingPointError):
                 continue
-            rss = float(r @ r)
             if math.isfinite(rss):
                 out[i] = -0.5 * rss / sig[i] ** 2 - self.n * (math.log(sig[i]) + 0.5 * _LOG_2PI)
         return out
