@@ -428,20 +428,17 @@ def _sample(cfg: Config, test, priors: PriorSet, names: list[str], *, restart: b
         writer = ChainWriter.create(chains, meta, walkers, ndim, state0, priors.to_physical,
                                     chunk_steps=sc.checkpoint_every, n_evals=0)
         chain0 = np.empty((0, walkers, ndim))
-        lp0, acc0 = np.empty((0, walkers)), np.empty((0, walkers), bool)
         elapsed0, evals0, state = 0.0, 0, state0
         fresh = True
     else:
         writer = ChainWriter.resume(chains, priors.to_physical)
-        chain0, lp0, acc0 = stored.chain, stored.log_prob, stored.accepted
+        chain0 = stored.chain
         elapsed0, evals0, state = stored.elapsed, stored.n_evals, stored.state
         post(state.coords[:1])      # numba: load/compile outside the timed loop
         post.n_evals = 0
         fresh = False
 
-    chain = _Growing(chain0)
-    lps = _Growing(lp0)
-    acc = _Growing(acc0)
+    chain = _Growing(chain0)      # physical units, for the stopping rule
     sampler = emcee.EnsembleSampler(walkers, ndim, post, moves=make_moves(sc.moves), vectorize=True)
     every = sc.checkpoint_every
     conv = None
@@ -487,8 +484,6 @@ def _sample(cfg: Config, test, priors: PriorSet, names: list[str], *, restart: b
                         state = SamplerState(block[done - 1].copy(), block_lp[done - 1].copy(),
                                              last.random_state)
                         chain.extend(priors.to_physical(block[:done]))
-                        lps.extend(block_lp[:done])
-                        acc.extend(block_acc[:done])
                         elapsed = elapsed0 + time.perf_counter() - t_session
                         writer.append(block[:done], block_lp[:done], block_acc[:done], state,
                                       elapsed, evals0 + post.n_evals - evals_start)
