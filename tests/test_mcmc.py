@@ -222,3 +222,29 @@ def test_sigma0_from_residuals_is_resolved_once_by_the_fit(tmp_path: Path) -> No
     assert post.summary["sigma0_source"] == fit["sigma0_source"]
     assert fit["sigma0"] == pytest.approx(0.4, rel=0.05)
     assert post.summary["parameters"] == ["E", "G", "tau_max"]
+
+
+def test_stale_fit_json_is_never_replaced_silently(tmp_path: Path) -> None:
+    from bayes_dnlr.inference.lsq import fit
+
+    path = write_case(tmp_path, sampler={"max_steps": 40, "target_ess": 1e9, "checkpoint_every": 20})
+    fit(load_config(path))
+    before = (path.parent / "fit.json").read_text()
+    raw = yaml.safe_load(path.read_text())
+    raw["parameters"] = {"E": {"prior": "uniform", "low": 100, "high": 10000}}
+    path.write_text(yaml.safe_dump(raw))
+    with pytest.raises(RunError, match="fit.json exists and was made from.*sample --restart"):
+        sample(load_config(path), progress=False)
+    assert (path.parent / "fit.json").read_text() == before
+    assert not (path.parent / "chains.h5").exists()
+    post = sample(load_config(path), restart=True, progress=False)
+    assert post.summary["steps"] == 40
+    assert (path.parent / "fit.json").read_text() != before
+
+
+def test_not_converged_warning_names_the_failing_condition(tmp_path: Path) -> None:
+    path = write_case(tmp_path, sampler={"max_steps": 120, "target_ess": 1e9, "checkpoint_every": 60})
+    post = sample(load_config(path), progress=False)
+    text = " ".join(post.summary.get("warnings", []))
+    assert "not converged: stopped at max_steps = 120" in text
+    assert "ESS below 1000000000: E" in text

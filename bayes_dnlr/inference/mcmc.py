@@ -185,6 +185,23 @@ def convergence(chain: np.ndarray, burn_in_tau: float, min_tau_multiple: float,
     return Convergence(tau, burn, kept, ess, converged, needed, arviz_ess, r_hat)
 
 
+def shortfall(conv: Convergence, names: list[str], target_ess: float, min_tau_multiple: float) -> str:
+    """Which part of the stopping rule a chain does not meet, in words."""
+    parts = []
+    tau_max = float(conv.tau.max())
+    if conv.kept < min_tau_multiple * tau_max:
+        parts.append(f"kept chain {conv.kept} steps < {min_tau_multiple:g} tau = "
+                     f"{min_tau_multiple * tau_max:.0f}")
+    low = [f"{n} {e:.0f}" for n, e in zip(names, conv.ess, strict=True) if e < target_ess]
+    if low:
+        parts.append(f"ESS below {target_ess:.0f}: {', '.join(low)}")
+    if conv.arviz_ess is not None and conv.arviz_ess < target_ess:
+        parts.append(f"ArviZ ESS {conv.arviz_ess:.0f} < {target_ess:.0f}")
+    if conv.r_hat is not None and conv.r_hat > RHAT_MAX:
+        parts.append(f"R-hat {conv.r_hat:.3f} > {RHAT_MAX}")
+    return "; ".join(parts) or "criteria not evaluated"
+
+
 def stop_reason(conv: Convergence | None, steps: int, max_steps: int) -> str | None:
     if conv is not None and conv.converged:
         return "converged"
@@ -368,6 +385,22 @@ def _run_lock(run_dir: Path):
         f.close()
 
 
+def _current_fit(cfg: Config, *, replace: bool, progress: bool) -> dict[str, Any]:
+    """fit.json for this config and data, running the fit when it is missing. A fit.json made from
+    another config or data is replaced only when ``replace`` (sample --restart): never silently."""
+    from bayes_dnlr.inference.lsq import fit as run_fit
+    from bayes_dnlr.inference.lsq import fit_is_current, load_fit
+
+    if not fit_is_current(cfg):
+        if progress:
+            print("fit.json missing or stale: running the least-squares fit first", file=sys.stderr)
+        try:
+            run_fit(cfg, overwrite=replace)
+        except RunError as err:
+            raise RunError(f"{err}; or sample --restart, which also discards this run's chain") from None
+    return load_fit(cfg.run_dir)
+
+
 def _sample(cfg: Config, test, priors: PriorSet, names: list[str], *, restart: bool,
             progress: bool) -> Posterior:
     run_dir = cfg.run_dir
@@ -398,14 +431,7 @@ def _sample(cfg: Config, test, priors: PriorSet, names: list[str], *, restart: b
         if done is not None:
             return done
 
-    from bayes_dnlr.inference.lsq import fit as run_fit
-    from bayes_dnlr.inference.lsq import fit_is_current, load_fit
-
-    if not fit_is_current(cfg):
-        if progress:
-            print("fit.json missing or stale: running the least-squares fit first", file=sys.stderr)
-        run_fit(cfg, overwrite=True)
-    fit = load_fit(run_dir)
+    fit = _current_fit(cfg, replace=restart, progress=progress)
     prepare_run_dir(cfg)
     sigma0, sigma0_source, sigma0_start = _resolve_sigma0(cfg, fit, test)
     post = build_log_posterior(cfg, test, sigma0, priors)
@@ -531,12 +557,8 @@ def _finished_result(cfg: Config, stored: StoredRun, fp: str) -> Posterior | Non
         return load_posterior(cfg.run_dir, note=note)
     # outputs missing or made with other burn-in/stopping settings: rebuild them from the chain
     from bayes_dnlr.data import load_test
-    from bayes_dnlr.inference.lsq import fit as run_fit
-    from bayes_dnlr.inference.lsq import fit_is_current, load_fit
 
-    if not fit_is_current(cfg):
-        run_fit(cfg, overwrite=True)
-    fit = load_fit(cfg.run_dir)
+    fit = _current_fit(cfg, replace=False, progress=False)
     test = load_test(cfg)
     post = _write_result(cfg, stored, fit, conv, reason, fp, test,
                          str(stored.attrs.get("sigma0_source", "")), wall_time=stored.elapsed,
@@ -565,8 +587,8 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
     acc = float(run.accepted[burn:].mean()) if run.accepted.size else float("nan")
     warnings = []
     if reason != "converged":
-        warnings.append(f"not converged: stopped at max_steps = {sc.max_steps} with min ESS "
-                        f"{conv.min_ess:.0f} < {sc.target_ess:.0f} or chain < {sc.min_tau_multiple:g} tau "
+        warnings.append(f"not converged: stopped at max_steps = {sc.max_steps}: "
+                        f"{shortfall(conv, names, sc.target_ess, sc.min_tau_multiple)} "
                         f"(about {conv.needed_steps} steps needed)")
     extra = {
         "sigma0": sigma0, "n_points": int(test.n_points), "steps": int(run.steps),
