@@ -9,10 +9,13 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 from bayes_dnlr.config import Config
@@ -73,3 +76,32 @@ def find_config(run_dir: Path) -> Path:
         if p.is_file():
             return p
     raise FileNotFoundError(f"{run_dir}: no config.yaml in this run directory")
+
+
+def jsonable(obj: Any) -> Any:
+    """Plain JSON types: numpy to Python, paths to strings, non-finite floats to null."""
+    if isinstance(obj, Mapping):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return jsonable(obj.tolist())
+    if isinstance(obj, np.generic):
+        return jsonable(obj.item())
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, Path):
+        return str(obj)
+    return obj
+
+
+def write_atomic(path: Path, text: str) -> None:
+    """Replace ``path`` by ``text`` in one step: a reader never sees half a file."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def write_json(path: Path, content: Any) -> None:
+    """Strict JSON (no NaN), written atomically."""
+    write_atomic(path, json.dumps(jsonable(content), indent=2, allow_nan=False) + "\n")

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import time as _time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -33,7 +32,7 @@ from bayes_dnlr.inference.noise import resolve_sigma0
 from bayes_dnlr.inference.problem import LsqProblem
 from bayes_dnlr.inference.sensitivity import StochasticAnalysis, analyse, identifiability_warnings
 from bayes_dnlr.inference.start import clip_to, fallback, physics_start, spread_starts
-from bayes_dnlr.rundir import config_digest, file_sha256, prepare_run_dir
+from bayes_dnlr.rundir import config_digest, file_sha256, jsonable, prepare_run_dir, write_json
 
 FIT_FILE = "fit.json"
 SECTIONS = ("data", "model", "parameters", "noise", "fit")
@@ -125,7 +124,7 @@ class FitResult:
             "version": __version__,
             "wall_time_s": self.wall_time_s,
         }
-        return _jsonable(d)
+        return jsonable(d)
 
     def table(self) -> str:
         """Short console table: estimates, sd, Err %, Δ̃, residual verdict, warnings."""
@@ -163,26 +162,6 @@ class FitResult:
             lines.append("warnings:")
             lines.extend(f"  - {m}" for m in self.warnings)
         return "\n".join(lines)
-
-
-def _jsonable(obj: Any) -> Any:
-    """Plain JSON types; non-finite floats become null."""
-    if isinstance(obj, Mapping):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, np.bool_ | bool):
-        return bool(obj)
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, float | np.floating):
-        x = float(obj)
-        return x if math.isfinite(x) else None
-    if isinstance(obj, Path):
-        return str(obj)
-    return obj
 
 
 # ---------------------------------------------------------------- the fit itself (no files)
@@ -408,12 +387,6 @@ def fit_is_current(cfg: Config) -> bool:
     return _stale_reason(saved, cfg, file_sha256(cfg.data_path)) is None
 
 
-def _write_json(path: Path, content: dict[str, Any]) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(content, indent=2, allow_nan=False) + "\n")
-    os.replace(tmp, path)
-
-
 def fit(cfg: Config, *, overwrite: bool = False, write: bool = True) -> FitResult:
     """Least-squares fit of the configured test; writes ``cfg.run_dir/fit.json`` (unless write=False).
 
@@ -441,5 +414,5 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True) -> FitResul
     result.wall_time_s = _time.perf_counter() - t0
     if write:
         prepare_run_dir(cfg)
-        _write_json(path, result.to_dict())
+        write_json(path, result.to_dict())
     return result

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config import UNITS
+from bayes_dnlr.rundir import jsonable, write_json
 
 POSTERIOR_FILE = "posterior.nc"
 SUMMARY_FILE = "summary.json"
@@ -98,21 +99,6 @@ def correlation(draws: np.ndarray) -> np.ndarray:
     return np.corrcoef(flat, rowvar=False)
 
 
-def _clean(obj: Any) -> Any:
-    """JSON-able: numpy to Python, NaN/inf to None."""
-    if isinstance(obj, dict):
-        return {str(k): _clean(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _clean(obj.tolist())
-    if isinstance(obj, np.generic):
-        return _clean(obj.item())
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
-
-
 def gauss_newton_block(fit: dict[str, Any]) -> dict[str, Any]:
     """The linearized (Gauss-Newton) results of fit.json, in summary.json's layout."""
     names = list(fit.get("parameters") or fit.get("names") or [])
@@ -148,13 +134,7 @@ def summarize(names: list[str], draws: np.ndarray, *, fit: dict[str, Any], tau: 
         "draws": int(n * w),
     }
     summary.update(extra)
-    return _clean(summary)
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
+    return jsonable(summary)
 
 
 def write_outputs(run_dir: Path, datatree, summary: dict[str, Any]) -> None:
@@ -164,7 +144,7 @@ def write_outputs(run_dir: Path, datatree, summary: dict[str, Any]) -> None:
     tmp = run_dir / f".{POSTERIOR_FILE}.{os.getpid()}.tmp"
     datatree.to_netcdf(tmp, engine="h5netcdf")
     os.replace(tmp, nc)
-    _write_atomic(run_dir / SUMMARY_FILE, json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    write_json(run_dir / SUMMARY_FILE, summary)
 
 
 def read_summary(run_dir: Path) -> dict[str, Any] | None:
