@@ -15,8 +15,8 @@ import pytest
 
 from bayes_dnlr.config import load_config
 from bayes_dnlr.model import simulate
+from bayes_dnlr.numbers import fmt, fmt_at
 from bayes_dnlr.report import build_report
-from bayes_dnlr.report.tables import fmt, fmt_at
 
 FIGURES = {"corner.png", "fit.png", "sensitivity.png", "sensitivity_xy.png", "trace.png", "rank.png"}
 CONFIG = """name: tiny

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config import UNITS
+from bayes_dnlr.numbers import fmt, fmt_at
 from bayes_dnlr.rundir import jsonable, write_json
 
 POSTERIOR_FILE = "posterior.nc"
@@ -197,15 +198,15 @@ class Posterior:
         for k in s["parameters"]:
             p = s["posterior"][k]
             est, sd = (gn.get("estimate") or {}).get(k), (gn.get("sd") or {}).get(k)
-            rows.append([k, UNITS.get(k, ""), f"{_g(p['mean'])} ± {_g(p['sd'])}",
-                         f"[{_g(p['hdi_90'][0])}, {_g(p['hdi_90'][1])}]",
-                         "-" if est is None else f"{_g(est)} ± {_g(sd)}",
+            rows.append([k, UNITS.get(k, ""), f"{fmt_at(p['mean'], p['sd'])} ± {fmt(p['sd'], 2)}",
+                         f"[{fmt_at(p['hdi_90'][0], p['sd'])}, {fmt_at(p['hdi_90'][1], p['sd'])}]",
+                         "-" if est is None else f"{fmt_at(est, sd)} ± {fmt(sd, 2)}",
                          f"{p['ess_bulk']:.0f}" if p.get("ess_bulk") else "-",
                          f"{p['ess_tail']:.0f}" if p.get("ess_tail") else "-",
                          f"{p['r_hat']:.4f}" if p.get("r_hat") else "-",
                          _g((s.get("autocorr_time") or {}).get(k))])
         widths = [max(len(r[i]) for r in [head, *rows]) for i in range(len(head))]
-        fmt = "  ".join(f"{{:<{w}}}" if i < 2 else f"{{:>{w}}}" for i, w in enumerate(widths))
+        line = "  ".join(f"{{:<{w}}}" if i < 2 else f"{{:>{w}}}" for i, w in enumerate(widths))
         lines = []
         if self.note:
             lines.append(self.note)
@@ -216,9 +217,9 @@ class Posterior:
                      f"(burn-in {s.get('burn_in', '-')}, {s.get('draws', '-')} draws kept), "
                      f"moves {s.get('moves', '-')}, {reason}, sigma0 = {_g(s.get('sigma0'))} MPa, "
                      f"{_g(s.get('wall_time_s'))} s")
-        lines.append(fmt.format(*head))
-        lines.append(fmt.format(*("-" * w for w in widths)))
-        lines += [fmt.format(*r) for r in rows]
+        lines.append(line.format(*head))
+        lines.append(line.format(*("-" * w for w in widths)))
+        lines += [line.format(*r) for r in rows]
         warn = s.get("warnings") or []
         lines += [f"warning: {w}" for w in warn]
         lines.append(f"outputs: {self.run_dir}/{{chains.h5, {POSTERIOR_FILE}, {SUMMARY_FILE}}}")

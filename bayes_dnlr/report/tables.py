@@ -19,6 +19,7 @@ import numpy as np
 
 from bayes_dnlr.config import UNITS, Config, load_config
 from bayes_dnlr.crosscheck import crosscheck_values, deborah_max
+from bayes_dnlr.numbers import fmt, fmt_at, pct
 from bayes_dnlr.rundir import find_config
 
 SD_TOLERANCE = 0.15      # posterior sd vs linearized sd, relative
@@ -27,46 +28,6 @@ NAMES_HTML = {"E": "E", "G": "G", "tau_max": "τ<sub>max</sub>", "sigma_inf": "�
               "tau_max_R": "τ<sup>R</sup><sub>max</sub>", "sigma0": "σ<sub>0</sub>"}
 NAMES_TEXT = {"E": "E", "G": "G", "tau_max": "tau_max", "sigma_inf": "sigma_inf",
               "tau_max_R": "tau_max_R", "sigma0": "sigma0"}
-
-
-def fmt(x: Any, sig: int = 4) -> str:
-    """A number with ``sig`` significant digits (fixed notation in 1e-5..1e5), '–' for none/NaN."""
-    if x is None:
-        return "–"
-    if isinstance(x, (int, np.integer)) and not isinstance(x, bool):
-        return str(int(x))
-    try:
-        x = float(x)
-    except (TypeError, ValueError):
-        return str(x)
-    if not math.isfinite(x):
-        return "–" if math.isnan(x) else ("∞" if x > 0 else "-∞")
-    if x == 0:
-        return "0"
-    a = abs(x)
-    if a >= 1e5 or a < 1e-5:
-        return f"{x:.{sig - 1}e}"
-    decimals = max(0, sig - 1 - int(math.floor(math.log10(a))))
-    return f"{x:.{decimals}f}"
-
-
-def fmt_at(x: Any, sd: Any, sig: int = 4) -> str:
-    """A value with at least ``sig`` significant digits and enough decimals to show its sd to two
-    digits (G = 2.31952 with sd 0.00059, not 2.320)."""
-    try:
-        x, sd = float(x), float(sd)
-    except (TypeError, ValueError):
-        return fmt(x, sig)
-    if not (math.isfinite(x) and math.isfinite(sd) and sd > 0) or x == 0 or not 1e-5 <= abs(x) < 1e5:
-        return fmt(x, sig)
-    d_sig = sig - 1 - int(math.floor(math.log10(abs(x))))
-    d_sd = 1 - int(math.floor(math.log10(sd)))
-    return f"{x:.{min(10, max(0, d_sig, d_sd))}f}"
-
-
-def pct(x: float | None, digits: int = 2) -> str:
-    """A fraction as a percentage ('0.0137' -> '1.37 %')."""
-    return "–" if x is None or not math.isfinite(x) else f"{100 * x:.{digits}f} %"
 
 
 @dataclass
