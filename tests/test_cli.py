@@ -1,0 +1,56 @@
+"""The command line: help is instant, user errors print one clear line and exit with 2."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from bayes_dnlr import __version__
+from bayes_dnlr.cli import main
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def test_help_lists_every_command_without_heavy_imports():
+    code = ("import sys; from bayes_dnlr.cli import build_parser; build_parser().format_help(); "
+            "print(sorted(m for m in ('emcee', 'arviz', 'matplotlib', 'numba', 'scipy') "
+            "if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+    help_text = subprocess.run([sys.executable, "-m", "bayes_dnlr", "--help"], capture_output=True,
+                               text=True, check=True).stdout
+    for command in ("simulate", "fit", "sample", "report", "compare"):
+        assert command in help_text
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["--version"])
+    assert exit_.value.code == 0
+    assert __version__ in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("command", ["simulate", "fit", "sample"])
+def test_missing_config_is_one_clear_line(tmp_path, capsys, command):
+    missing = tmp_path / "nope.yaml"
+    assert main([command, str(missing)]) == 2
+    err = capsys.readouterr().err
+    assert err == f"error: {missing}: config file not found\n"
+
+
+def test_bad_key_names_file_and_key(tmp_path, capsys):
+    cfg = tmp_path / "config.yaml"
+    cfg.write_text((REPO / "runs/hdpe-a-5e-3/config.yaml").read_text().replace("walkers: 32", "walker: 32"))
+    assert main(["fit", str(cfg)]) == 2
+    err = capsys.readouterr().err
+    assert f"{cfg.resolve()}: sampler.walker: unknown key" in err
+    assert not (tmp_path / "hdpe-a-5e-3").exists()          # nothing written
+
+
+def test_report_on_a_folder_without_results(tmp_path, capsys):
+    code = main(["report", str(tmp_path)])
+    assert code == 2
+    assert str(tmp_path) in capsys.readouterr().err
