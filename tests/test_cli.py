@@ -54,3 +54,18 @@ def test_report_on_a_folder_without_results(tmp_path, capsys):
     code = main(["report", str(tmp_path)])
     assert code == 2
     assert str(tmp_path) in capsys.readouterr().err
+
+
+def test_fit_reports_the_detected_relaxation_start(tmp_path, capsys):
+    import shutil
+
+    run = tmp_path / "hdpe-b-relax-5e-3"
+    shutil.copytree(REPO / "runs/hdpe-b-relax-5e-3", run)
+    cfg = run / "config.yaml"
+    cfg.write_text(cfg.read_text().replace("relaxation_start: 400.0", "relaxation_start: auto"))
+    assert main(["fit", str(cfg)]) == 0
+    out = capsys.readouterr().out
+    assert "data: relaxation_start: auto -> 400 s (detected)" in out
+    fit = __import__("json").loads((run / "fit.json").read_text())
+    assert fit["relaxation_start"] == 400.0
+    assert any("detected" in n for n in fit["data_notes"])

@@ -81,6 +81,7 @@ class FitResult:
     config_sections: dict[str, str] = field(default_factory=dict)
     data_sha256: str = ""
     wall_time_s: float = 0.0
+    data_notes: list[str] = field(default_factory=list)   # from the data layer (e.g. a detected hold)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able content of fit.json."""
@@ -118,6 +119,7 @@ class FitResult:
             "deborah_max": self.deborah_max,
             "strain_rate": self.strain_rate,
             "relaxation_start": self.relaxation_start,
+            "data_notes": self.data_notes,
             "config_digest": self.config_digest,
             "config_sections": self.config_sections,
             "data_sha256": self.data_sha256,
@@ -131,6 +133,7 @@ class FitResult:
         lines = [f"fit {self.name}: {self.method}, {self.iterations} iterations, "
                  f"{'converged' if self.converged else 'NOT converged'}; SSR = {self.criterion:.6g} "
                  f"on {self.n_points} points; sigma0 = {self.sigma0:.4g} MPa ({self.sigma0_source})"]
+        lines += [f"data: {note}" for note in self.data_notes]
         w = max(len(k) for k in self.estimate) + 2
         lines.append(f"{'parameter':<{w}}{'estimate':>14}{'sd':>12}{'Err %':>9}  unit")
         for k, v in self.estimate.items():
@@ -294,7 +297,7 @@ def fit_test(cfg: Config, test) -> FitResult:
         warnings=warnings, deborah_max=float(tau * rate) if tau is not None else None,
         strain_rate=rate, relaxation_start=test.relaxation_start, window=_window_info(cfg, test, problem),
         start=start, start_notes=notes, fixed=dict(cfg.fixed_values),
-        wall_time_s=_time.perf_counter() - t_start)
+        wall_time_s=_time.perf_counter() - t_start, data_notes=list(test.notes))
 
 
 def stochastic_analysis(cfg: Config, test, params: Mapping[str, float],
