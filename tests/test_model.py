@@ -213,3 +213,13 @@ def test_bad_parameters_are_refused():
         bd.simulate(t, e, {**TABLE3_5E3, "tau_max": -1.0})
     with pytest.raises(ValueError, match="missing parameter"):
         bd.simulate(t, e, TABLE3_5E3, relaxation_start=100.0)
+
+
+def test_clear_message_without_numba():
+    import subprocess
+    import sys
+
+    code = ("import sys; sys.modules['numba'] = None\n"
+            "try:\n    import bayes_dnlr.model\nexcept ImportError as err:\n    print(err)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert "bayes_dnlr needs numba for its forward model: pip install" in out
