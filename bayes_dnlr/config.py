@@ -55,14 +55,14 @@ class Window(_Strict):
 
 
 class Columns(_Strict):
-    """Roles -> CSV header names."""
+    """Roles -> CSV header names (or column numbers, from 1, with ``data.header: false``)."""
 
-    time: str | None = None
-    force: str | None = None
-    eps11: str | None = None
-    eps22: str | None = None
-    stress: str | None = None
-    strain: str | None = None
+    time: str | Annotated[int, Field(ge=1)] | None = None
+    force: str | Annotated[int, Field(ge=1)] | None = None
+    eps11: str | Annotated[int, Field(ge=1)] | None = None
+    eps22: str | Annotated[int, Field(ge=1)] | None = None
+    stress: str | Annotated[int, Field(ge=1)] | None = None
+    strain: str | Annotated[int, Field(ge=1)] | None = None
 
     @model_validator(mode="after")
     def _has_strain(self) -> Columns:
@@ -86,6 +86,8 @@ class DataConfig(_Strict):
     window: Window = Field(default_factory=Window)
     relaxation_start: Literal["auto"] | float | None = None
     delimiter: str = ","
+    header: bool = Field(default=True, description="false: no header row, columns given by number")
+    strain_unit: Literal["fraction", "percent"] = "fraction"
 
     @field_validator("observable")
     @classmethod
@@ -110,6 +112,17 @@ class DataConfig(_Strict):
     @model_validator(mode="after")
     def _consistent(self) -> DataConfig:
         c = self.columns
+        mapped = {r: getattr(c, r) for r in type(c).model_fields if getattr(c, r) is not None}
+        if self.header:
+            numbers = [r for r, v in mapped.items() if isinstance(v, int)]
+            if numbers:
+                raise ValueError(f"columns {numbers} are given by number: set header: false for a file "
+                                 f"without a header row, or name the header of each column")
+        else:
+            names = [r for r, v in mapped.items() if not isinstance(v, int)]
+            if names:
+                raise ValueError(f"header: false needs every column as a number counted from 1; "
+                                 f"columns {names} are names")
         if c.force is not None and c.stress is None and self.area0 is None:
             raise ValueError("area0 is needed to turn the force column into a stress")
         if self.observable == "sigma" and c.eps22 is None:

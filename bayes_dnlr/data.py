@@ -12,6 +12,7 @@ Equation numbers refer to Blaise et al. (shared/paper); see docs/data-input.md.
 from __future__ import annotations
 
 import csv
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -23,6 +24,7 @@ from bayes_dnlr.config import Columns, Config, Window
 from bayes_dnlr.errors import BayesDnlrError
 
 ROLES = ("time", "force", "eps11", "eps22", "stress", "strain")
+STRAIN_ROLES = ("eps11", "eps22", "strain")
 MIN_ROWS = 3
 MIN_BASELINE = 10
 MAX_HENCKY = 5.0          # λ = e^5 ≈ 148: larger axial strains are taken for a unit mistake (percent)
@@ -139,8 +141,13 @@ class _Table:
 
 
 def _mapped(columns: Columns) -> dict[str, str]:
-    """role -> header name for the roles the config maps."""
-    return {r: getattr(columns, r) for r in ROLES if getattr(columns, r) is not None}
+    """role -> header name for the roles the config maps ('column N' for a column number)."""
+    out = {}
+    for role in ROLES:
+        v = getattr(columns, role)
+        if v is not None:
+            out[role] = f"column {v}" if isinstance(v, int) else v
+    return out
 
 
 def _looks_numeric(cells: Sequence[str]) -> bool:
@@ -156,9 +163,12 @@ def _header_index(path: Path, header: list[str], names: dict[str, str]) -> dict[
     index = {}
     for role, name in names.items():
         hits = [i for i, h in enumerate(header) if h == name]
+        if not hits and name.startswith("column "):
+            raise DataError(f"{path}, line 1: {name} (data.columns.{role}) does not exist: the rows "
+                            f"have {len(header)} columns")
         if not hits:
-            hint = (" (the first line looks like numbers: the file needs a header row naming the "
-                    "columns)" if _looks_numeric(header) else "")
+            hint = (" (the first line looks like numbers: give the columns by number with "
+                    "data.header: false)" if _looks_numeric(header) else "")
             raise DataError(
                 f"{path}, line 1: column '{name}' (data.columns.{role}) is not in the header; "
                 f"the header has: {', '.join(repr(h) for h in header)}{hint}")
@@ -170,9 +180,11 @@ def _header_index(path: Path, header: list[str], names: dict[str, str]) -> dict[
     return index
 
 
-def _read_rows(path: Path, delimiter: str, names: dict[str, str]
+def _read_rows(path: Path, delimiter: str, names: dict[str, str], has_header: bool = True
                ) -> tuple[list[str], dict[str, list[str]], list[int]]:
-    """Header and the cell texts of the mapped columns, row by row, with line numbers."""
+    """Header and the cell texts of the mapped columns, row by row, with line numbers.
+
+    Without a header row (``data.header: false``) the names are 'column N', N counted from 1."""
     try:
         f = open(path, newline="", encoding="utf-8-sig")  # noqa: SIM115 - closed below
     except OSError as err:
@@ -180,15 +192,18 @@ def _read_rows(path: Path, delimiter: str, names: dict[str, str]
     with f:
         reader = csv.reader(f, delimiter=delimiter)
         try:
-            header = [h.strip() for h in next(reader, [])]
-            if not any(header):
-                raise DataError(f"{path}: the file is empty (line 1 should be a header row naming "
-                                f"the columns)")
+            first = next(reader, [])
+            if not any(c.strip() for c in first):
+                raise DataError(f"{path}: the file is empty" + (
+                    " (line 1 should be a header row naming the columns)" if has_header else ""))
+            header = ([h.strip() for h in first] if has_header
+                      else [f"column {i + 1}" for i in range(len(first))])
             index = _header_index(path, header, names)
             texts: dict[str, list[str]] = {r: [] for r in names}
             lines: list[int] = []
             blank = None
-            for row in reader:
+            rows = reader if has_header else itertools.chain([first], reader)
+            for row in rows:
                 if not any(c.strip() for c in row):
                     blank = blank or reader.line_num
                     continue
@@ -197,7 +212,8 @@ def _read_rows(path: Path, delimiter: str, names: dict[str, str]
                                     f"(delete it; nothing is skipped silently)")
                 if len(row) != len(header):
                     raise DataError(
-                        f"{path}, line {reader.line_num}: {len(row)} fields, but the header (line 1) "
+                        f"{path}, line {reader.line_num}: {len(row)} fields, but "
+                        f"{'the header' if has_header else 'the first row'} (line 1) "
                         f"has {len(header)} (delimiter {delimiter!r}, data.delimiter)")
                 for role, i in index.items():
                     texts[role].append(row[i])
@@ -236,10 +252,10 @@ def _to_float(table_path: Path, role: str, name: str, texts: list[str], lines: l
     raise AssertionError("unreachable")  # pragma: no cover
 
 
-def read_table(path: Path, columns: Columns, delimiter: str = ",") -> _Table:
-    """Read the mapped columns of a CSV with a header row, checking every cell."""
+def read_table(path: Path, columns: Columns, delimiter: str = ",", has_header: bool = True) -> _Table:
+    """Read the mapped columns of a CSV (with a header row, or columns by number), checking every cell."""
     names = _mapped(columns)
-    header, texts, lines = _read_rows(path, delimiter, names)
+    header, texts, lines = _read_rows(path, delimiter, names, has_header)
     if len(lines) < MIN_ROWS:
         raise DataError(f"{path}: {len(lines)} data row(s) after the header; at least {MIN_ROWS} "
                         f"are needed")
@@ -268,7 +284,7 @@ def _axial_strain(table: _Table, measure: str) -> tuple[np.ndarray, str]:
     if big.size:
         i = int(big[0])
         raise DataError(f"{table.where(i, role)}: strain {table.texts[role][i].strip()} is not a plausible "
-                        f"strain (Hencky {strain[i]:.3g}): strain columns hold fractions, not percent")
+                        f"strain (Hencky {strain[i]:.3g}): percent? set data.strain_unit: percent")
     return strain, role
 
 
@@ -643,7 +659,11 @@ def load_test(cfg: Config) -> TestData:
     if not path.is_file():
         raise DataError(f"{path}: data file not found (config key data.file: {d.file!r}, resolved "
                         f"against {cfg.base_dir})")
-    table = read_table(path, d.columns, d.delimiter)
+    table = read_table(path, d.columns, d.delimiter, d.header)
+    if d.strain_unit == "percent":
+        for role in STRAIN_ROLES:
+            if role in table.values:
+                table.values[role] = table.values[role] / 100.0
     strain, strain_role = _axial_strain(table, d.strain_measure)
     eps22 = None
     if "eps22" in table.values:

@@ -4,6 +4,7 @@ relaxation_start: auto, the smoothed strain input and the baseline noise."""
 from __future__ import annotations
 
 import hashlib
+import re
 import time
 
 import numpy as np
@@ -168,8 +169,35 @@ def test_column_not_in_header_lists_the_headers(write_csv, make_config):
 
 def test_headerless_file_gets_a_hint(write_csv, make_config):
     write_csv("0,0,0\n1,1,0.1\n2,2,0.2\n")
-    with pytest.raises(DataError, match="needs a header row"):
+    with pytest.raises(DataError, match="give the columns by number with data.header: false"):
         load_test(make_config())
+
+
+def test_headerless_file_with_column_numbers_and_percent_strain(write_csv, make_config):
+    # a machine export: index, time, force, nominal strain in percent; no header row
+    path = write_csv("7,0,0,0\n8,1,24,1\n9,2,48,2\n10,3,60,3\n")
+    test = load_test(make_config(header=False, columns={"time": 2, "force": 3, "strain": 4},
+                                 strain_unit="percent", strain_measure="nominal", strain_input="measured"))
+    np.testing.assert_array_equal(test.time, [0, 1, 2, 3])
+    np.testing.assert_allclose(test.strain, np.log1p([0, 0.01, 0.02, 0.03]))
+    np.testing.assert_allclose(test.nominal_stress, [0, 1, 2, 2.5])
+    write_csv("0,0,0,0\n1,24,x,1\n2,48,0.02,2\n3,60,0.03,3\n")
+    with pytest.raises(DataError, match=rf"{path}, line 2, column 'column 3' \(force\): cell 'x'"):
+        load_test(make_config(header=False, columns={"time": 1, "force": 3, "eps11": 4}))
+    with pytest.raises(DataError, match=r"column 9 \(data.columns.force\) does not exist: the rows have 4"):
+        load_test(make_config(header=False, columns={"time": 1, "force": 9, "eps11": 4}))
+
+
+@pytest.mark.parametrize(("data", "words"), [
+    ({"columns": {"time": 1, "force": 2, "eps11": 3}}, "columns ['time', 'force', 'eps11'] are given by "
+                                                       "number: set header: false"),
+    ({"header": False}, "header: false needs every column as a number counted from 1"),
+    ({"header": False, "columns": {"time": 0, "force": 2, "eps11": 3}}, "greater than or equal to 1"),
+    ({"strain_unit": "permille"}, "'fraction' or 'percent'"),
+])
+def test_column_numbers_and_units_are_checked_in_the_config(make_config, data, words):
+    with pytest.raises(ConfigError, match=re.escape(words)):
+        make_config(**data)
 
 
 def test_duplicate_header(write_csv, make_config):
@@ -241,7 +269,7 @@ def test_nominal_strain_below_minus_one(write_csv, make_config):
 
 def test_strain_in_percent_is_refused(write_csv, make_config):
     write_csv("t_s,F_N,eps11\n0,0,0\n1,1,5\n2,2,10\n")
-    with pytest.raises(DataError, match=r"line 4, column 'eps11'.*fractions, not percent"):
+    with pytest.raises(DataError, match=r"line 4, column 'eps11'.*percent\? set data.strain_unit: percent"):
         load_test(make_config(strain_input="measured"))
 
 
