@@ -34,7 +34,7 @@ bench: install
 	$(PY) benchmarks/sample.py
 
 lint: install
-	$(PY) -m ruff check bayes_dnlr tests benchmarks
+	$(PY) -m ruff check .
 
 clean-runs:
 	git clean -fdX runs/
