@@ -45,6 +45,11 @@ def config_digest(cfg: Config, sections: tuple[str, ...]) -> str:
     return digest({k: dumped.get(k) for k in sections})
 
 
+def section_digests(cfg: Config, sections: tuple[str, ...]) -> dict[str, str]:
+    """One fingerprint per config section, so a stale result can say which section changed."""
+    return {s: config_digest(cfg, (s,)) for s in sections}
+
+
 def resolved_config_path(cfg: Config) -> Path:
     run_dir = cfg.run_dir
     target = run_dir / RESOLVED_CONFIG

@@ -32,7 +32,14 @@ from bayes_dnlr.inference.noise import resolve_sigma0
 from bayes_dnlr.inference.problem import LsqProblem
 from bayes_dnlr.inference.sensitivity import StochasticAnalysis, analyse, identifiability_warnings
 from bayes_dnlr.inference.start import clip_to, fallback, physics_start, spread_starts
-from bayes_dnlr.rundir import config_digest, file_sha256, jsonable, prepare_run_dir, write_json
+from bayes_dnlr.rundir import (
+    config_digest,
+    file_sha256,
+    jsonable,
+    prepare_run_dir,
+    section_digests,
+    write_json,
+)
 
 FIT_FILE = "fit.json"
 SECTIONS = ("data", "model", "parameters", "noise", "fit")
@@ -362,44 +369,43 @@ def load_fit(run_dir: str | Path) -> dict[str, Any]:
         raise RunError(f"{path}: not a readable fit.json ({err}); run `fit --force` to redo it") from None
 
 
-def _sections(cfg: Config) -> dict[str, str]:
-    return {s: config_digest(cfg, (s,)) for s in SECTIONS}
-
-
 def _stale_reason(saved: Mapping[str, Any], cfg: Config, sha256: str) -> str | None:
     """Why a saved fit.json does not belong to this config and data (None when it does)."""
     reasons = []
     if saved.get("config_digest") != config_digest(cfg, SECTIONS):
         old = saved.get("config_sections") or {}
-        diff = [s for s, d in _sections(cfg).items() if old.get(s) != d]
+        diff = [s for s, d in section_digests(cfg, SECTIONS).items() if old.get(s) != d]
         reasons.append(f"a different config (sections {', '.join(diff) or SECTIONS})")
     if saved.get("data_sha256") != sha256:
         reasons.append("a different data file (sha256 differs)")
     return " and ".join(reasons) or None
 
 
-def fit_is_current(cfg: Config) -> bool:
-    """True when ``cfg.run_dir/fit.json`` exists and was made from this config and data file."""
+def fit_is_current(cfg: Config, data_sha256: str | None = None) -> bool:
+    """True when ``cfg.run_dir/fit.json`` exists and was made from this config and data file
+    (``data_sha256``: the data file's hash when the caller already has it)."""
     path = _fit_path(cfg.run_dir)
-    if not path.is_file() or not cfg.data_path.is_file():
+    if not path.is_file() or (data_sha256 is None and not cfg.data_path.is_file()):
         return False
     try:
         saved = json.loads(path.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError, OSError):
         return False
-    return _stale_reason(saved, cfg, file_sha256(cfg.data_path)) is None
+    return _stale_reason(saved, cfg, data_sha256 or file_sha256(cfg.data_path)) is None
 
 
-def fit(cfg: Config, *, overwrite: bool = False, write: bool = True) -> FitResult:
+def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) -> FitResult:
     """Least-squares fit of the configured test; writes ``cfg.run_dir/fit.json`` (unless write=False).
 
+    ``test``: the TestData of ``cfg`` when the caller has already loaded it (else it is loaded).
     An existing fit.json made from another config (sections data, model, parameters, noise, fit) or
     another data file is never replaced silently: RunError unless ``overwrite`` (CLI ``--force``).
     """
     from bayes_dnlr.data import load_test
 
     t0 = _time.perf_counter()
-    test = load_test(cfg)
+    if test is None:
+        test = load_test(cfg)
     path = _fit_path(cfg.run_dir)
     if write and not overwrite and path.exists():
         try:
@@ -412,7 +418,7 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True) -> FitResul
                            "(overwrite=True) to replace it")
     result = fit_test(cfg, test)
     result.config_digest = config_digest(cfg, SECTIONS)
-    result.config_sections = _sections(cfg)
+    result.config_sections = section_digests(cfg, SECTIONS)
     result.data_sha256 = test.sha256
     result.wall_time_s = _time.perf_counter() - t0
     if write:

@@ -46,7 +46,7 @@ from bayes_dnlr.inference.posterior import (
 )
 from bayes_dnlr.inference.priors import PriorSet, build_priors, sampled_names
 from bayes_dnlr.inference.store import ChainWriter, SamplerState, StoredRun, read_attrs, read_run
-from bayes_dnlr.rundir import config_digest, digest, prepare_run_dir, resolved_config_text
+from bayes_dnlr.rundir import digest, prepare_run_dir, resolved_config_text, section_digests
 
 CHAINS_FILE = "chains.h5"
 LOCK_FILE = "sample.lock"
@@ -92,7 +92,7 @@ def check_sampler(cfg: Config, names: list[str]) -> None:
 
 def fingerprint_parts(cfg: Config, data_sha256: str) -> dict[str, str]:
     """Digests of what the chain depends on: config sections, sampler walkers/seed/moves, data file."""
-    parts = {s: config_digest(cfg, (s,)) for s in POSTERIOR_SECTIONS}
+    parts = section_digests(cfg, POSTERIOR_SECTIONS)
     sampler = cfg.sampler.model_dump(mode="json")
     parts["sampler"] = digest({k: sampler[k] for k in SAMPLER_KEYS})
     parts["data file"] = data_sha256
@@ -385,17 +385,17 @@ def _run_lock(run_dir: Path):
         f.close()
 
 
-def _current_fit(cfg: Config, *, replace: bool, progress: bool) -> dict[str, Any]:
+def _current_fit(cfg: Config, test, *, replace: bool, progress: bool) -> dict[str, Any]:
     """fit.json for this config and data, running the fit when it is missing. A fit.json made from
     another config or data is replaced only when ``replace`` (sample --restart): never silently."""
     from bayes_dnlr.inference.lsq import fit as run_fit
     from bayes_dnlr.inference.lsq import fit_is_current, load_fit
 
-    if not fit_is_current(cfg):
+    if not fit_is_current(cfg, test.sha256):
         if progress:
             print("fit.json missing or stale: running the least-squares fit first", file=sys.stderr)
         try:
-            run_fit(cfg, overwrite=replace)
+            run_fit(cfg, overwrite=replace, test=test)
         except RunError as err:
             raise RunError(f"{err}; or sample --restart, which also discards this run's chain") from None
     return load_fit(cfg.run_dir)
@@ -427,11 +427,11 @@ def _sample(cfg: Config, test, priors: PriorSet, names: list[str], *, restart: b
             stored = read_run(chains)
         except OSError as err:
             raise RunError(f"{chains}: no usable checkpoint ({err}); sample --restart discards it") from None
-        done = _finished_result(cfg, stored, fp)
+        done = _finished_result(cfg, test, stored, fp)
         if done is not None:
             return done
 
-    fit = _current_fit(cfg, replace=restart, progress=progress)
+    fit = _current_fit(cfg, test, replace=restart, progress=progress)
     prepare_run_dir(cfg)
     sigma0, sigma0_source, sigma0_start = _resolve_sigma0(cfg, fit, test)
     post = build_log_posterior(cfg, test, sigma0, priors)
@@ -536,7 +536,7 @@ def _version() -> str:
     return __version__
 
 
-def _finished_result(cfg: Config, stored: StoredRun, fp: str) -> Posterior | None:
+def _finished_result(cfg: Config, test, stored: StoredRun, fp: str) -> Posterior | None:
     """For a finished run whose stopping rule still holds: its Posterior (outputs rewritten only
     when missing or made with other settings). None when sampling must continue."""
     if not stored.finished:
@@ -556,10 +556,7 @@ def _finished_result(cfg: Config, stored: StoredRun, fp: str) -> Posterior | Non
             and (cfg.run_dir / POSTERIOR_FILE).is_file()):
         return load_posterior(cfg.run_dir, note=note)
     # outputs missing or made with other burn-in/stopping settings: rebuild them from the chain
-    from bayes_dnlr.data import load_test
-
-    fit = _current_fit(cfg, replace=False, progress=False)
-    test = load_test(cfg)
+    fit = _current_fit(cfg, test, replace=False, progress=False)
     post = _write_result(cfg, stored, fit, conv, reason, fp, test,
                          str(stored.attrs.get("sigma0_source", "")), wall_time=stored.elapsed,
                          store_time=stored.store_time, evals=stored.n_evals)
