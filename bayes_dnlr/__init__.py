@@ -25,8 +25,8 @@ _LAZY = {
     "ConfigError": ("bayes_dnlr.config", "ConfigError"),
     "load_test": ("bayes_dnlr.data", "load_test"),
     "DataError": ("bayes_dnlr.data", "DataError"),
-    "fit": ("bayes_dnlr.inference.lsq", "fit"),
-    "sample": ("bayes_dnlr.inference.mcmc", "sample"),
+    "fit": ("bayes_dnlr.pipeline.fit", "fit"),
+    "sample": ("bayes_dnlr.pipeline.sample", "sample"),
 }
 
 __all__ = ["__version__", *_LAZY]

@@ -32,7 +32,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
 
 
 def cmd_fit(args: argparse.Namespace) -> None:
-    from bayes_dnlr.inference.lsq import fit
+    from bayes_dnlr.pipeline.fit import fit
 
     result = fit(_config(args.config), overwrite=args.force)
     if not args.quiet:
@@ -40,7 +40,7 @@ def cmd_fit(args: argparse.Namespace) -> None:
 
 
 def cmd_sample(args: argparse.Namespace) -> None:
-    from bayes_dnlr.inference.mcmc import sample
+    from bayes_dnlr.pipeline.sample import sample
 
     post = sample(_config(args.config), restart=args.restart, progress=not args.quiet)
     print(post.table())

@@ -41,7 +41,7 @@ def setup(config: str | None):
     from bayes_dnlr.config import load_config
     from bayes_dnlr.data import load_test
     from bayes_dnlr.inference.likelihood import build_log_posterior
-    from bayes_dnlr.inference.lsq import fit
+    from bayes_dnlr.pipeline.fit import fit
 
     if config is None:
         from sampling_support import write_case
@@ -59,8 +59,10 @@ def run(post, fitd, moves, steps: int, walkers: int, seed: int) -> tuple[np.ndar
     import emcee
 
     from bayes_dnlr.inference.mcmc import start_ensemble
+    from bayes_dnlr.pipeline.sample import start_point
 
-    coords, lp = start_ensemble(post, fitd, None, walkers, seed)
+    x0, cov = start_point(post, fitd, None)
+    coords, lp = start_ensemble(post, post.priors, x0, cov, walkers, seed)
     sampler = emcee.EnsembleSampler(walkers, post.ndim, post, moves=moves, vectorize=True)
     sampler._random.seed(seed)
     t0 = time.perf_counter()

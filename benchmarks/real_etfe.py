@@ -50,7 +50,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
     from bayes_dnlr.config import load_config
-    from bayes_dnlr.inference.lsq import fit
+    from bayes_dnlr.pipeline.fit import fit
 
     rows = []
     with tempfile.TemporaryDirectory() as tmp:

@@ -74,8 +74,8 @@ def main() -> None:
     print(f"imports emcee + arviz: {t_imp:.2f} s (once per process, not counted below)")
 
     from bayes_dnlr.config import load_config
-    from bayes_dnlr.inference.lsq import fit
-    from bayes_dnlr.inference.mcmc import sample
+    from bayes_dnlr.pipeline.fit import fit
+    from bayes_dnlr.pipeline.sample import sample
 
     rows = []
     for _ in range(args.repeats):

@@ -43,7 +43,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
 
     from bayes_dnlr.config import load_config
-    from bayes_dnlr.inference.lsq import fit
+    from bayes_dnlr.pipeline.fit import fit
     from bayes_dnlr.report.compare import compare_runs
 
     dirs = []
@@ -53,7 +53,7 @@ def main(argv: list[str] | None = None) -> int:
         if not (d / "fit.json").is_file():
             fit(cfg)
         if not args.no_sample and not (d / "summary.json").is_file():
-            from bayes_dnlr.inference.mcmc import sample
+            from bayes_dnlr.pipeline.sample import sample
 
             sample(cfg, progress=False)
         dirs.append(cfg.run_dir)

@@ -79,7 +79,7 @@ def _replicate(args: tuple) -> dict[str, dict[str, float]]:
     """One calibration replicate: fresh noise, fit, sample; per parameter mean, sd, 90 % HDI."""
     folder, r, base_seed, sampler, noise = args
     from bayes_dnlr.config import load_config
-    from bayes_dnlr.inference.mcmc import sample
+    from bayes_dnlr.pipeline.sample import sample
 
     path = write_case(Path(folder), f"rep{r:04d}", seed=base_seed + r, noise=noise,
                       sampler={"max_steps": 20000, "target_ess": 1000, "checkpoint_every": 100,

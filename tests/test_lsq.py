@@ -14,10 +14,11 @@ import yaml
 from bayes_dnlr.config import load_config, parse_config
 from bayes_dnlr.data import TestData
 from bayes_dnlr.errors import BayesDnlrError, RunError
-from bayes_dnlr.inference.lsq import FitResult, fit, fit_is_current, fit_test, load_fit, stochastic_analysis
+from bayes_dnlr.inference.lsq import FitResult, fit_test, stochastic_analysis
 from bayes_dnlr.inference.noise import resolve_sigma0
 from bayes_dnlr.inference.start import physics_start, spread_starts
 from bayes_dnlr.model import simulate
+from bayes_dnlr.pipeline.fit import fit, fit_is_current, load_fit
 
 REPO = Path(__file__).resolve().parents[1]
 RATE = 5e-3

@@ -40,7 +40,7 @@ def test_machine_export_is_read_as_it_is(tmp_path):
 
 
 def test_real_curve_before_necking_fits_and_its_residuals_show_bias(tmp_path):
-    from bayes_dnlr.inference.lsq import fit
+    from bayes_dnlr.pipeline.fit import fit
 
     result = fit(rhdpe_config(tmp_path, window={"strain_max": 0.07}), write=False)
     assert result.converged

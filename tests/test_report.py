@@ -45,8 +45,8 @@ def _png_size(path: Path) -> tuple[int, int]:
 @pytest.fixture(scope="module")
 def finished_run(tmp_path_factory) -> Path:
     """A 300-point synthetic test (E 2854, G 2.32, tau_max 3.15 at 1e-2 1/s) fitted and sampled."""
-    from bayes_dnlr.inference.lsq import fit
-    from bayes_dnlr.inference.mcmc import sample
+    from bayes_dnlr.pipeline.fit import fit
+    from bayes_dnlr.pipeline.sample import sample
 
     d = tmp_path_factory.mktemp("runs") / "tiny"
     d.mkdir()

@@ -15,8 +15,8 @@ import pytest
 from sampling_support import write_case
 
 from bayes_dnlr.config import load_config
-from bayes_dnlr.inference.mcmc import sample
 from bayes_dnlr.inference.store import read_run
+from bayes_dnlr.pipeline.sample import sample
 
 # never converges (target_ess huge): stops at max_steps; checkpoints every 50 steps
 SAMPLER = {"max_steps": 1000, "target_ess": 1.0e9, "checkpoint_every": 50, "walkers": 32}

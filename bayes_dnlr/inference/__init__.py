@@ -1,5 +1,6 @@
-"""Statistics: least squares with the paper's stochastic analysis (lsq), and the posterior (mcmc).
+"""Statistics: least squares with the paper's stochastic analysis (lsq), the likelihood, priors,
+and emcee on a log-density (mcmc). Nothing here knows about run directories (see pipeline/).
 
 Kept light: nothing heavy (emcee, ArviZ) is imported here; import the submodule you need, e.g.
-``from bayes_dnlr.inference.lsq import fit``.
+``from bayes_dnlr.inference.lsq import fit_test``.
 """

@@ -1,59 +1,32 @@
-"""Posterior sampling with emcee: ``sample(cfg)`` -> Posterior (``python -m bayes_dnlr sample``).
+"""emcee on a log-density: moves, the start of the ensemble, the stopping rule, the sampling loop.
 
-1. Posterior: priors from the config, Gaussian likelihood with σ0 fixed (number, residuals,
-   baseline: resolved once, from fit.json) or sampled (``sigma0`` with its prior); see likelihood.py.
-2. Start: the walkers are drawn from the Gauss-Newton estimate and its linearized covariance
-   (fit.json, eq. 32; ``fit`` runs first when fit.json is missing or stale), in sampling coordinates,
-   scaled by ``START_SCALE``; every start is checked finite.
-3. Stop: at each checkpoint, emcee's integrated autocorrelation time τ of every parameter is
-   estimated on the chain after a burn-in of ``burn_in_tau`` τ; the run stops when every
-   ESS = kept steps × walkers / τ >= ``target_ess`` and the kept chain is >= ``min_tau_multiple`` τ
-   long ("converged"), or at ``max_steps`` ("max_steps").
-4. Storage: chains.h5 (store.py), appended every ``checkpoint_every`` steps; a re-run resumes from
-   the last checkpoint and continues the same chain bit-exactly; a changed config or data file is
-   refused (RunError) unless ``restart``; a finished, current run is not sampled again.
-5. Outputs: posterior.nc, summary.json (posterior.py).
+Nothing here knows about configs or run directories (``bayes_dnlr.pipeline.sample`` does): the loop
+takes a log-density in sampling coordinates (emcee ``vectorize=True``), a starting ``SamplerState``
+and a ``ChainWriter`` (store.py) to commit checkpoints to.
+
+Stopping rule: at each checkpoint, emcee's integrated autocorrelation time τ of every parameter is
+estimated on the chain after a burn-in of ``burn_in_tau`` τ; the run stops when every
+ESS = kept steps × walkers / τ >= ``target_ess``, the kept chain is >= ``min_tau_multiple`` τ long
+and ArviZ's bulk/tail ESS and R-hat agree ("converged"), or at ``max_steps`` ("max_steps").
 
 emcee and ArviZ are imported inside the functions that need them.
 """
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 import time
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass
-from datetime import UTC, datetime
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.config import Config, ConfigError, SampledNoise
+from bayes_dnlr.config import ConfigError
 from bayes_dnlr.errors import RunError
-from bayes_dnlr.inference.likelihood import LogPosterior, build_log_posterior
-from bayes_dnlr.inference.posterior import (
-    POSTERIOR_FILE,
-    SUMMARY_FILE,
-    Posterior,
-    build_datatree,
-    load_posterior,
-    read_summary,
-    summarize,
-    write_outputs,
-)
-from bayes_dnlr.inference.priors import PriorSet, build_priors, sampled_names
-from bayes_dnlr.inference.store import ChainWriter, SamplerState, StoredRun, read_attrs, read_run
-from bayes_dnlr.rundir import digest, prepare_run_dir, resolved_config_text, section_digests
+from bayes_dnlr.inference.store import ChainWriter, SamplerState
 
-CHAINS_FILE = "chains.h5"
-LOCK_FILE = "sample.lock"
-# config sections that change the posterior or the chain; max_steps, target_ess, checkpoint_every,
-# burn_in_tau and min_tau_multiple only decide how long to sample and what to keep.
-POSTERIOR_SECTIONS = ("data", "model", "parameters", "noise")
-SAMPLER_KEYS = ("walkers", "seed", "moves")
 START_SCALE = 1.0       # walkers start as a draw of the linearized (Laplace) posterior
 MIN_STEPS_FOR_TAU = 20  # shorter chains: no τ estimate, no stopping decision
 RHAT_MAX = 1.01         # convergence also needs R-hat (4 walker groups) <= this
@@ -77,45 +50,6 @@ def make_moves(kind: str) -> Any:
     if kind == "de-snooker":
         return [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
     raise ConfigError(f"sampler.moves: unknown moves {kind!r}; expected one of {list(MOVES)}")
-
-
-def check_sampler(cfg: Config, names: list[str]) -> None:
-    """Sampler settings that depend on the number of sampled parameters (before anything runs)."""
-    where = str(cfg.source) if cfg.source is not None else "config"
-    ndim = len(names)
-    if cfg.sampler.walkers < 2 * ndim:
-        raise ConfigError(
-            f"{where}: sampler.walkers: {cfg.sampler.walkers} walkers for {ndim} sampled parameters "
-            f"({', '.join(names)}); the ensemble moves need at least 2 × {ndim} = {2 * ndim} "
-            f"(32 is a good choice)")
-
-
-def fingerprint_parts(cfg: Config, data_sha256: str) -> dict[str, str]:
-    """Digests of what the chain depends on: config sections, sampler walkers/seed/moves, data file."""
-    parts = section_digests(cfg, POSTERIOR_SECTIONS)
-    sampler = cfg.sampler.model_dump(mode="json")
-    parts["sampler"] = digest({k: sampler[k] for k in SAMPLER_KEYS})
-    parts["data file"] = data_sha256
-    return parts
-
-
-def stale_reason(attrs: dict[str, Any], parts: dict[str, str]) -> str | None:
-    """Why a stored chain does not belong to this config and data (None when it does)."""
-    try:
-        old = json.loads(attrs.get("fingerprint_parts", "{}"))
-    except (TypeError, json.JSONDecodeError):
-        old = {}
-    changed = [k for k, v in parts.items() if old.get(k) != v]
-    if not changed:
-        return None
-    what = []
-    sections = [("sampler." + "/".join(SAMPLER_KEYS) if k == "sampler" else k)
-                for k in changed if k != "data file"]
-    if sections:
-        what.append(f"config section(s) {', '.join(sections)} changed")
-    if "data file" in changed:
-        what.append("the data file changed (sha256 differs)")
-    return " and ".join(what)
 
 
 # ---------------------------------------------------------------- stopping rule
@@ -212,39 +146,22 @@ def stop_reason(conv: Convergence | None, steps: int, max_steps: int) -> str | N
 
 # ---------------------------------------------------------------- start
 
-def start_ensemble(post: LogPosterior, fit: dict[str, Any], sigma0_start: float | None,
-                   walkers: int, seed: int, scale: float = START_SCALE) -> tuple[np.ndarray, np.ndarray]:
-    """Walkers drawn from the Gauss-Newton estimate and its linearized covariance (sampling
-    coordinates); only finite log-posteriors are kept (redrawn otherwise)."""
-    priors: PriorSet = post.priors
-    names = post.names
-    est = fit.get("estimate") or {}
-    fit_names = list(fit.get("parameters") or [])
-    missing = [k for k in names if k != "sigma0" and k not in est]
-    if missing:
-        raise RunError(f"fit.json has no estimate for {missing}: run `fit --force`")
-    x0 = np.array([sigma0_start if k == "sigma0" else est[k] for k in names], dtype=float)
-    cov = np.zeros((len(names), len(names)))
-    try:
-        fcov = np.asarray(fit.get("covariance"), dtype=float)
-        idx = [fit_names.index(k) for k in names if k != "sigma0"]
-        sub = fcov[np.ix_(idx, idx)]
-    except (TypeError, ValueError, IndexError):
-        sub = np.full((len(idx := [k for k in names if k != "sigma0"]),) * 2, np.nan)
-    model_pos = [j for j, k in enumerate(names) if k != "sigma0"]
-    cov[np.ix_(model_pos, model_pos)] = sub
-    fit_sigma = fit.get("sigma0")
-    if post.sigma0 is not None and fit_sigma and fit_sigma > 0:
-        cov *= (post.sigma0 / fit_sigma) ** 2     # the covariance scales with σ0²
-    if "sigma0" in names:
-        j = names.index("sigma0")
-        cov[j, j] = sigma0_start ** 2 / (2.0 * post.n)   # sd of a variance estimate from n points
+def start_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], priors, x0: np.ndarray,
+                   cov: np.ndarray, walkers: int, seed: int,
+                   scale: float = START_SCALE) -> tuple[np.ndarray, np.ndarray]:
+    """Walkers drawn from N(x0, scale² cov), carried into sampling coordinates (the Laplace
+    approximation of the posterior around the least-squares estimate, eq. 32); only points with a
+    finite log-density are kept (redrawn otherwise, up to 100 times).
+
+    ``x0`` and ``cov`` are in physical units; a non-finite ``cov`` falls back to a tiny ball.
+    """
+    names = priors.names
     jac = priors.jacobian(x0)
     cov_z = cov * np.outer(jac, jac)
     z0 = priors.from_physical(x0)
-    if not np.all(np.isfinite(z0)) or not np.isfinite(post(z0[None])[0]):
+    if not np.all(np.isfinite(z0)) or not np.isfinite(log_prob(z0[None])[0]):
         raise RunError(
-            "the Gauss-Newton estimate " + ", ".join(f"{k} = {v:.6g}" for k, v in zip(names, x0,
+            "the least-squares estimate " + ", ".join(f"{k} = {v:.6g}" for k, v in zip(names, x0,
                                                                                       strict=True))
             + " has a zero posterior density (outside the prior support?): check the priors in "
             "parameters: and fit.json")
@@ -258,21 +175,21 @@ def start_ensemble(post: LogPosterior, fit: dict[str, Any], sigma0_start: float 
         root = np.diag(1e-4 * np.maximum(np.abs(z0), 1e-3))
     rng = np.random.default_rng([int(seed) % 2**63, 0x5A4D])
     coords = z0 + scale * rng.standard_normal((walkers, len(names))) @ root.T
-    lp = post(coords)
+    lp = log_prob(coords)
     for _ in range(100):
         bad = ~np.isfinite(lp)
         if not bad.any():
             break
         coords[bad] = z0 + scale * rng.standard_normal((int(bad.sum()), len(names))) @ root.T
-        lp[bad] = post(coords[bad])
+        lp[bad] = log_prob(coords[bad])
     if not np.all(np.isfinite(lp)):
         raise RunError(f"{int((~np.isfinite(lp)).sum())} of {walkers} starting walkers have a zero "
-                       "posterior density after 100 redraws; the Gauss-Newton estimate is probably "
+                       "posterior density after 100 redraws; the least-squares estimate is probably "
                        "at a prior bound")
     return coords, lp
 
 
-# ---------------------------------------------------------------- helpers
+# ---------------------------------------------------------------- the loop
 
 class _Growing:
     """An array that grows along axis 0 with amortised O(1) appends."""
@@ -296,50 +213,28 @@ class _Growing:
         return self._a[: self.n]
 
 
-def _resolve_sigma0(cfg: Config, fit: dict[str, Any], test) -> tuple[float | None, str, float | None]:
-    """(σ0 for the likelihood or None when sampled, its source, a starting value when sampled)."""
-    spec = cfg.noise.sigma0
-    if isinstance(spec, int | float):
-        return float(spec), "config", None
-    fit_sigma = fit.get("sigma0")
-    if isinstance(spec, SampledNoise):
-        start = float(fit_sigma) if fit_sigma else None
-        if start is None:
-            from bayes_dnlr.inference.noise import resolve_sigma0
 
-            start = resolve_sigma0(cfg, test)[0]
-        return None, "sampled", start
-    if fit_sigma and math.isfinite(fit_sigma) and fit_sigma > 0:
-        return float(fit_sigma), str(fit.get("sigma0_source") or spec), None
-    from bayes_dnlr.inference.noise import resolve_sigma0
+@dataclass(frozen=True)
+class StopRule:
+    """When to stop and what to keep (config ``sampler``)."""
 
-    value, source = resolve_sigma0(cfg, test)
-    return float(value), source, None
+    burn_in_tau: float
+    min_tau_multiple: float
+    target_ess: float
+    max_steps: int
+    checkpoint_every: int
 
 
-def _standards(test) -> dict[str, float | None] | None:
-    try:
-        from bayes_dnlr.standards import standard_moduli
-    except ImportError:
-        return None
-    try:
-        return standard_moduli(test)
-    except Exception as err:  # noqa: BLE001 - a failed standard modulus must not lose a posterior
-        print(f"note: standard moduli not computed ({err})", file=sys.stderr)
-        return None
+@dataclass
+class RunOutcome:
+    """What the sampling loop did: the stopping decision and the chain it left (physical units)."""
 
-
-def _settings(cfg: Config) -> dict[str, Any]:
-    s = cfg.sampler
-    return {"burn_in_tau": s.burn_in_tau, "min_tau_multiple": s.min_tau_multiple,
-            "target_ess": s.target_ess, "max_steps": s.max_steps}
-
-
-def _remove_outputs(run_dir: Path) -> None:
-    for name in (CHAINS_FILE, POSTERIOR_FILE, SUMMARY_FILE):
-        p = run_dir / name
-        if p.exists():
-            p.unlink()
+    chain: np.ndarray               # (steps, walkers, ndim) the whole chain so far
+    convergence: Convergence | None
+    reason: str | None              # converged | max_steps
+    state: SamplerState
+    sampling_time: float            # s, this session, storage included
+    evals: int                      # log-density evaluations this session
 
 
 def _progress_bar(progress: bool, initial: int, total: int):
@@ -349,264 +244,65 @@ def _progress_bar(progress: bool, initial: int, total: int):
                 dynamic_ncols=True, file=sys.stderr, leave=True)
 
 
-# ---------------------------------------------------------------- sampling
+def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Callable, moves: str,
+                 state: SamplerState, chain0: np.ndarray, writer: ChainWriter, rule: StopRule, *,
+                 fresh: bool, elapsed0: float = 0.0, evals0: int = 0,
+                 progress: bool = True) -> RunOutcome:
+    """Sample from ``state`` until the stopping rule holds or ``rule.max_steps``.
 
-def sample(cfg: Config, *, restart: bool = False, progress: bool = True) -> Posterior:
-    """Sample the posterior of ``cfg`` to convergence (or max_steps); resumable. See the module doc."""
-    names = sampled_names(cfg)
-    check_sampler(cfg, names)
-    priors = build_priors(cfg)
-    make_moves(cfg.sampler.moves)   # validate early
-
-    from bayes_dnlr.data import load_test
-
-    test = load_test(cfg)
-    with _run_lock(cfg.run_dir):
-        return _sample(cfg, test, priors, names, restart=restart, progress=progress)
-
-
-@contextmanager
-def _run_lock(run_dir: Path):
-    """One ``sample`` per run directory at a time (an advisory lock, released even on SIGKILL)."""
-    import fcntl
-
-    run_dir.mkdir(parents=True, exist_ok=True)
-    f = open(run_dir / LOCK_FILE, "a+")  # noqa: SIM115 - held for the whole run
-    try:
-        fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        f.close()
-        raise RunError(f"{run_dir}: another `sample` is running on this run directory; wait for it "
-                       "or stop it (its chain is kept and resumes)") from None
-    try:
-        yield
-    finally:
-        fcntl.flock(f, fcntl.LOCK_UN)
-        f.close()
-
-
-def _current_fit(cfg: Config, test, *, replace: bool, progress: bool) -> dict[str, Any]:
-    """fit.json for this config and data, running the fit when it is missing. A fit.json made from
-    another config or data is replaced only when ``replace`` (sample --restart): never silently."""
-    from bayes_dnlr.inference.lsq import fit as run_fit
-    from bayes_dnlr.inference.lsq import fit_is_current, load_fit
-
-    if not fit_is_current(cfg, test.sha256):
-        if progress:
-            print("fit.json missing or stale: running the least-squares fit first", file=sys.stderr)
-        try:
-            run_fit(cfg, overwrite=replace, test=test)
-        except RunError as err:
-            raise RunError(f"{err}; or sample --restart, which also discards this run's chain") from None
-    return load_fit(cfg.run_dir)
-
-
-def _sample(cfg: Config, test, priors: PriorSet, names: list[str], *, restart: bool,
-            progress: bool) -> Posterior:
-    run_dir = cfg.run_dir
-    chains = run_dir / CHAINS_FILE
-    parts = fingerprint_parts(cfg, test.sha256)
-    fp = digest(parts)
-    sc = cfg.sampler
-
-    stored: StoredRun | None = None
-    if chains.exists() and restart:
-        _remove_outputs(run_dir)
-    elif chains.exists():
-        try:
-            attrs = read_attrs(chains)
-            reason = stale_reason(attrs, parts)
-        except OSError as err:
-            raise RunError(f"{chains}: cannot read the stored chain ({err}); sample --restart "
-                           "(restart=True) discards it and starts again") from None
-        if reason is not None:
-            raise RunError(f"{chains} was sampled from another config or data: {reason}. Refusing to "
-                           "mix chains; sample --restart (restart=True) discards it and starts again, "
-                           "or set output.dir to sample into another run directory")
-        try:
-            stored = read_run(chains)
-        except OSError as err:
-            raise RunError(f"{chains}: no usable checkpoint ({err}); sample --restart discards it") from None
-        done = _finished_result(cfg, test, stored, fp)
-        if done is not None:
-            return done
-
-    fit = _current_fit(cfg, test, replace=restart, progress=progress)
-    prepare_run_dir(cfg)
-    sigma0, sigma0_source, sigma0_start = _resolve_sigma0(cfg, fit, test)
-    post = build_log_posterior(cfg, test, sigma0, priors)
-
+    Every ``rule.checkpoint_every`` steps the block is committed to ``writer`` with the state after
+    its last step, so an interruption (Ctrl-C, SIGKILL) loses at most one block and a later call
+    continues the same chain bit-exactly. ``chain0``: the steps already done (physical units).
+    ``log_prob.n_evals`` (when present) counts model evaluations.
+    """
     import emcee
 
-    walkers, ndim = sc.walkers, len(names)
-    if stored is None:
-        coords, lp = start_ensemble(post, fit, sigma0_start, walkers, sc.seed)
-        state0 = SamplerState(coords, lp, np.random.RandomState(sc.seed).get_state())
-        meta = {
-            "names": names, "log_space": [bool(v) for v in priors.log_space], "walkers": walkers,
-            "ndim": ndim, "config": resolved_config_text(cfg), "fingerprint": fp,
-            "fingerprint_parts": json.dumps(parts), "data_sha256": test.sha256,
-            "data_file": str(test.path), "version": _version(), "modes": cfg.model.modes,
-            "decades": cfg.model.decades, "moves": sc.moves, "seed": sc.seed,
-            "sigma0": float("nan") if sigma0 is None else sigma0, "sigma0_source": sigma0_source,
-            "created": datetime.now(UTC).isoformat(timespec="seconds"),
-        }
-        writer = ChainWriter.create(chains, meta, walkers, ndim, state0, priors.to_physical,
-                                    chunk_steps=sc.checkpoint_every, n_evals=0)
-        chain0 = np.empty((0, walkers, ndim))
-        elapsed0, evals0, state = 0.0, 0, state0
-        fresh = True
-    else:
-        writer = ChainWriter.resume(chains, priors.to_physical)
-        chain0 = stored.chain
-        elapsed0, evals0, state = stored.elapsed, stored.n_evals, stored.state
-        post(state.coords[:1])      # numba: load/compile outside the timed loop
-        post.n_evals = 0
-        fresh = False
-
-    chain = _Growing(chain0)      # physical units, for the stopping rule
-    sampler = emcee.EnsembleSampler(walkers, ndim, post, moves=make_moves(sc.moves), vectorize=True)
-    every = sc.checkpoint_every
+    walkers, ndim = state.coords.shape
+    chain = _Growing(chain0)
+    sampler = emcee.EnsembleSampler(walkers, ndim, log_prob, moves=make_moves(moves), vectorize=True)
+    every = rule.checkpoint_every
     conv = None
     reason = None
     t_session = time.perf_counter()
-    evals_start = post.n_evals
-    bar = _progress_bar(progress, chain.n, sc.max_steps)
-    try:
-        with bar:
-            while True:
-                n = chain.n
-                if n % every == 0 or n >= sc.max_steps:
-                    conv = (convergence(chain.array, sc.burn_in_tau, sc.min_tau_multiple, sc.target_ess)
-                            if n >= MIN_STEPS_FOR_TAU else None)
-                    reason = stop_reason(conv, n, sc.max_steps)
-                    if conv is not None:
-                        bar.total = int(min(sc.max_steps, max(conv.needed_steps, n + every)))
-                        bar.set_postfix_str(f"ESS {conv.min_ess:.0f}/{sc.target_ess:.0f}, "
-                                            f"tau {conv.tau.max():.1f}", refresh=False)
-                    if reason is not None:
-                        break
-                m = min(every - n % every, sc.max_steps - n)
-                block = np.empty((m, walkers, ndim))
-                block_lp = np.empty((m, walkers))
-                block_acc = np.empty((m, walkers), bool)
-                prev = state.coords
-                done = 0
-                try:
-                    for i, st in enumerate(sampler.sample(
-                            emcee.State(state.coords, log_prob=state.log_prob,
-                                        random_state=state.rng),
-                            iterations=m, store=False,
-                            skip_initial_state_check=not (fresh and n == 0))):
-                        block[i] = st.coords
-                        block_lp[i] = st.log_prob
-                        block_acc[i] = np.any(st.coords != prev, axis=1)
-                        prev = block[i]
-                        last = st
-                        done = i + 1
-                        bar.update(1)
-                finally:
-                    if done:
-                        state = SamplerState(block[done - 1].copy(), block_lp[done - 1].copy(),
-                                             last.random_state)
-                        chain.extend(priors.to_physical(block[:done]))
-                        elapsed = elapsed0 + time.perf_counter() - t_session
-                        writer.append(block[:done], block_lp[:done], block_acc[:done], state,
-                                      elapsed, evals0 + post.n_evals - evals_start)
-    except BaseException:
-        writer.close()
-        if progress:
-            print(f"\nstopped at step {chain.n}; the chain is saved in {chains}: run `sample` again "
-                  "to continue", file=sys.stderr)
-        raise
-    session_evals = post.n_evals - evals_start
-    elapsed = elapsed0 + time.perf_counter() - t_session
-    store_time = writer.store_time
-    writer.finish({"stop_reason": reason, "steps": chain.n,
-                   "finished": datetime.now(UTC).isoformat(timespec="seconds")})
-    run = read_run(chains)
-    return _write_result(cfg, run, fit, conv, reason, fp, test, sigma0_source,
-                         wall_time=elapsed, store_time=store_time,
-                         evals=evals0 + session_evals)
-
-
-def _version() -> str:
-    from bayes_dnlr import __version__
-
-    return __version__
-
-
-def _finished_result(cfg: Config, test, stored: StoredRun, fp: str) -> Posterior | None:
-    """For a finished run whose stopping rule still holds: its Posterior (outputs rewritten only
-    when missing or made with other settings). None when sampling must continue."""
-    if not stored.finished:
-        return None
-    sc = cfg.sampler
-    n = stored.steps
-    conv = (convergence(stored.chain, sc.burn_in_tau, sc.min_tau_multiple, sc.target_ess)
-            if n >= MIN_STEPS_FOR_TAU else None)
-    reason = stop_reason(conv, n, sc.max_steps)
-    if reason is None:
-        return None       # e.g. max_steps or target_ess raised: sample on from the last state
-    summary = read_summary(cfg.run_dir)
-    note = (f"{cfg.run_dir / CHAINS_FILE}: finished earlier ({reason} at step {n}); nothing sampled "
-            "(sample --restart to sample again)")
-    if (summary is not None and summary.get("fingerprint") == fp and summary.get("steps") == n
-            and summary.get("settings") == _settings(cfg)
-            and (cfg.run_dir / POSTERIOR_FILE).is_file()):
-        return load_posterior(cfg.run_dir, note=note)
-    # outputs missing or made with other burn-in/stopping settings: rebuild them from the chain
-    fit = _current_fit(cfg, test, replace=False, progress=False)
-    post = _write_result(cfg, stored, fit, conv, reason, fp, test,
-                         str(stored.attrs.get("sigma0_source", "")), wall_time=stored.elapsed,
-                         store_time=stored.store_time, evals=stored.n_evals)
-    post.note = note + "; summary.json and posterior.nc rewritten from the chain"
-    return post
-
-
-def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Convergence | None,
-                  reason: str | None, fp: str, test, sigma0_source: str, *, wall_time: float,
-                  store_time: float, evals: int) -> Posterior:
-    """posterior.nc and summary.json from the stored chain."""
-    sc = cfg.sampler
-    names = run.names
-    if conv is None:
-        conv = convergence(run.chain, sc.burn_in_tau, sc.min_tau_multiple, sc.target_ess)
-    burn = conv.burn_in
-    draws = run.chain[burn:]
-    lp = run.log_prob[burn:]
-    sigma_stored = run.attrs.get("sigma0")
-    if "sigma0" in names:
-        sigma0 = float(draws[:, :, names.index("sigma0")].mean())
-    else:
-        sigma0 = float(sigma_stored)
-    sampling = max(wall_time - store_time, 1e-12)
-    acc = float(run.accepted[burn:].mean()) if run.accepted.size else float("nan")
-    warnings = []
-    if reason != "converged":
-        warnings.append(f"not converged: stopped at max_steps = {sc.max_steps}: "
-                        f"{shortfall(conv, names, sc.target_ess, sc.min_tau_multiple)} "
-                        f"(about {conv.needed_steps} steps needed)")
-    extra = {
-        "sigma0": sigma0, "n_points": int(test.n_points), "steps": int(run.steps),
-        "wall_time_s": wall_time, "standards": _standards(test), "deborah_max": fit.get("deborah_max"),
-        "name": cfg.name, "stop_reason": reason, "converged": reason == "converged",
-        "burn_in": int(burn), "target_ess": sc.target_ess, "moves": MOVES.get(sc.moves, sc.moves),
-        "seed": sc.seed, "acceptance_fraction": acc, "sigma0_source": sigma0_source,
-        "storage_time_s": store_time, "storage_overhead": store_time / sampling,
-        "log_prob_evals": int(evals), "log_prob_evals_per_s": evals / sampling,
-        "settings": _settings(cfg), "fingerprint": fp, "data_sha256": test.sha256,
-        "version": _version(),
-    }
-    attrs = {"burn_in": int(burn), "stop_reason": reason, "walkers": int(run.chain.shape[1]),
-             "steps": int(run.steps), "moves": sc.moves, "seed": sc.seed, "run": cfg.name,
-             "sampling_coordinates": json.dumps({k: ("log" if ls else "linear") for k, ls in
-                                                 zip(names, run.attrs.get("log_space", []),
-                                                     strict=False)})}
-    dt = build_datatree(names, draws, lp, attrs)
-    summary = summarize(names, draws, fit=fit, tau=conv.tau, extra=extra)
-    summary["warnings"] = warnings + [
-        f"R-hat of {k} is {summary['posterior'][k]['r_hat']:.4f} > 1.01"
-        for k in names if (summary["posterior"][k]["r_hat"] or 0) > 1.01]
-    write_outputs(cfg.run_dir, dt, summary)
-    return Posterior(cfg.run_dir, summary, dt)
+    evals_start = getattr(log_prob, "n_evals", 0)
+    bar = _progress_bar(progress, chain.n, rule.max_steps)
+    with bar:
+        while True:
+            n = chain.n
+            if n % every == 0 or n >= rule.max_steps:
+                conv = (convergence(chain.array, rule.burn_in_tau, rule.min_tau_multiple,
+                                    rule.target_ess) if n >= MIN_STEPS_FOR_TAU else None)
+                reason = stop_reason(conv, n, rule.max_steps)
+                if conv is not None:
+                    bar.total = int(min(rule.max_steps, max(conv.needed_steps, n + every)))
+                    bar.set_postfix_str(f"ESS {conv.min_ess:.0f}/{rule.target_ess:.0f}, "
+                                        f"tau {conv.tau.max():.1f}", refresh=False)
+                if reason is not None:
+                    break
+            m = min(every - n % every, rule.max_steps - n)
+            block = np.empty((m, walkers, ndim))
+            block_lp = np.empty((m, walkers))
+            block_acc = np.empty((m, walkers), bool)
+            prev = state.coords
+            done = 0
+            try:
+                for i, st in enumerate(sampler.sample(
+                        emcee.State(state.coords, log_prob=state.log_prob, random_state=state.rng),
+                        iterations=m, store=False, skip_initial_state_check=not (fresh and n == 0))):
+                    block[i] = st.coords
+                    block_lp[i] = st.log_prob
+                    block_acc[i] = np.any(st.coords != prev, axis=1)
+                    prev = block[i]
+                    last = st
+                    done = i + 1
+                    bar.update(1)
+            finally:
+                if done:
+                    state = SamplerState(block[done - 1].copy(), block_lp[done - 1].copy(),
+                                         last.random_state)
+                    chain.extend(to_physical(block[:done]))
+                    evals = evals0 + getattr(log_prob, "n_evals", 0) - evals_start
+                    writer.append(block[:done], block_lp[:done], block_acc[:done], state,
+                                  elapsed0 + time.perf_counter() - t_session, evals)
+    return RunOutcome(chain.array, conv, reason, state, time.perf_counter() - t_session,
+                      getattr(log_prob, "n_evals", 0) - evals_start)
