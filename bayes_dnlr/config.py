@@ -14,7 +14,9 @@ import yaml
 from pydantic import (
     BaseModel,
     ConfigDict,
+    Discriminator,
     Field,
+    Tag,
     ValidationError,
     ValidationInfo,
     field_validator,
@@ -26,7 +28,9 @@ from bayes_dnlr.errors import BayesDnlrError
 PARAMETER_NAMES = ("E", "G", "tau_max", "sigma_inf", "tau_max_R")
 TENSILE_PARAMETERS = ("E", "G", "tau_max")
 RELAXATION_PARAMETERS = ("sigma_inf", "tau_max_R")
-UNITS = {"E": "MPa", "G": "MPa", "tau_max": "s", "sigma_inf": "MPa", "tau_max_R": "s", "sigma0": "MPa"}
+UNITS = {"E": "MPa", "G": "MPa", "tau_max": "s", "sigma_inf": "MPa", "tau_max_R": "s", "sigma0": "MPa",
+         "disc_amplitude": "MPa", "disc_length": "s"}
+DISCREPANCY_PARAMETERS = ("disc_amplitude", "disc_length")
 
 
 class ConfigError(BayesDnlrError, ValueError):
@@ -230,11 +234,86 @@ class SampledNoise(_Strict):
         return self
 
 
-class NoiseConfig(_Strict):
-    """sigma0: a number (MPa), 'residuals', {baseline: {time_max: ...}} or a prior to sample it."""
+KERNELS = ("matern32", "exp")
+DISCREPANCY_AXES = ("time", "strain")
 
-    sigma0: Annotated[float, Field(gt=0)] | Literal["residuals"] | BaselineNoise | SampledNoise = (
-        "residuals")
+
+class DiscrepancyConfig(_Strict):
+    """The model discrepancy δ: a zero-mean Gaussian process on the residuals (docs/model-error.md).
+
+    amplitude (MPa) and length (s on the time axis, strain on the strain axis) take a prior, or
+    ``value:`` to fix them; left out, their priors scale with the test: amplitude half-normal with
+    scale 2 × max(maximum-likelihood amplitude, rms/√n), length log-uniform from three sampling
+    steps to the span of the window.
+    """
+
+    kernel: Literal["matern32", "exp"] = Field(
+        default="exp", description="exp (Ornstein-Uhlenbeck): measured to keep E identified on real "
+                                   "curves where matern32 lets it drift (docs/model-error.md)")
+    axis: Literal["time", "strain"] = "time"
+    amplitude: ParameterSpec | None = None
+    length: ParameterSpec | None = None
+
+    @field_validator("amplitude")
+    @classmethod
+    def _non_negative(cls, v: ParameterSpec | None) -> ParameterSpec | None:
+        if v is None:
+            return v
+        if v.fixed and not v.value >= 0:  # type: ignore[operator]
+            raise ValueError(f"an amplitude is >= 0 MPa, got value {v.value}")
+        if not v.fixed and v.bounds()[0] < 0:
+            raise ValueError("an amplitude is >= 0 MPa: give the prior low >= 0 (or use half-normal)")
+        return v
+
+    @field_validator("length")
+    @classmethod
+    def _positive(cls, v: ParameterSpec | None) -> ParameterSpec | None:
+        if v is None:
+            return v
+        if v.fixed and not v.value > 0:  # type: ignore[operator]
+            raise ValueError(f"a correlation length is > 0, got value {v.value}")
+        if not v.fixed and not v.bounds()[0] > 0:
+            raise ValueError("a correlation length is > 0: give the prior low > 0 "
+                             "(log-uniform is the usual choice)")
+        return v
+
+
+def _sigma0_form(v: Any) -> str:
+    """Which form of noise.sigma0 a value is: a mapping with ``baseline`` or a prior, a word, a number."""
+    if isinstance(v, dict):
+        return "BaselineNoise" if "baseline" in v else "SampledNoise"
+    if isinstance(v, BaselineNoise | SampledNoise):
+        return type(v).__name__
+    return "str" if isinstance(v, str) else "float"
+
+
+class NoiseConfig(_Strict):
+    """sigma0: a number (MPa), 'residuals', {baseline: {time_max: ...}} or a prior to sample it.
+
+    discrepancy: the model-error term (on by default: exp kernel on the time axis), or ``none``
+    for the white likelihood that assumes the model is exact.
+    """
+
+    sigma0: Annotated[
+        Annotated[Annotated[float, Field(gt=0)], Tag("float")] | Annotated[Literal["residuals"], Tag("str")]
+        | Annotated[BaselineNoise, Tag("BaselineNoise")] | Annotated[SampledNoise, Tag("SampledNoise")],
+        Discriminator(_sigma0_form)] = "residuals"
+
+    discrepancy: DiscrepancyConfig | Literal["none"] = Field(default_factory=DiscrepancyConfig)
+
+    @field_validator("discrepancy", mode="before")
+    @classmethod
+    def _discrepancy_forms(cls, v: Any) -> Any:
+        if v is None or v is False or (isinstance(v, str) and v.strip().lower() == "none"):
+            return "none"
+        if isinstance(v, str):
+            raise ValueError(f"unknown form {v!r}; expected none, or a mapping such as {{kernel: "
+                             f"exp, axis: time}} (kernels: {', '.join(KERNELS)})")
+        return v
+
+    @property
+    def has_discrepancy(self) -> bool:
+        return isinstance(self.discrepancy, DiscrepancyConfig)
 
     @field_validator("sigma0", mode="before")
     @classmethod
@@ -456,7 +535,8 @@ class Config(_Strict):
         return yaml.safe_dump(self.model_dump(mode="json", exclude_none=True), sort_keys=False)
 
 
-_UNION_TAGS = {"BaselineNoise", "SampledNoise", "float", "int", "str", "none", "constrained-float"}
+_UNION_TAGS = {"BaselineNoise", "SampledNoise", "DiscrepancyConfig", "float", "int", "str", "none",
+               "constrained-float"}
 
 
 def _is_type_tag(part: str) -> bool:
@@ -464,16 +544,21 @@ def _is_type_tag(part: str) -> bool:
 
 
 def _format_errors(err: ValidationError, where: str) -> str:
-    lines = []
+    entries = []
     for e in err.errors():
         # pydantic puts union member tags in loc; drop them to keep the key readable
-        loc = ".".join(str(x) for x in e["loc"] if not _is_type_tag(str(x)))
+        loc = tuple(str(x) for x in e["loc"] if not _is_type_tag(str(x)))
         msg = e["msg"].removeprefix("Value error, ")
         if e["type"] == "extra_forbidden":
             msg = "unknown key (check the spelling; see docs/config.md)"
         elif e["type"] == "missing":
             msg = "required key is missing"
-        lines.append(f"{where}: {loc or '(top level)'}: {msg}")
+        entries.append((loc, msg))
+    # a union lists why each member failed: keep the deepest errors, those that name a key inside
+    # the value, and drop the members that failed on the value as a whole (e.g. "should be 'none'")
+    keep = [(loc, msg) for loc, msg in entries
+            if not any(len(other) > len(loc) and other[:len(loc)] == loc for other, _ in entries)]
+    lines = [f"{where}: {'.'.join(loc) or '(top level)'}: {msg}" for loc, msg in keep]
     # one line per distinct message, in order
     return "\n".join(dict.fromkeys(lines))
 

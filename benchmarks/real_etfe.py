@@ -1,11 +1,21 @@
-"""Fit the three real ETFE specimens of ../shared/data/real (not part of the project; see its README).
+"""The three real ETFE specimens of ../shared/data/real (not part of the project; see its README):
+the posterior of E under the default config (model discrepancy) and under the white likelihood, on
+windows up to strain 0.1, 0.3 and the whole curve.
 
-    .venv/bin/python benchmarks/real_etfe.py [--method lm|gauss-newton] [--strain-input smoothed|measured]
+    .venv/bin/python benchmarks/real_etfe.py [--windows 0.1 0.3 whole] [--likelihoods default white]
+                                             [--fit-only] [--jobs 2]
 
 Each specimen (time, Hencky axial strain SOI, true stress) goes to a temporary CSV + config (never
-into the project), through the ordinary pipeline: load_test, fit (E, G, tau_max on the whole curve,
-sigma0 from the residuals). Prints the estimates, rms residual and residual diagnostics. Exits cleanly
-with a message when ../shared/data/real is absent (a user's clone has no ../shared).
+into the project) and through the ordinary pipeline (fit, then sample unless --fit-only). Prints:
+
+- E per specimen and window: posterior mean ± sd and 90 % HDI (or the linearized estimate ± sd with
+  --fit-only), for each likelihood;
+- the ratio of the between-specimen sd of E to the mean within-specimen posterior sd (issue 8: about
+  5 with the white likelihood; aim <= 2);
+- whether each specimen's 90 % interval contains the other specimens' estimates;
+- the discrepancy's hyperparameters and the likelihood ratio against the white model.
+
+Exits cleanly with a message when ../shared/data/real is absent (a user's clone has no ../shared).
 """
 
 from __future__ import annotations
@@ -13,6 +23,8 @@ from __future__ import annotations
 import argparse
 import sys
 import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -36,62 +48,121 @@ def specimens(path: Path) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     return out
 
 
+def one_run(args: tuple) -> dict:
+    """fit (and sample) one specimen, window and likelihood; returns E's numbers."""
+    folder, k, window, likelihood, fit_only = args
+    from bayes_dnlr.config import load_config
+    from bayes_dnlr.errors import BayesDnlrError
+    from bayes_dnlr.pipeline.fit import fit
+    from bayes_dnlr.pipeline.sample import sample
+
+    name = f"etfe{k}-{window}-{likelihood}"
+    run = Path(folder) / name
+    run.mkdir()
+    raw = {"name": name,
+           "data": {"file": f"../etfe-{k}.csv", "columns": {"time": "t_s", "eps11": "eps11",
+                                                             "stress": "sigma_MPa"},
+                    "observable": "stress"},
+           "noise": {"sigma0": "residuals"}, "sampler": {"seed": k + 1}}
+    if window != "whole":
+        raw["data"]["window"] = {"strain_max": float(window)}
+    if likelihood == "white":
+        raw["noise"]["discrepancy"] = "none"
+    (run / "config.yaml").write_text(yaml.safe_dump(raw))
+    cfg = load_config(run / "config.yaml")
+    out = {"k": k, "window": window, "likelihood": likelihood}
+    t0 = time.perf_counter()
+    try:
+        r = fit(cfg)
+        d = r.discrepancy
+        src = d if (d and likelihood == "default") else None
+        est = (src or {}).get("estimate", r.estimate)["E"]
+        sd = (src or {}).get("sd", r.sd)["E"]
+        out.update(fit_E=est, fit_sd=sd, lr=(d or {}).get("likelihood_ratio"),
+                   hyper=(d or {}).get("hyperparameters"), evidence=(d or {}).get("evidence"))
+        if not fit_only:
+            s = sample(cfg, progress=False).summary
+            p = s["posterior"]["E"]
+            out.update(mean=p["mean"], sd=p["sd"], hdi=p["hdi_90"], steps=s["steps"],
+                       converged=s["stop_reason"] == "converged", loop_s=s["wall_time_s"],
+                       amplitude=(s["posterior"].get("disc_amplitude") or {}).get("mean"),
+                       length=(s["posterior"].get("disc_length") or {}).get("mean"))
+    except BayesDnlrError as err:
+        out["error"] = str(err).splitlines()[0][:160]
+    out["wall_s"] = time.perf_counter() - t0
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--method", default="lm", choices=["lm", "gauss-newton"])
-    p.add_argument("--strain-input", default="smoothed", choices=["smoothed", "measured"])
-    p.add_argument("--multistart", type=int, default=8)
-    p.add_argument("--tables", action="store_true", help="print the full fit table of each specimen")
+    p.add_argument("--windows", nargs="+", default=["0.1", "0.3", "whole"])
+    p.add_argument("--likelihoods", nargs="+", default=["default", "white"], choices=["default", "white"])
+    p.add_argument("--fit-only", action="store_true", help="linearized intervals only (fast)")
+    p.add_argument("--jobs", type=int, default=2)
     args = p.parse_args(argv)
     path = REAL / FILE
     if not path.is_file():
         print(f"{path} not found: the real data live outside the project (../shared/data/real); "
               "nothing to do")
         return 0
-
-    from bayes_dnlr.config import load_config
-    from bayes_dnlr.pipeline.fit import fit
-
-    rows = []
+    t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         for k, (t, e, s) in enumerate(specimens(path)):
-            name = f"etfe-{k}"
-            run = Path(tmp) / name
-            run.mkdir()
-            np.savetxt(run / "data.csv", np.column_stack([t, e, s]), delimiter=",",
+            np.savetxt(Path(tmp) / f"etfe-{k}.csv", np.column_stack([t, e, s]), delimiter=",",
                        header="t_s,eps11,sigma_MPa", comments="", fmt="%.10g")
-            raw = {"name": name,
-                   "data": {"file": "data.csv", "columns": {"time": "t_s", "eps11": "eps11",
-                                                            "stress": "sigma_MPa"},
-                            "observable": "stress", "strain_input": args.strain_input},
-                   "noise": {"sigma0": "residuals"},
-                   "fit": {"method": args.method, "multistart": args.multistart}}
-            (run / "config.yaml").write_text(yaml.safe_dump(raw))
-            cfg = load_config(run / "config.yaml")
-            r = fit(cfg)
-            if args.tables:
-                print(r.table(), "\n")
-            d = r.diagnostics
-            rows.append((name, t.size, float(e.max()), r.strain_rate, r.estimate, r.sd, d, r.multistart,
-                         r.iterations, r.converged, r.wall_time_s))
-
-    print(f"ETFE, machine direction, 40 °C (README: {FILE}); method {args.method}, "
-          f"strain input {args.strain_input}, sigma0 from the residuals")
-    print(f"{'specimen':<9}{'n':>6}{'eps_max':>8}{'rate 1/s':>10}{'E MPa':>10}{'sd':>7}{'G MPa':>8}{'sd':>7}"
-          f"{'tau_max s':>10}{'sd':>7}{'rms MPa':>8}{'r1':>7}{'DW':>6}{'runs/exp':>11}{'white':>6}"
-          f"{'ms':>6}{'it':>4}{'s':>6}")
-    for name, n, emax, rate, est, sd, d, ms, it, conv, wall in rows:
-        runs = d["runs_test"]
-        print(f"{name:<9}{n:>6}{emax:>8.3f}{rate:>10.2e}{est['E']:>10.1f}{sd['E']:>7.1f}{est['G']:>8.3f}"
-              f"{sd['G']:>7.3f}{est['tau_max']:>10.3f}{sd['tau_max']:>7.3f}{d['rms']:>8.3f}"
-              f"{d['lag1_autocorrelation']:>7.3f}{d['durbin_watson']:>6.2f}"
-              f"{runs['n_runs']:>5}/{runs['expected']:<5.0f}{'yes' if d['white'] else 'no':>6}"
-              f"{ms['converged']:>3}/{ms['starts']:<2}{it:>4}{wall:>6.2f}")
-        if not conv:
-            print(f"  {name}: NOT converged")
-    print("\nverdicts:")
-    for name, *_, d, _ms, _it, _c, _w in rows:
-        print(f"  {name}: {d['verdict']}")
+        jobs = [(tmp, k, w, lik, args.fit_only) for lik in args.likelihoods for w in args.windows
+                for k in range(3)]
+        with ProcessPoolExecutor(args.jobs) as pool:
+            results = list(pool.map(one_run, jobs))
+    wall = time.perf_counter() - t0
+    mean_key, sd_key = ("fit_E", "fit_sd") if args.fit_only else ("mean", "sd")
+    what = "linearized estimate ± sd" if args.fit_only else "posterior mean ± sd [90 % HDI]"
+    print(f"ETFE, machine direction, 40 °C (README: {FILE}); E in MPa, {what}; "
+          f"{len(results)} runs in {wall:.0f} s ({args.jobs} jobs)")
+    for lik in args.likelihoods:
+        print(f"\nlikelihood: {lik}" + (" (model discrepancy, default config)" if lik == "default" else
+                                       " (discrepancy: none)"))
+        print(f"  {'specimen':<9}" + "".join(f"{'window ' + w:>34}" for w in args.windows))
+        for k in range(3):
+            cells = []
+            for w in args.windows:
+                r = next(x for x in results if x["k"] == k and x["window"] == w and x["likelihood"] == lik)
+                if "error" in r:
+                    cells.append(f"{'failed':>34}")
+                elif args.fit_only:
+                    cells.append(f"{r[mean_key]:>22.0f} ± {r[sd_key]:<9.0f}")
+                else:
+                    cells.append(f"{r['mean']:>12.0f} ± {r['sd']:<5.0f}[{r['hdi'][0]:.0f}, {r['hdi'][1]:.0f}]"
+                                 .rjust(34))
+            print(f"  {k:<9}" + "".join(cells))
+        for w in args.windows:
+            rows = [x for x in results if x["window"] == w and x["likelihood"] == lik and "error" not in x]
+            if len(rows) < 2:
+                continue
+            est = np.array([x[mean_key] for x in rows])
+            sds = np.array([x[sd_key] for x in rows])
+            ratio = est.std(ddof=1) / sds.mean()
+            line = (f"  window {w}: between-specimen sd {est.std(ddof=1):.0f}, mean within sd "
+                    f"{sds.mean():.0f}, ratio {ratio:.2f}")
+            if not args.fit_only:
+                holds = [all(x["hdi"][0] <= y["mean"] <= x["hdi"][1] for y in rows if y is not x)
+                         for x in rows]
+                line += f"; each 90 % HDI holds the others' means: {holds}"
+            print(line)
+        for r in results:
+            if r["likelihood"] == lik and "error" in r:
+                print(f"  specimen {r['k']}, window {r['window']}: {r['error']}")
+        if lik == "default":
+            for r in results:
+                if r["likelihood"] == "default" and "error" not in r and r.get("hyper"):
+                    h = r["hyper"]
+                    post = ("" if args.fit_only else
+                            f"; posterior amplitude {r.get('amplitude') or 0:.3g} MPa, length "
+                            f"{r.get('length') or float('nan'):.3g} s, {r['steps']} steps, "
+                            f"{r['loop_s']:.1f} s")
+                    print(f"  specimen {r['k']} window {r['window']}: 2 Δ log L = {r['lr']:.4g}; ML "
+                          f"sigma0 {h['sigma0']:.3g}, amplitude {h['amplitude']:.3g} MPa, length "
+                          f"{h['length']:.3g} s{post}")
     return 0
 
 

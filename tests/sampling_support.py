@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -26,9 +27,29 @@ def relaxation_history(rate: float = 5e-3, strain_max: float = 0.5, n_ramp: int 
     return np.concatenate([t1, t2]), np.concatenate([e1, np.full(n_hold, strain_max)]), float(t1[-1])
 
 
+def correlated_error(time: np.ndarray, kind: str, amplitude: float, length: float,
+                     rng: np.random.Generator) -> np.ndarray:
+    """A draw of a zero-mean stationary Gaussian process on ``time``: a smooth model error.
+
+    kind: exp (Ornstein-Uhlenbeck), matern32, or matern52 (smoother than anything the package
+    models: k = a² (1 + u + u²/3) e^{-u}, u = √5 τ/ℓ)."""
+    tau = np.abs(time[:, None] - time[None, :])
+    if kind == "matern52":
+        u = math.sqrt(5.0) * tau / length
+        K = amplitude**2 * (1.0 + u + u * u / 3.0) * np.exp(-u)
+    else:
+        from bayes_dnlr.inference.gp import covariance
+
+        K = covariance(time, amplitude, length, kind)
+    K[np.diag_indices_from(K)] += 1e-10 * amplitude**2
+    return np.linalg.cholesky(K) @ rng.standard_normal(time.size)
+
+
 def make_test(params: dict[str, float] | None = None, sigma: float = 0.3, seed: int = 0,
-              n: int = 2000, relaxation: bool = False, window: np.ndarray | None = None) -> TestData:
-    """A TestData of the DNLR model plus Gaussian stress noise (strain exact)."""
+              n: int = 2000, relaxation: bool = False, window: np.ndarray | None = None,
+              error: tuple[str, float, float] | None = None) -> TestData:
+    """A TestData of the DNLR model plus Gaussian stress noise (strain exact), plus a correlated
+    model error ``error`` = (kind, amplitude MPa, length s) when given."""
     rng = np.random.default_rng(seed)
     if relaxation:
         params = params or TRUTH_RELAX
@@ -39,6 +60,8 @@ def make_test(params: dict[str, float] | None = None, sigma: float = 0.3, seed: 
         t_switch = None
     true = simulate(t, e, params, relaxation_start=t_switch)
     y = true + rng.normal(0.0, sigma, t.size)
+    if error is not None:
+        y = y + correlated_error(t, *error, rng)
     return TestData(path=Path("synthetic.csv"), sha256="0" * 64, time=t, strain=e, strain_input=e,
                     stress=y, nominal_strain=np.expm1(e), nominal_stress=None,
                     window=np.ones(t.size, bool) if window is None else window,
@@ -48,9 +71,14 @@ def make_test(params: dict[str, float] | None = None, sigma: float = 0.3, seed: 
 def write_case(folder: Path, name: str = "syn", *, params: dict[str, float] | None = None,
                sigma: float = 0.3, seed: int = 0, n: int = 2000, relaxation: bool = False,
                sampler: dict | None = None, noise: object = 0.3, parameters: dict | None = None,
-               extra: dict | None = None) -> Path:
-    """Write a CSV (time, strain, stress) and a config.yaml in ``folder/name``; return the config path."""
-    test = make_test(params, sigma, seed, n, relaxation)
+               extra: dict | None = None, discrepancy: object = "none",
+               error: tuple[str, float, float] | None = None) -> Path:
+    """Write a CSV (time, strain, stress) and a config.yaml in ``folder/name``; return the config path.
+
+    The likelihood is white (``discrepancy: none``) unless ``discrepancy`` says otherwise (a
+    mapping, or "default" for the package's default discrepancy): these synthetic tests have white
+    noise, and the machinery tests compare with exact white results."""
+    test = make_test(params, sigma, seed, n, relaxation, error=error)
     run = folder / name
     run.mkdir(parents=True, exist_ok=True)
     data = np.column_stack([test.time, test.strain, test.stress])
@@ -61,7 +89,7 @@ def write_case(folder: Path, name: str = "syn", *, params: dict[str, float] | No
         "data": {"file": "data.csv", "columns": {"time": "t_s", "strain": "eps", "stress": "stress_MPa"},
                  "observable": "stress", "strain_input": "measured"},
         "model": {"modes": 50, "decades": 6},
-        "noise": {"sigma0": noise},
+        "noise": {"sigma0": noise} | ({} if discrepancy == "default" else {"discrepancy": discrepancy}),
         "sampler": {"walkers": 32, "max_steps": 600, "target_ess": 200, "seed": 1,
                     "checkpoint_every": 50, **(sampler or {})},
     }
@@ -77,25 +105,30 @@ def write_case(folder: Path, name: str = "syn", *, params: dict[str, float] | No
 
 def _replicate(args: tuple) -> dict[str, dict[str, float]]:
     """One calibration replicate: fresh noise, fit, sample; per parameter mean, sd, 90 % HDI."""
-    folder, r, base_seed, sampler, noise = args
+    folder, r, base_seed, sampler, noise, case = args
     from bayes_dnlr.config import load_config
     from bayes_dnlr.pipeline.sample import sample
 
     path = write_case(Path(folder), f"rep{r:04d}", seed=base_seed + r, noise=noise,
                       sampler={"max_steps": 20000, "target_ess": 1000, "checkpoint_every": 100,
-                               "seed": r + 1, **sampler})
+                               "seed": r + 1, **sampler}, **case)
     s = sample(load_config(path), progress=False).summary
     out = {k: {"mean": p["mean"], "sd": p["sd"], "lo": p["hdi_90"][0], "hi": p["hdi_90"][1],
                "r_hat": p["r_hat"], "ess": min(p["ess_bulk"], p["ess_tail"])}
            for k, p in s["posterior"].items()}
-    out["_run"] = {"steps": s["steps"], "converged": s["stop_reason"] == "converged"}
+    out["_run"] = {"steps": s["steps"], "converged": s["stop_reason"] == "converged",
+                   "wall_time_s": s["wall_time_s"]}
     return out
 
 
 def calibration(n: int, folder: Path, *, jobs: int = 2, base_seed: int = 10_000,
-                sampler: dict | None = None, noise: object = 0.3) -> list[dict[str, dict[str, float]]]:
-    """n noisy replicates of the synthetic ramp test (TRUTH, noise 0.3 MPa, exact strain input)."""
-    args = [(str(folder), r, base_seed, sampler or {}, noise) for r in range(n)]
+                sampler: dict | None = None, noise: object = 0.3,
+                **case) -> list[dict[str, dict[str, float]]]:
+    """n noisy replicates of the synthetic ramp test (TRUTH, noise 0.3 MPa, exact strain input).
+
+    ``case``: more write_case keys, e.g. ``error=("matern52", 0.5, 30.0)`` (a correlated model
+    error added to the data), ``discrepancy="default"`` (the default likelihood) or ``n=1000``."""
+    args = [(str(folder), r, base_seed, sampler or {}, noise, case) for r in range(n)]
     if jobs <= 1:
         return [_replicate(a) for a in args]
     import multiprocessing as mp

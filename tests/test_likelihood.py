@@ -20,7 +20,7 @@ def _cfg(relaxation: bool = False, sigma0: object = 0.3, parameters: dict | None
     raw = {"name": "t",
            "data": {"file": "x.csv", "columns": {"time": "t", "strain": "e", "stress": "s"},
                     "observable": "stress"},
-           "noise": {"sigma0": sigma0}}
+           "noise": {"sigma0": sigma0, "discrepancy": "none"}}
     if relaxation:
         raw["data"]["relaxation_start"] = 80.0
     if parameters:
@@ -114,3 +114,92 @@ def test_overflowing_parameters_give_minus_inf_silently() -> None:
         warnings.simplefilter("error")
         lp = post(z)
     assert np.all(lp == -np.inf)
+
+
+# ------------------------------------------------------------------ the model-discrepancy likelihood
+
+def _disc_cfg(kernel: str, axis: str, relaxation: bool = False):
+    raw = {"name": "t",
+           "data": {"file": "x.csv", "columns": {"time": "t", "strain": "e", "stress": "s"},
+                    "observable": "stress"},
+           "noise": {"sigma0": 0.3, "discrepancy": {"kernel": kernel, "axis": axis}}}
+    if relaxation:
+        raw["data"]["relaxation_start"] = 80.0
+    return parse_config(raw)
+
+
+def _disc_priors(high: float):
+    from bayes_dnlr.config import ParameterSpec
+
+    return {"disc_amplitude": ParameterSpec(prior="half-normal", scale=2.0),
+            "disc_length": ParameterSpec(prior="log-uniform", low=1e-4, high=high)}
+
+
+def _wobbly(test):
+    """The test on a jittered time grid, driven by a noisy (non-monotone) strain."""
+    from dataclasses import replace
+
+    rng = np.random.default_rng(11)
+    t = np.cumsum(np.r_[0.0, np.diff(test.time) * (1 + 0.3 * (rng.uniform(size=test.time.size - 1) - 0.5))])
+    e = test.strain_input + rng.normal(0.0, 2e-4, t.size)
+    return replace(test, time=t, strain=e, strain_input=e)
+
+
+@pytest.mark.parametrize("kernel", ["exp", "matern32"])
+@pytest.mark.parametrize("axis", ["time", "strain"])
+def test_discrepancy_likelihood_matches_dense_normal(kernel, axis) -> None:
+    from bayes_dnlr.inference import gp
+
+    test = _wobbly(make_test(n=400))
+    cfg = _disc_cfg(kernel, axis)
+    post = build_log_posterior(cfg, test, sigma0=0.3,
+                               discrepancy_priors=_disc_priors(1e3 if axis == "time" else 1.0))
+    assert post.names == ["E", "G", "tau_max", "disc_amplitude", "disc_length"]
+    length = 12.0 if axis == "time" else 0.02
+    thetas = np.array([[2854.0, 2.32, 5.79, 0.8, length], [2700.0, 2.4, 6.5, 0.2, 3 * length]])
+    ll = post.log_likelihood(thetas)
+    x = test.time if axis == "time" else test.strain_input
+    for k, th in enumerate(thetas):
+        mu = simulate(test.time, test.strain_input, dict(zip(post.names[:3], th[:3], strict=True)))
+        K = gp.covariance(x, th[3], th[4], kernel, 0.3)          # in the file's order
+        ref = stats.multivariate_normal(mu, K).logpdf(test.stress)
+        assert ll[k] == pytest.approx(ref, abs=1e-9 * test.time.size)
+    # the posterior adds the log prior in sampling coordinates
+    lp = post(post.priors.from_physical(thetas))
+    np.testing.assert_allclose(lp, ll + post.priors.log_prior(post.priors.from_physical(thetas)))
+
+
+def test_discrepancy_likelihood_on_a_relaxation_test_with_a_window_gap() -> None:
+    from bayes_dnlr.inference import gp
+
+    window = np.ones(700, bool)
+    window[100:150] = False
+    test = make_test(relaxation=True, window=window)
+    cfg = _disc_cfg("exp", "time", relaxation=True)
+    post = build_log_posterior(cfg, test, sigma0=0.3, discrepancy_priors=_disc_priors(1e3))
+    th = np.array([[*TRUTH_RELAX.values(), 0.5, 30.0]])
+    mu = simulate(test.time, test.strain, TRUTH_RELAX, relaxation_start=test.relaxation_start)[window]
+    K = gp.covariance(test.time[window], 0.5, 30.0, "exp", 0.3)
+    ref = stats.multivariate_normal(mu, K).logpdf(test.stress[window])
+    assert post.log_likelihood(th)[0] == pytest.approx(ref, abs=1e-9 * window.sum())
+
+
+def test_discrepancy_with_fixed_hyperparameters_and_bad_points() -> None:
+    from bayes_dnlr.config import ParameterSpec
+
+    test = make_test(n=300)
+    raw = _disc_cfg("matern32", "time").model_dump(mode="json", exclude_none=True)
+    raw["noise"]["discrepancy"]["length"] = {"value": 20.0}
+    cfg = parse_config(raw)
+    priors = {"disc_amplitude": ParameterSpec(prior="half-normal", scale=1.0),
+              "disc_length": ParameterSpec(value=20.0)}
+    post = build_log_posterior(cfg, test, sigma0=0.3, discrepancy_priors=priors)
+    assert post.names == ["E", "G", "tau_max", "disc_amplitude"]
+    z = post.priors.from_physical(np.array([[2854.0, 2.32, 5.79, 0.5], [2854.0, 2.32, 5.79, 0.5]]))
+    z[1, 3] = np.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        lp = post(z)
+    assert np.isfinite(lp[0]) and lp[1] == -np.inf
+    with pytest.raises(ValueError, match="needs its resolved priors"):
+        build_log_posterior(cfg, test, sigma0=0.3)

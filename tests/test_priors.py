@@ -104,7 +104,7 @@ def test_build_priors_from_config() -> None:
         "parameters": {"E": {"prior": "uniform", "low": 100, "high": 20000},
                        "G": {"value": 2.3},
                        "tau_max": {"prior": "log-uniform", "low": 0.01, "high": 1.0e4}},
-        "noise": {"sigma0": {"prior": "half-normal", "scale": 5.0}},
+        "noise": {"sigma0": {"prior": "half-normal", "scale": 5.0}, "discrepancy": "none"},
     }
     cfg = parse_config(raw)
     ps = build_priors(cfg)
@@ -118,6 +118,32 @@ def test_build_priors_from_config() -> None:
                 + stats.halfnorm(scale=5.0).logpdf(0.3))
     assert lp[0] == pytest.approx(expected, rel=1e-12)
     assert lp[1] == -np.inf and lp[2] == -np.inf
+
+
+def test_discrepancy_hyperparameters_are_sampled_in_log_space() -> None:
+    """disc_amplitude (half-normal) and disc_length (log-uniform) follow the model parameters and
+    sigma0; both are sampled in ln x, the density carrying the Jacobian x; a fixed one is left out."""
+    from bayes_dnlr.config import ParameterSpec
+
+    raw = {"name": "t", "data": {"file": "x.csv", "columns": {"time": "t", "eps11": "e", "stress": "s"},
+                                 "observable": "stress"},
+           "noise": {"sigma0": 0.3, "discrepancy": {"kernel": "exp"}}}
+    cfg = parse_config(raw)
+    resolved = {"disc_amplitude": ParameterSpec(prior="half-normal", scale=2.0),
+                "disc_length": ParameterSpec(prior="log-uniform", low=1.0, high=1000.0)}
+    ps = build_priors(cfg, resolved)
+    assert ps.names == sampled_names(cfg) == ["E", "G", "tau_max", "disc_amplitude", "disc_length"]
+    assert list(ps.log_space) == [False, False, True, True, True]
+    x = np.array([[2854.0, 2.3, 5.79, 0.7, 40.0]])
+    lp = ps.log_prior(ps.from_physical(x))[0]
+    expected = (-math.log(19900.0) - math.log(50.0) - math.log(math.log(1.0e6))
+                + stats.halfnorm(scale=2.0).logpdf(0.7) + math.log(0.7) - math.log(math.log(1000.0)))
+    assert lp == pytest.approx(expected, rel=1e-12)
+    raw["noise"]["discrepancy"]["length"] = {"value": 30.0}
+    cfg = parse_config(raw)
+    resolved["disc_length"] = ParameterSpec(value=30.0)
+    assert build_priors(cfg, resolved).names == sampled_names(cfg) == [
+        "E", "G", "tau_max", "disc_amplitude"]
 
 
 def test_sampled_sigma0_prior_kinds() -> None:

@@ -1,10 +1,15 @@
 """The log-posterior of the sampled parameters, vectorised over emcee walkers.
 
     log p(z | y) = log prior(z) + log L(θ(z)),
-    log L(θ) = -½ Σ_i (y_i - σ_model(t_i; θ))² / σ0² - n ln σ0 - (n/2) ln 2π
 
-over the n samples of the identification window (the paper's least-squares criterion, eq. 27, is
--2 σ0² log L up to constants: Gaussian, independent, homoscedastic noise of sd σ0).
+over the n samples of the identification window, with r = y - σ_model(θ):
+
+- white (``noise.discrepancy: none``): log L = -½ Σ r_i² / σ0² - n ln σ0 - (n/2) ln 2π, the paper's
+  least-squares criterion (eq. 27 is -2 σ0² log L up to constants);
+- with the model discrepancy (the default): r = δ + ε, δ a Gaussian process with amplitude and
+  correlation length on the time or strain axis, log L = log N(r | 0, k(x, x) + σ0² I), exact and
+  O(n) (inference/gp.py), all walkers of a call at once. The hyperparameters ``disc_amplitude`` and
+  ``disc_length`` are sampled with the others, or fixed.
 
 The model is linear in E, G and σ_inf for fixed time constants (eq. 18 and section 4.1), so each
 walker costs one basis integration (``DNLR.basis``) and a (n, 3) matrix-vector product. Outside the
@@ -16,11 +21,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from bayes_dnlr.config import Config
+from bayes_dnlr.config import DISCREPANCY_PARAMETERS, Config, ParameterSpec
 from bayes_dnlr.data import TestData
+from bayes_dnlr.inference import gp
+from bayes_dnlr.inference.discrepancy import AMPLITUDE, LENGTH, Axis, is_white, make_axis
 from bayes_dnlr.inference.priors import PriorSet, build_priors
 from bayes_dnlr.model import DNLR
 
@@ -49,7 +57,8 @@ class LogPosterior:
     """
 
     def __init__(self, model: DNLR, observed: np.ndarray, rows: slice | np.ndarray,
-                 priors: PriorSet, fixed: Mapping[str, float], sigma0: float | None) -> None:
+                 priors: PriorSet, fixed: Mapping[str, float], sigma0: float | None,
+                 discrepancy: Discrepancy | None = None) -> None:
         self.model = model
         self.rows = rows
         self.y = np.ascontiguousarray(observed, dtype=float)
@@ -58,7 +67,8 @@ class LogPosterior:
         self.names = priors.names
         self.ndim = priors.ndim
         model_names = model.parameter_names()
-        unknown = [k for k in self.names if k not in model_names and k != "sigma0"]
+        noise_names = ("sigma0", *DISCREPANCY_PARAMETERS)
+        unknown = [k for k in self.names if k not in model_names and k not in noise_names]
         if unknown:
             raise ValueError(f"parameters {unknown} are not parameters of this model {model_names}")
         missing = [k for k in model_names if k not in self.names and k not in fixed]
@@ -69,13 +79,20 @@ class LogPosterior:
         if sigma0 is not None and not (math.isfinite(sigma0) and sigma0 > 0):
             raise ValueError(f"sigma0 must be a positive number, got {sigma0}")
         self.sigma0 = sigma0
+        self.discrepancy = discrepancy
+        disc_names = DISCREPANCY_PARAMETERS if discrepancy is not None else ()
+        for k in disc_names:
+            if k not in self.names and k not in discrepancy.fixed:  # type: ignore[union-attr]
+                raise ValueError(f"{k} is neither sampled nor fixed")
         # where each model quantity comes from: a column of theta, or a constant
         self._source = {}
-        for k in (*model_names, "sigma0"):
+        for k in (*model_names, "sigma0", *disc_names):
             if k in self.names:
                 self._source[k] = self.names.index(k)
             elif k == "sigma0":
                 self._source[k] = float(sigma0)  # type: ignore[arg-type]
+            elif k in disc_names:
+                self._source[k] = float(discrepancy.fixed[k])  # type: ignore[union-attr]
             else:
                 self._source[k] = float(fixed[k])
         self.has_relaxation = model.has_relaxation
@@ -107,10 +124,26 @@ class LogPosterior:
             return b @ np.array([e, g, s])
         return b[:, :2] @ np.array([e, g])
 
+    def residuals(self, theta: np.ndarray) -> np.ndarray:
+        """y - model (k, n) for physical parameters theta (k, ndim); rows of non-finite models hold
+        NaN."""
+        theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        out = np.empty((theta.shape[0], self.n))
+        cols = self._linear_and_times(theta)
+        for i in range(theta.shape[0]):
+            try:
+                with np.errstate(all="ignore"):     # overflow -> inf -> -inf later, silently
+                    out[i] = self.y - self._stress(*(c[i] for c in cols))
+            except (ValueError, ZeroDivisionError, FloatingPointError):
+                out[i] = np.nan
+        return out
+
     def log_likelihood(self, theta: np.ndarray) -> np.ndarray:
-        """Gaussian log-likelihood (k,) of physical parameters theta (k, ndim); -inf on failure."""
+        """log-likelihood (k,) of physical parameters theta (k, ndim); -inf on failure."""
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         sig = self._col(theta, "sigma0")
+        if self.discrepancy is not None:
+            return self._log_likelihood_gp(theta, sig)
         out = np.full(theta.shape[0], -np.inf)
         cols = self._linear_and_times(theta)
         for i in range(theta.shape[0]):
@@ -126,6 +159,19 @@ class LogPosterior:
                 out[i] = -0.5 * rss / sig[i] ** 2 - self.n * (math.log(sig[i]) + 0.5 * _LOG_2PI)
         return out
 
+    def _log_likelihood_gp(self, theta: np.ndarray, sig: np.ndarray) -> np.ndarray:
+        d = self.discrepancy
+        assert d is not None
+        R = self.residuals(theta)
+        if d.axis.order is not None:
+            R = R[:, d.axis.order]
+        bad = ~np.all(np.isfinite(R), axis=1)
+        R[bad] = 0.0
+        out = gp.log_likelihood_batch(d.axis.values, R, sig, self._col(theta, AMPLITUDE),
+                                      self._col(theta, LENGTH), d.kernel)
+        out[bad] = -np.inf
+        return out
+
     def __call__(self, z: np.ndarray) -> np.ndarray:
         z = np.atleast_2d(np.asarray(z, dtype=float))
         lp = self.priors.log_prior(z)
@@ -138,10 +184,34 @@ class LogPosterior:
         return lp
 
 
+@dataclass(frozen=True)
+class Discrepancy:
+    """The discrepancy term of a likelihood: kernel, axis, and the hyperparameters held fixed."""
+
+    kernel: str
+    axis: Axis
+    fixed: dict[str, float] = field(default_factory=dict)   # disc_amplitude / disc_length values
+
+
 def build_log_posterior(cfg: Config, test: TestData, sigma0: float | None,
-                        priors: PriorSet | None = None) -> LogPosterior:
-    """The log-posterior of a config and its test data; sigma0 None when it is sampled."""
+                        priors: PriorSet | None = None,
+                        discrepancy_priors: Mapping[str, ParameterSpec] | None = None) -> LogPosterior:
+    """The log-posterior of a config and its test data; sigma0 None when it is sampled.
+
+    ``discrepancy_priors``: the resolved priors (or fixed values) of disc_amplitude and
+    disc_length (fit.json's discrepancy block); needed when the config has a discrepancy.
+    """
     model = build_model(cfg, test)
     rows = window_rows(test)
     observed = test.stress[: test.model_end][rows]
-    return LogPosterior(model, observed, rows, priors or build_priors(cfg), cfg.fixed_values, sigma0)
+    disc = None
+    if cfg.noise.has_discrepancy:
+        if discrepancy_priors is None:
+            raise ValueError("a likelihood with a discrepancy needs its resolved priors (run fit)")
+    if cfg.noise.has_discrepancy and not is_white(discrepancy_priors):
+        end = test.model_end
+        axis = make_axis(cfg.noise.discrepancy.axis, test.time[:end][rows], test.strain_input[:end][rows])
+        disc = Discrepancy(cfg.noise.discrepancy.kernel, axis,
+                           {k: float(v.value) for k, v in discrepancy_priors.items() if v.fixed})
+    priors = priors or build_priors(cfg, discrepancy_priors)
+    return LogPosterior(model, observed, rows, priors, cfg.fixed_values, sigma0, disc)

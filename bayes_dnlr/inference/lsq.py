@@ -23,14 +23,25 @@ from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.config import UNITS, Config
+from bayes_dnlr.config import UNITS, Config, SampledNoise
 from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.inference import optimize
 from bayes_dnlr.inference.diagnostics import residual_diagnostics
+from bayes_dnlr.inference.discrepancy import (
+    AMPLITUDE_FLOOR,
+    EVIDENCE_LR,
+    likelihood_ratio,
+    make_axis,
+    maximum_likelihood,
+    resolved_priors,
+    search_priors,
+    whitener,
+)
 from bayes_dnlr.inference.noise import resolve_sigma0
 from bayes_dnlr.inference.problem import LsqProblem
 from bayes_dnlr.inference.sensitivity import StochasticAnalysis, analyse, identifiability_warnings
 from bayes_dnlr.inference.start import clip_to, fallback, physics_start, spread_starts
+from bayes_dnlr.numbers import fmt, fmt_at
 from bayes_dnlr.rundir import jsonable
 
 SAME_OPTIMUM_SD = 0.01      # multi-start end points within this many sd of the best: same optimum
@@ -79,6 +90,7 @@ class FitResult:
     data_sha256: str = ""
     wall_time_s: float = 0.0
     data_notes: list[str] = field(default_factory=list)   # from the data layer (e.g. a detected hold)
+    discrepancy: dict[str, Any] | None = None   # the model-discrepancy (GLS) analysis, or None (white)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able content of fit.json."""
@@ -122,6 +134,7 @@ class FitResult:
             "data_sha256": self.data_sha256,
             "version": __version__,
             "wall_time_s": self.wall_time_s,
+            "discrepancy": self.discrepancy,
         }
         return jsonable(d)
 
@@ -132,26 +145,34 @@ class FitResult:
                  f"on {self.n_points} points; sigma0 = {self.sigma0:.4g} MPa ({self.sigma0_source})"]
         lines += [f"data: {note}" for note in self.data_notes]
         w = max(len(k) for k in self.estimate) + 2
-        lines.append(f"{'parameter':<{w}}{'estimate':>14}{'sd':>12}{'Err %':>9}  unit")
+        d = self.discrepancy
+        head = f"{'parameter':<{w}}{'estimate':>14}{'sd':>12}{'Err %':>9}"
+        if d:
+            lines.append(f"{'':<{w}}{'white noise (paper, eq. 32-35)':^35}  "
+                         f"{'with the model discrepancy (GLS)':^35}")
+            head += f"  {'estimate':>14}{'sd':>12}{'Err %':>9}"
+        lines.append(head + "  unit")
         for k, v in self.estimate.items():
-            if k in self.sd:
-                lines.append(f"{k:<{w}}{v:>14.6g}{self.sd[k]:>12.4g}{100 * self.err[k]:>9.3f}  {UNITS[k]}")
-            else:
-                lines.append(f"{k:<{w}}{v:>14.6g}{'fixed':>12}{'':>9}  {UNITS[k]}")
-        p = len(self.names)
+            if k not in self.sd:
+                lines.append(f"{k:<{w}}{fmt(v, 6):>14}{'fixed':>12}{'':>9}  {UNITS[k]}")
+                continue
+            row = f"{k:<{w}}{fmt_at(v, self.sd[k]):>14}{fmt(self.sd[k], 2):>12}{100 * self.err[k]:>9.3f}"
+            if d:
+                gv, gs = d["estimate"][k], d["sd"][k]
+                row += f"  {fmt_at(gv, gs):>14}{fmt(gs, 2):>12}{100 * d['err'][k]:>9.3f}"
+            lines.append(row + f"  {UNITS[k]}")
         lines.append("")
-        lines.append("Δ̃ (eq. 35): Err % on the diagonal, correlation ρ off it")
-        lines.append(" " * w + "".join(f"{k:>12}" for k in self.names))
-        for r in range(p):
-            cells = []
-            for s in range(p):
-                x = self.delta_tilde[r, s]
-                cells.append(f"{100 * x:>10.3f} %" if r == s else f"{x:>12.4f}")
-            lines.append(f"{self.names[r]:<{w}}" + "".join(cells))
+        lines += _delta_tilde_lines("Δ̃ (eq. 35), white noise: Err % on the diagonal, ρ off it",
+                                    self.names, self.delta_tilde, w)
+        if d:
+            lines += _delta_tilde_lines("Δ̃ with the model discrepancy (Δ = (XᵀK⁻¹X)⁻¹)",
+                                        self.names, np.asarray(d["delta_tilde"]), w)
         lines.append(f"condition number of X̃ᵀX̃: {self.condition_number:.4g}")
         lines.append("")
         dg = self.diagnostics
         lines.append(f"residuals: rms {dg['rms']:.4g} MPa; {dg['verdict']}")
+        if d:
+            lines += _discrepancy_lines(d, self.sd)
         ms = self.multistart
         if ms["starts"]:
             same = "all at the same optimum" if ms["same_optimum"] else "NOT all at the same optimum"
@@ -162,6 +183,29 @@ class FitResult:
             lines.append("warnings:")
             lines.extend(f"  - {m}" for m in self.warnings)
         return "\n".join(lines)
+
+
+def _delta_tilde_lines(title: str, names: list[str], dt: np.ndarray, w: int) -> list[str]:
+    lines = [title, " " * w + "".join(f"{k:>12}" for k in names)]
+    for r, name in enumerate(names):
+        cells = [f"{100 * dt[r, c]:>10.3f} %" if r == c else f"{dt[r, c]:>12.4f}"
+                 for c in range(len(names))]
+        lines.append(f"{name:<{w}}" + "".join(cells))
+    return lines
+
+
+def _discrepancy_lines(d: dict[str, Any], white_sd: dict[str, float]) -> list[str]:
+    h = d["hyperparameters"]
+    unit = d.get("axis_unit", "s")
+    amp = "0 (no model error detected)" if d.get("amplitude_is_zero") else f"{fmt(h['amplitude'], 3)} MPa"
+    lines = [f"discrepancy: {d['kernel']} kernel on the {d['axis']} axis, maximum likelihood: "
+             f"sigma0 = {fmt(h['sigma0'], 3)} MPa, amplitude {amp}, length {fmt(h['length'], 3)} {unit}"]
+    moved = [f"{k} {d['shift_in_sd'][k]:+.1f} sd (sd x{d['sd'][k] / white_sd[k]:.2f})"
+             for k in d["shift_in_sd"] if white_sd.get(k)]
+    if moved:
+        lines.append("  generalized vs white estimate, in generalized sd: " + ", ".join(moved))
+    lines.append(f"  whitened residuals: {d['whitened_residuals']['verdict']}")
+    return lines
 
 
 # ---------------------------------------------------------------- the fit itself (no files)
@@ -239,7 +283,7 @@ def fit_test(cfg: Config, test) -> FitResult:
             best = min(cands, key=lambda o: o.criterion)
 
     params = problem.params(best.beta)
-    residuals = problem.residuals(params)
+    residuals = problem.raw_residuals(params)
     fitted = problem.y - residuals
     sigma0, source = resolve_sigma0(cfg, test, residuals)
     X = problem.jacobian(params)
@@ -274,8 +318,15 @@ def fit_test(cfg: Config, test) -> FitResult:
                             "linearized sd and Δ̃ do not describe a constrained optimum")
     warnings.extend(identifiability_warnings(sa))
     diag = residual_diagnostics(residuals, sigma0, source)
+    disc = None
+    if cfg.noise.has_discrepancy:
+        disc = discrepancy_analysis(cfg, test, problem, best.beta, residuals)
+        warnings.extend(disc.pop("warnings"))
     if not diag["white"]:
-        warnings.append("residuals are not white (model bias, see the verdict): sd are a lower bound")
+        warnings.append("residuals are not white (model bias, see the verdict): the white-noise sd "
+                        "are a lower bound" + ("; the discrepancy analysis accounts for the bias"
+                                               if disc is not None else
+                                               "; noise.discrepancy (on by default) accounts for it"))
 
     rate = float(test.strain_rate)
     tau = params.get("tau_max")
@@ -294,7 +345,99 @@ def fit_test(cfg: Config, test) -> FitResult:
         warnings=warnings, deborah_max=float(tau * rate) if tau is not None else None,
         strain_rate=rate, relaxation_start=test.relaxation_start, window=_window_info(cfg, test, problem),
         start=start, start_notes=notes, fixed=dict(cfg.fixed_values),
-        wall_time_s=_time.perf_counter() - t_start, data_notes=list(test.notes))
+        wall_time_s=_time.perf_counter() - t_start, data_notes=list(test.notes), discrepancy=disc)
+
+
+def _on_bound(cfg: Config, name: str, value: float) -> bool:
+    lo, hi = cfg.parameters[name].bounds()
+    return bool((math.isfinite(lo) and abs(value - lo) <= 1e-6 * max(abs(lo), 1e-12 + abs(value)))
+                or (math.isfinite(hi) and abs(value - hi) <= 1e-6 * abs(hi)))
+
+
+def discrepancy_analysis(cfg: Config, test, problem: LsqProblem, beta_white: np.ndarray,
+                         residuals: np.ndarray) -> dict[str, Any]:
+    """The honest linearized analysis under model error (docs/model-error.md): maximum-likelihood
+    hyperparameters of the discrepancy, the generalized least-squares estimate, Δ = (XᵀK⁻¹X)⁻¹ and
+    its Δ̃ (eq. 32-35 with K in place of σ0² I), and whether the whitened residuals look white."""
+    spec = cfg.noise.discrepancy
+    names = problem.names
+    end = problem.mask.size
+    axis = make_axis(spec.axis, np.asarray(test.time)[:end][problem.mask],
+                     np.asarray(test.strain_input)[:end][problem.mask])
+    rms = float(np.sqrt(np.mean(residuals**2)))
+    fixed_sigma0 = None
+    if not isinstance(cfg.noise.sigma0, SampledNoise) and cfg.noise.sigma0 != "residuals":
+        fixed_sigma0 = resolve_sigma0(cfg, test, residuals)[0]
+    ml = maximum_likelihood(problem, beta_white, axis, spec.kernel, search_priors(spec, rms, axis),
+                            fixed_sigma0, residuals)
+    h = ml.hyper
+    problem.whiten = whitener(axis, h, spec.kernel)
+    try:
+        opt = _run(problem, cfg.fit.method, ml.beta, cfg.fit.max_iterations)
+        if opt.criterion > problem.ssr(problem.params(ml.beta)):
+            opt = optimize.Optimum(ml.beta, problem.ssr(problem.params(ml.beta)), 0, 0, True,
+                                   "the profile-likelihood optimum (the polish did not improve it)")
+        params = problem.params(opt.beta)
+        Xw = problem.jacobian(params)
+        white_res = problem.residuals(params)
+    finally:
+        problem.whiten = None
+    values = problem.vector(params)
+    warnings: list[str] = []
+    try:
+        sa: StochasticAnalysis | None = analyse(Xw, names, values, 1.0)
+    except np.linalg.LinAlgError as err:
+        sa = None
+        bound = [k for k in names if _on_bound(cfg, k, params[k])]
+        warnings.append(
+            "the generalized least-squares analysis has no covariance at its optimum (the whitened "
+            f"sensitivity matrix is singular: {err})"
+            + (f"; {', '.join(f'{k} = {params[k]:.4g}' for k in bound)} sits on a prior bound"
+               if bound else "") + ": the discrepancy posterior starts from the white estimate's "
+            "neighbourhood; narrow the priors or fix a parameter to get a linearized interval")
+    zero_amplitude = h.amplitude <= 1.01 * AMPLITUDE_FLOOR * max(rms, 1e-12)
+    lr = likelihood_ratio(ml.log_likelihood, float(residuals @ residuals), problem.n_points, fixed_sigma0)
+    evident = bool(lr > EVIDENCE_LR and not zero_amplitude)
+    priors = resolved_priors(spec, rms, axis, h.amplitude, evident)
+    whitened = residual_diagnostics(white_res, 1.0, "whitened")
+    if not whitened["white"] and not zero_amplitude:
+        r1 = whitened["lag1_autocorrelation"]
+        warnings.append(f"the whitened residuals are still correlated (lag-1 autocorrelation {r1:+.2f}): "
+                        f"the {spec.kernel} kernel describes the model error only in part, so the "
+                        "discrepancy intervals may still be somewhat narrow (docs/model-error.md, "
+                        "'Limits')")
+    for k in names:
+        if sa is not None and _on_bound(cfg, k, params[k]):
+            lo, hi = cfg.parameters[k].bounds()
+            warnings.append(f"{k} = {params[k]:.6g} (generalized least squares) sits on a bound of "
+                            f"its prior [{lo:g}, {hi:g}]")
+    nan = np.full((len(names), len(names)), np.nan)
+    sd = sa.sd if sa is not None else np.full(len(names), np.nan)
+    shift = {k: (params[k] - float(beta_white[j])) / float(sd[j])
+             for j, k in enumerate(names) if sd[j] > 0}
+    return {
+        "kernel": spec.kernel, "axis": spec.axis, "axis_unit": axis.unit,
+        "hyperparameters": {"sigma0": h.sigma0, "amplitude": 0.0 if zero_amplitude else h.amplitude,
+                            "length": h.length},
+        "estimated": ml.free,
+        "amplitude_is_zero": bool(zero_amplitude),
+        "likelihood_ratio": lr, "evidence": evident,
+        "priors": {k: v.model_dump(mode="json", exclude_none=True) for k, v in priors.items()},
+        "log_likelihood": ml.log_likelihood,
+        "hyper_log_covariance": ml.covariance_log,
+        "ml_evaluations": ml.evaluations, "ml_message": ml.message,
+        "estimate": params,
+        "sd": dict(zip(names, (float(x) for x in sd), strict=True)),
+        "err": dict(zip(names, (float(x) / abs(params[k]) if params[k] else math.nan
+                                for k, x in zip(names, sd, strict=True)), strict=True)),
+        "covariance": nan if sa is None else sa.covariance,
+        "correlation": nan if sa is None else sa.correlation,
+        "delta_tilde": nan if sa is None else sa.delta_tilde,
+        "shift_in_sd": shift,
+        "criterion": float(opt.criterion), "converged": bool(opt.converged), "message": opt.message,
+        "whitened_residuals": whitened,
+        "warnings": warnings,
+    }
 
 
 def stochastic_analysis(cfg: Config, test, params: Mapping[str, float],

@@ -191,8 +191,10 @@ class Posterior:
     def table(self) -> str:
         """Console table: posterior mean ± sd, 90 % HDI, Gauss-Newton estimate ± sd, ESS, R-hat, τ."""
         s = self.summary
-        gn = s.get("gauss_newton") or {}
-        head = ["parameter", "unit", "posterior mean ± sd", "90 % HDI", "Gauss-Newton ± sd",
+        gls = s.get("generalized_least_squares")
+        gn = gls or s.get("gauss_newton") or {}
+        head = ["parameter", "unit", "posterior mean ± sd", "90 % HDI",
+                "least squares ± sd (GLS)" if gls else "Gauss-Newton ± sd",
                 "ESS bulk", "ESS tail", "R-hat", "tau"]
         rows = []
         for k in s["parameters"]:
@@ -220,6 +222,9 @@ class Posterior:
         lines.append(line.format(*head))
         lines.append(line.format(*("-" * w for w in widths)))
         lines += [line.format(*r) for r in rows]
+        noise = s.get("noise") or {}
+        if noise.get("verdict"):
+            lines.append(f"noise: {noise['model']} likelihood. {noise['verdict']}")
         warn = s.get("warnings") or []
         lines += [f"warning: {w}" for w in warn]
         lines.append(f"outputs: {self.run_dir}/{{chains.h5, {POSTERIOR_FILE}, {SUMMARY_FILE}}}")

@@ -15,13 +15,13 @@ Outside the support every log-density is ``-inf``: never NaN, never an exception
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.special import log_ndtr, ndtri
 
-from bayes_dnlr.config import Config, ConfigError, ParameterSpec, SampledNoise
+from bayes_dnlr.config import DISCREPANCY_PARAMETERS, Config, ConfigError, ParameterSpec, SampledNoise
 
 LOG_SPACE_KINDS = ("log-uniform", "log-normal")
 _LOG_SQRT_2PI = 0.5 * math.log(2.0 * math.pi)
@@ -51,10 +51,13 @@ class Prior:
     _log_norm: float = field(default=0.0, repr=False)  # log of the normalising constant
 
     @classmethod
-    def from_spec(cls, name: str, spec: ParameterSpec | SampledNoise, key: str | None = None) -> Prior:
+    def from_spec(cls, name: str, spec: ParameterSpec | SampledNoise, key: str | None = None,
+                  log_space: bool | None = None) -> Prior:
         """Build from a config entry (a free parameter, or the sampled noise sigma0).
 
-        ``key`` names the entry in error messages (default ``parameters.<name>``).
+        ``key`` names the entry in error messages (default ``parameters.<name>``). ``log_space``
+        forces sampling in ln x (for a positive scale such as the discrepancy amplitude, whose
+        posterior on clean data piles up near 0); by default only log-uniform and log-normal are.
         """
         key = key or f"parameters.{name}"
         kind = spec.prior
@@ -92,7 +95,8 @@ class Prior:
             log_norm = _log_diff_ndtr(low / scale, high / scale)
         else:  # pragma: no cover - config.py restricts the kinds
             raise ConfigError(f"{key}: unknown prior '{kind}'")
-        return cls(name, kind, low, high, loc, scale, kind in LOG_SPACE_KINDS, log_norm)
+        in_log = kind in LOG_SPACE_KINDS if log_space is None else bool(log_space and low >= 0)
+        return cls(name, kind, low, high, loc, scale, in_log, log_norm)
 
     # ---- transforms between physical x and the sampling coordinate z
     def to_physical(self, z: np.ndarray) -> np.ndarray:
@@ -219,17 +223,38 @@ class PriorSet:
         return np.column_stack([p.sample(rng, n) for p in self.priors])
 
 
-def sampled_names(cfg: Config) -> list[str]:
-    """The sampled parameters: the free model parameters in canonical order, then sigma0 if sampled."""
+def sampled_names(cfg: Config, discrepancy_priors: Mapping[str, ParameterSpec] | None = None
+                  ) -> list[str]:
+    """The sampled parameters: the free model parameters in canonical order, then sigma0 if sampled,
+    then the discrepancy hyperparameters that are not fixed: by the resolved priors when given
+    (fit.json; an amplitude fixed at 0 means the white likelihood, no hyperparameter), else by the
+    config alone (the most there can be)."""
     names = list(cfg.free_parameters)
     if isinstance(cfg.noise.sigma0, SampledNoise):
         names.append("sigma0")
-    return names
+    if not cfg.noise.has_discrepancy:
+        return names
+    if discrepancy_priors is not None:
+        amp = discrepancy_priors["disc_amplitude"]
+        if amp.fixed and amp.value == 0.0:
+            return names
+        return names + [k for k in DISCREPANCY_PARAMETERS if not discrepancy_priors[k].fixed]
+    d = cfg.noise.discrepancy
+    return names + [k for k, spec in zip(DISCREPANCY_PARAMETERS, (d.amplitude, d.length), strict=True)
+                    if spec is None or not spec.fixed]
 
 
-def build_priors(cfg: Config) -> PriorSet:
-    """The prior of every sampled parameter (free model parameters, then sigma0 when sampled)."""
+def build_priors(cfg: Config, discrepancy_priors: Mapping[str, ParameterSpec] | None = None
+                 ) -> PriorSet:
+    """The prior of every sampled parameter (free model parameters, sigma0 when sampled, the
+    discrepancy hyperparameters when their resolved priors are given)."""
     priors = [Prior.from_spec(k, cfg.parameters[k]) for k in cfg.free_parameters]
     if isinstance(cfg.noise.sigma0, SampledNoise):
         priors.append(Prior.from_spec("sigma0", cfg.noise.sigma0, key="noise.sigma0"))
+    if cfg.noise.has_discrepancy and discrepancy_priors is not None:
+        for k in DISCREPANCY_PARAMETERS:
+            spec = discrepancy_priors[k]
+            if k in sampled_names(cfg, discrepancy_priors):
+                key = f"noise.discrepancy.{k.removeprefix('disc_')}"
+                priors.append(Prior.from_spec(k, spec, key=key, log_space=True))
     return PriorSet(tuple(priors))

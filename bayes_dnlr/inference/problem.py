@@ -3,11 +3,16 @@
 The model runs from the first sample (history matters) to ``test.model_end`` and is compared with
 the observable where ``test.window`` is True (paper eq. 19-20). Optimisers work in internal
 coordinates u: u = β for E, G, sigma_inf and u = ln β for the time constants (they span decades).
+
+With a whitening operator W = L⁻¹ (K = L Lᵀ the covariance of the residuals: noise plus model
+discrepancy, inference/gp.py) the criterion is the generalized one, (y - f)ᵀ K⁻¹ (y - f) =
+|W(y - f)|², and everything the optimisers use (residuals, Jacobian, linear projection) is whitened.
+``raw_residuals`` are always y - f.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 from scipy.optimize import lsq_linear
@@ -52,6 +57,7 @@ class LsqProblem:
             self.u_upper = np.where(self.is_log, np.log(hi), hi)
         self._cache: tuple[tuple[float, float | None], Basis] | None = None
         self.evaluations = 0
+        self.whiten: Callable[[np.ndarray], np.ndarray] | None = None   # W = L⁻¹, or None (white)
 
     # ---- layout
     @property
@@ -97,9 +103,16 @@ class LsqProblem:
             y = y + params["sigma_inf"] * v[:, 2]
         return y
 
-    def residuals(self, params: Mapping[str, float]) -> np.ndarray:
+    def raw_residuals(self, params: Mapping[str, float]) -> np.ndarray:
         """e = y^m - y(β) on the window (eq. 19)."""
         return self.y - self.predict(params)
+
+    def _w(self, v: np.ndarray) -> np.ndarray:
+        return v if self.whiten is None else self.whiten(v)
+
+    def residuals(self, params: Mapping[str, float]) -> np.ndarray:
+        """The residuals the criterion sums: e (eq. 19), or W e with a whitening operator."""
+        return self._w(self.raw_residuals(params))
 
     def ssr(self, params: Mapping[str, float]) -> float:
         """The least-squares criterion (eq. 20)."""
@@ -115,7 +128,7 @@ class LsqProblem:
                 cols.append(b.values[self.mask, LINEAR_COLUMN[k]])
             else:
                 cols.append(log_sensitivity(b, params, k)[self.mask])
-        return np.column_stack(cols)
+        return self._w(np.column_stack(cols))
 
     def jacobian(self, params: Mapping[str, float]) -> np.ndarray:
         """X = ∂y/∂β on the window (eq. 22), columns in the order of ``names``."""
@@ -135,6 +148,9 @@ class LsqProblem:
             if k in self.fixed and k in params:
                 target -= self.fixed[k] * v[:, LINEAR_COLUMN[k]]
         A = np.column_stack([v[:, LINEAR_COLUMN[k]] for k in self.linear])
+        if self.whiten is not None:
+            w = self.whiten(np.column_stack([A, target]))
+            A, target = w[:, :-1], w[:, -1]
         idx = [self.names.index(k) for k in self.linear]
         lo, hi = self.lower[idx], self.upper[idx]
         scale = np.linalg.norm(A, axis=0)

@@ -25,8 +25,9 @@ from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.config import Config, ConfigError, SampledNoise
+from bayes_dnlr.config import DISCREPANCY_PARAMETERS, Config, ConfigError, ParameterSpec, SampledNoise
 from bayes_dnlr.errors import RunError
+from bayes_dnlr.inference.discrepancy import AMPLITUDE, LENGTH, is_white
 from bayes_dnlr.inference.likelihood import LogPosterior, build_log_posterior
 from bayes_dnlr.inference.mcmc import (
     MIN_STEPS_FOR_TAU,
@@ -45,14 +46,16 @@ from bayes_dnlr.inference.posterior import (
     SUMMARY_FILE,
     Posterior,
     build_datatree,
+    gauss_newton_block,
     load_posterior,
     read_summary,
     summarize,
     write_outputs,
 )
-from bayes_dnlr.inference.priors import PriorSet, build_priors, sampled_names
+from bayes_dnlr.inference.priors import build_priors, sampled_names
 from bayes_dnlr.inference.store import ChainWriter, SamplerState, StoredRun, read_attrs, read_run
-from bayes_dnlr.rundir import digest, prepare_run_dir, resolved_config_text, section_digests
+from bayes_dnlr.pipeline.noise import noise_block, residual_warnings
+from bayes_dnlr.rundir import digest, jsonable, prepare_run_dir, resolved_config_text, section_digests
 
 CHAINS_FILE = "chains.h5"
 LOCK_FILE = "sample.lock"
@@ -103,43 +106,90 @@ def stale_reason(attrs: dict[str, Any], parts: dict[str, str]) -> str | None:
     return " and ".join(what)
 
 
+def discrepancy_priors(fit: dict[str, Any]) -> dict[str, ParameterSpec] | None:
+    """The resolved priors of the discrepancy hyperparameters that fit.json records (None when the
+    fit had no discrepancy)."""
+    block = fit.get("discrepancy")
+    if not block:
+        return None
+    try:
+        return {k: ParameterSpec.model_validate(v) for k, v in block["priors"].items()}
+    except (KeyError, TypeError, ValueError) as err:
+        raise RunError(f"fit.json: unreadable discrepancy priors ({err}); run `fit --force`") from None
+
+
 def start_point(post: LogPosterior, fit: dict[str, Any],
                 sigma0_start: float | None) -> tuple[np.ndarray, np.ndarray]:
-    """The least-squares estimate and its linearized covariance (eq. 32) from fit.json, in the
-    order of the sampled parameters (physical units); a sampled sigma0 starts at ``sigma0_start``
-    with the sd of a variance estimate from n points."""
+    """Where the walkers start: the least-squares estimate and its linearized covariance (eq. 32)
+    from fit.json — the generalized (discrepancy) analysis when the likelihood has a discrepancy —,
+    in the order of the sampled parameters (physical units). A sampled sigma0 starts at
+    ``sigma0_start`` with the sd of a variance estimate from n points; the discrepancy
+    hyperparameters at their maximum-likelihood values with the spread of the likelihood's
+    curvature."""
     names = post.names
-    est = fit.get("estimate") or {}
+    disc = fit.get("discrepancy") if post.discrepancy is not None else None
+    src = disc if disc else fit
+    est = src.get("estimate") or {}
     fit_names = list(fit.get("parameters") or [])
-    missing = [k for k in names if k != "sigma0" and k not in est]
+    noise = ("sigma0", *DISCREPANCY_PARAMETERS)
+    missing = [k for k in names if k not in noise and k not in est]
     if missing:
         raise RunError(f"fit.json has no estimate for {missing}: run `fit --force`")
-    x0 = np.array([sigma0_start if k == "sigma0" else est[k] for k in names], dtype=float)
-    model_pos = [j for j, k in enumerate(names) if k != "sigma0"]
+    hyper = dict((disc or {}).get("hyperparameters") or {})
+    rms = float((fit.get("residuals") or {}).get("rms") or 1.0)
+    if disc and disc.get("amplitude_is_zero"):
+        hyper["amplitude"] = 0.05 * rms          # on the bound: start just inside, spread as much
+    start = {"sigma0": sigma0_start, AMPLITUDE: hyper.get("amplitude"), LENGTH: hyper.get("length")}
+    x0 = np.array([start[k] if k in noise else est[k] for k in names], dtype=float)
+    # strictly inside the support: exp(ln x) may overshoot a bound the estimate sits on by an ulp
+    lo = np.array([p.low for p in post.priors.priors])
+    hi = np.array([p.high for p in post.priors.priors])
+    x0 = np.clip(x0, np.where(np.isfinite(lo), lo + 1e-9 * np.abs(lo), lo),
+                 np.where(np.isfinite(hi), hi - 1e-9 * np.abs(hi), hi))
+    model_pos = [j for j, k in enumerate(names) if k not in noise]
     cov = np.zeros((len(names), len(names)))
     try:
-        fcov = np.asarray(fit.get("covariance"), dtype=float)
+        fcov = np.asarray(src.get("covariance"), dtype=float)
         idx = [fit_names.index(names[j]) for j in model_pos]
         cov[np.ix_(model_pos, model_pos)] = fcov[np.ix_(idx, idx)]
     except (TypeError, ValueError, IndexError):
         cov[np.ix_(model_pos, model_pos)] = np.nan
     fit_sigma = fit.get("sigma0")
-    if post.sigma0 is not None and fit_sigma and fit_sigma > 0:
+    if not disc and post.sigma0 is not None and fit_sigma and fit_sigma > 0:
         cov *= (post.sigma0 / fit_sigma) ** 2     # the covariance scales with σ0²
     if "sigma0" in names:
         j = names.index("sigma0")
         cov[j, j] = sigma0_start ** 2 / (2.0 * post.n)
+    if disc:
+        free = list(disc.get("estimated") or [])
+        log_cov = np.asarray(disc.get("hyper_log_covariance") or np.zeros((0, 0)), dtype=float)
+        for k in (AMPLITUDE, LENGTH):
+            if k not in names:
+                continue
+            j = names.index(k)
+            var_log = log_cov[free.index(k), free.index(k)] if k in free and log_cov.size else 1.0
+            if k == AMPLITUDE and disc.get("amplitude_is_zero"):
+                var_log = 1.0
+            cov[j, j] = min(var_log, 1.0) * x0[j] ** 2
     return x0, cov
 
 
 # ---------------------------------------------------------------- helpers
 
 def _resolve_sigma0(cfg: Config, fit: dict[str, Any], test) -> tuple[float | None, str, float | None]:
-    """(σ0 for the likelihood or None when sampled, its source, a starting value when sampled)."""
+    """(σ0 for the likelihood or None when sampled, its source, a starting value when sampled).
+
+    With a discrepancy, ``residuals`` means the white part of the residuals: the maximum-likelihood
+    σ0 that fit.json's discrepancy analysis found beside the amplitude and length."""
     spec = cfg.noise.sigma0
     if isinstance(spec, int | float):
         return float(spec), "config", None
-    fit_sigma = fit.get("sigma0")
+    disc = fit.get("discrepancy") if cfg.noise.has_discrepancy else None
+    priors = discrepancy_priors(fit) if disc else None
+    if priors is not None and is_white(priors):
+        disc = None                          # no evidence of model error: the white likelihood
+    ml_sigma = ((disc or {}).get("hyperparameters") or {}).get("sigma0")
+    fit_sigma = ml_sigma if disc else fit.get("sigma0")
     if isinstance(spec, SampledNoise):
         start = float(fit_sigma) if fit_sigma else None
         if start is None:
@@ -148,7 +198,9 @@ def _resolve_sigma0(cfg: Config, fit: dict[str, Any], test) -> tuple[float | Non
             start = resolve_sigma0(cfg, test)[0]
         return None, "sampled", start
     if fit_sigma and math.isfinite(fit_sigma) and fit_sigma > 0:
-        return float(fit_sigma), str(fit.get("sigma0_source") or spec), None
+        source = ("white part of the residuals (maximum likelihood with the discrepancy)"
+                  if disc and spec == "residuals" else str(fit.get("sigma0_source") or spec))
+        return float(fit_sigma), source, None
     from bayes_dnlr.inference.noise import resolve_sigma0
 
     value, source = resolve_sigma0(cfg, test)
@@ -186,14 +238,14 @@ def sample(cfg: Config, *, restart: bool = False, progress: bool = True) -> Post
     """Sample the posterior of ``cfg`` to convergence (or max_steps); resumable. See the module doc."""
     names = sampled_names(cfg)
     check_sampler(cfg, names)
-    priors = build_priors(cfg)
-    make_moves(cfg.sampler.moves)   # validate early
+    build_priors(cfg)               # validate the model priors early
+    make_moves(cfg.sampler.moves)
 
     from bayes_dnlr.data import load_test
 
     test = load_test(cfg)
     with _run_lock(cfg.run_dir):
-        return _sample(cfg, test, priors, names, restart=restart, progress=progress)
+        return _sample(cfg, test, names, restart=restart, progress=progress)
 
 
 @contextmanager
@@ -232,8 +284,7 @@ def _current_fit(cfg: Config, test, *, replace: bool, progress: bool) -> dict[st
     return load_fit(cfg.run_dir)
 
 
-def _sample(cfg: Config, test, priors: PriorSet, names: list[str], *, restart: bool,
-            progress: bool) -> Posterior:
+def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: bool) -> Posterior:
     run_dir = cfg.run_dir
     chains = run_dir / CHAINS_FILE
     parts = fingerprint_parts(cfg, test.sha256)
@@ -265,7 +316,23 @@ def _sample(cfg: Config, test, priors: PriorSet, names: list[str], *, restart: b
     fit = _current_fit(cfg, test, replace=restart, progress=progress)
     prepare_run_dir(cfg)
     sigma0, sigma0_source, sigma0_start = _resolve_sigma0(cfg, fit, test)
-    post = build_log_posterior(cfg, test, sigma0, priors)
+    # the resolved discrepancy priors belong to the chain: a resume keeps the chain's own
+    disc_priors = discrepancy_priors(fit)
+    if stored is not None and stored.attrs.get("discrepancy_priors"):
+        disc_priors = discrepancy_priors({"discrepancy": {
+            "priors": json.loads(stored.attrs["discrepancy_priors"])}})
+    if cfg.noise.has_discrepancy and disc_priors is None:
+        raise RunError(f"{cfg.run_dir / 'fit.json'} has no discrepancy analysis for this config "
+                       "(made by another version?): run `fit --force`")
+    names = sampled_names(cfg, disc_priors)
+    check_sampler(cfg, names)
+    priors = build_priors(cfg, disc_priors)
+    if stored is not None and (stored.names != names or [bool(v) for v in stored.attrs.get(
+            "log_space", [])] != [bool(v) for v in priors.log_space]):
+        raise RunError(f"{chains} holds parameters {stored.names} sampled in other coordinates "
+                       f"(made by bayes_dnlr {stored.attrs.get('version')}); it cannot be continued: "
+                       "sample --restart discards it and starts again")
+    post = build_log_posterior(cfg, test, sigma0, priors, disc_priors)
 
     walkers, ndim = sc.walkers, len(names)
     if stored is None:
@@ -281,6 +348,9 @@ def _sample(cfg: Config, test, priors: PriorSet, names: list[str], *, restart: b
             "sigma0": float("nan") if sigma0 is None else sigma0, "sigma0_source": sigma0_source,
             "created": datetime.now(UTC).isoformat(timespec="seconds"),
         }
+        if disc_priors is not None:
+            meta["discrepancy_priors"] = json.dumps(
+                {k: v.model_dump(mode="json", exclude_none=True) for k, v in disc_priors.items()})
         writer = ChainWriter.create(chains, meta, walkers, ndim, state0, priors.to_physical,
                                     chunk_steps=sc.checkpoint_every, n_evals=0)
         chain0 = np.empty((0, walkers, ndim))
@@ -391,8 +461,14 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
                                                      strict=False)})}
     dt = build_datatree(names, draws, lp, attrs)
     summary = summarize(names, draws, fit=fit, tau=conv.tau, extra=extra)
+    summary["noise"] = jsonable(noise_block(cfg, fit, summary, sigma0, sigma0_source))
+    if summary["noise"]["model"] == "discrepancy":
+        summary["generalized_least_squares"] = gauss_newton_block(
+            {"parameters": fit.get("parameters"), **fit["discrepancy"]})
     summary["warnings"] = warnings + [
         f"R-hat of {k} is {summary['posterior'][k]['r_hat']:.4f} > 1.01"
-        for k in names if (summary["posterior"][k]["r_hat"] or 0) > 1.01]
+        for k in names if (summary["posterior"][k]["r_hat"] or 0) > 1.01] + residual_warnings(fit)
+    if summary["noise"]["model"] == "white" and summary["noise"]["fit_residuals_white"] is False:
+        summary["warnings"].append(summary["noise"]["verdict"])
     write_outputs(cfg.run_dir, dt, summary)
     return Posterior(cfg.run_dir, summary, dt)
