@@ -144,8 +144,9 @@ def start_point(post: LogPosterior, fit: dict[str, Any],
     # strictly inside the support: exp(ln x) may overshoot a bound the estimate sits on by an ulp
     lo = np.array([p.low for p in post.priors.priors])
     hi = np.array([p.high for p in post.priors.priors])
-    x0 = np.clip(x0, np.where(np.isfinite(lo), lo + 1e-9 * np.abs(lo), lo),
-                 np.where(np.isfinite(hi), hi - 1e-9 * np.abs(hi), hi))
+    with np.errstate(invalid="ignore"):           # inf - inf on unbounded sides: left as they are
+        x0 = np.clip(x0, np.where(np.isfinite(lo), lo + 1e-9 * np.abs(lo), lo),
+                     np.where(np.isfinite(hi), hi - 1e-9 * np.abs(hi), hi))
     model_pos = [j for j, k in enumerate(names) if k not in noise]
     cov = np.zeros((len(names), len(names)))
     try:
