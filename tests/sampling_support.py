@@ -121,14 +121,14 @@ def _replicate(args: tuple) -> dict[str, dict[str, float]]:
     return out
 
 
-def calibration(n: int, folder: Path, *, jobs: int = 2, base_seed: int = 10_000,
+def calibration(replicates: int, folder: Path, *, jobs: int = 2, base_seed: int = 10_000,
                 sampler: dict | None = None, noise: object = 0.3,
                 **case) -> list[dict[str, dict[str, float]]]:
-    """n noisy replicates of the synthetic ramp test (TRUTH, noise 0.3 MPa, exact strain input).
+    """Noisy replicates of the synthetic ramp test (TRUTH, noise 0.3 MPa, exact strain input).
 
     ``case``: more write_case keys, e.g. ``error=("matern52", 0.5, 30.0)`` (a correlated model
     error added to the data), ``discrepancy="default"`` (the default likelihood) or ``n=1000``."""
-    args = [(str(folder), r, base_seed, sampler or {}, noise, case) for r in range(n)]
+    args = [(str(folder), r, base_seed, sampler or {}, noise, case) for r in range(replicates)]
     if jobs <= 1:
         return [_replicate(a) for a in args]
     import multiprocessing as mp

@@ -18,7 +18,8 @@ from bayes_dnlr.model import simulate
 from bayes_dnlr.numbers import fmt, fmt_at
 from bayes_dnlr.report import build_report
 
-FIGURES = {"corner.png", "fit.png", "sensitivity.png", "sensitivity_xy.png", "trace.png", "rank.png"}
+FIGURES = {"corner.png", "fit.png", "sensitivity.png", "sensitivity_xy.png", "trace.png", "rank.png",
+           "acf.png"}
 CONFIG = """name: tiny
 data:
   file: tiny.csv
@@ -135,7 +136,7 @@ def test_fit_only_report_says_the_posterior_is_missing(finished_run, tmp_path):
     page = build_report(run).read_text()
     assert "No posterior yet" in page
     assert {p.name for p in (run / "figures").glob("*.png")} == {"fit.png", "sensitivity.png",
-                                                                   "sensitivity_xy.png"}
+                                                                   "sensitivity_xy.png", "acf.png"}
     fit = json.loads((run / "fit.json").read_text())
     assert f">{fmt_at(fit['estimate']['G'], fit['sd']['G'])}<" in page
     assert "Parameters: least squares" in page

@@ -74,9 +74,14 @@ class Convergence:
 
 
 def _tau(chain: np.ndarray) -> np.ndarray:
+    """emcee's integrated autocorrelation time per parameter; a walker that did not move over the
+    whole stretch makes emcee's estimate NaN (0/0): that counts as τ = the stretch's length (not
+    converged yet), never as a number the stopping rule could trust."""
     from emcee.autocorr import integrated_time
 
-    return np.asarray(integrated_time(chain, c=5, tol=0, quiet=True), dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        tau = np.asarray(integrated_time(chain, c=5, tol=0, quiet=True), dtype=float)
+    return np.where(np.isfinite(tau), tau, float(chain.shape[0]))
 
 
 def convergence(chain: np.ndarray, burn_in_tau: float, min_tau_multiple: float,

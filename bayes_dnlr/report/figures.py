@@ -6,6 +6,7 @@
 - ``sensitivity_plot``: normalised sensitivities X̃_j = β_j ∂σ/∂β_j (eq. 37) against strain (Fig. 11).
 - ``sensitivity_xy_plot``: X̃(E) against X̃(tau_max) (Fig. 12).
 - ``trace_plot`` / ``rank_plot``: ArviZ trace and rank plots of the walkers.
+- ``acf_plot``: autocorrelation of the residuals (white fit, and whitened by the discrepancy).
 """
 
 from __future__ import annotations
@@ -19,9 +20,11 @@ import numpy as np
 DPI = 110
 LABELS = {"E": r"$E$ (MPa)", "G": r"$G$ (MPa)", "tau_max": r"$\tau_{max}$ (s)",
           "sigma_inf": r"$\sigma_\infty$ (MPa)", "tau_max_R": r"$\tau^R_{max}$ (s)",
-          "sigma0": r"$\sigma_0$ (MPa)"}
+          "sigma0": r"$\sigma_0$ (MPa)", "disc_amplitude": r"$\delta$ amplitude (MPa)",
+          "disc_length": r"$\delta$ length"}
 SYMBOLS = {"E": r"$E$", "G": r"$G$", "tau_max": r"$\tau_{max}$", "sigma_inf": r"$\sigma_\infty$",
-           "tau_max_R": r"$\tau^R_{max}$", "sigma0": r"$\sigma_0$"}
+           "tau_max_R": r"$\tau^R_{max}$", "sigma0": r"$\sigma_0$", "disc_amplitude": r"$a_\delta$",
+           "disc_length": r"$\ell_\delta$"}
 C_DATA, C_MODEL, C_GN, C_TRUTH = "0.35", "#c0392b", "#1f5fa8", "#2e8b57"
 
 
@@ -68,7 +71,8 @@ def _ranges(samples: np.ndarray, est: np.ndarray | None, sd: np.ndarray | None,
 
 def corner_plot(samples: np.ndarray, names: Sequence[str], path: Path,
                 gn_estimate: Sequence[float] | None = None, gn_covariance: np.ndarray | None = None,
-                truths: Sequence[float | None] | None = None) -> Path:
+                truths: Sequence[float | None] | None = None,
+                linearized_label: str = "Gauss-Newton") -> Path:
     """Posterior corner plot; Gauss-Newton estimate (blue cross) with its linearized 1σ and 2σ ellipses
     (Mahalanobis distance 1 and 2 of N(β̂, Δ), eq. 32) and 1-D normal densities; truths in green.
 
@@ -119,9 +123,10 @@ def corner_plot(samples: np.ndarray, names: Sequence[str], path: Path,
 
     handles = [Line2D([], [], color="0.2", lw=6, alpha=0.5, label="posterior (39 %, 86 % contours)")]
     if est is not None:
-        handles += [Line2D([], [], color=C_GN, lw=1.3, label="Gauss-Newton: linearized 1σ"),
-                    Line2D([], [], color=C_GN, lw=1.3, ls="--", label="Gauss-Newton: linearized 2σ"),
-                    Line2D([], [], color=C_GN, marker="x", ls="", mew=2, label="Gauss-Newton estimate")]
+        lab = linearized_label
+        handles += [Line2D([], [], color=C_GN, lw=1.3, label=f"{lab}: linearized 1σ"),
+                    Line2D([], [], color=C_GN, lw=1.3, ls="--", label=f"{lab}: linearized 2σ"),
+                    Line2D([], [], color=C_GN, marker="x", ls="", mew=2, label=f"{lab} estimate")]
     if has_truth:
         handles.append(Line2D([], [], color=C_TRUTH, lw=1.5, label="true value (synthetic test)"))
     fig.legend(handles=handles, loc="upper right", frameon=False, fontsize=10,
@@ -133,12 +138,14 @@ def fit_plot(x: np.ndarray, data: np.ndarray, path: Path, *, window: np.ndarray,
              median: np.ndarray | None = None, band: tuple[np.ndarray, np.ndarray] | None = None,
              predictive: tuple[np.ndarray, np.ndarray] | None = None,
              gn_curve: np.ndarray | None = None, sigma0: float | None = None,
-             xlabel: str = r"true strain $\varepsilon_{11}$", inset_xmax: float | None = None) -> Path:
+             xlabel: str = r"true strain $\varepsilon_{11}$", inset_xmax: float | None = None,
+             discrepancy: np.ndarray | None = None) -> Path:
     """Data and model (paper Figs 6-10) with the residuals below.
 
     median: pointwise posterior median of the model curve; band: its 90 % credible band;
     predictive: the 90 % posterior predictive band (model + noise σ0); gn_curve: the least-squares
     fit, used for the residuals when there is no posterior. Points outside ``window`` are grey.
+    discrepancy: the posterior mean of the model discrepancy δ on the window (drawn on the residuals).
     """
     plt = _plt()
     x, data = np.asarray(x), np.asarray(data)
@@ -146,7 +153,8 @@ def fit_plot(x: np.ndarray, data: np.ndarray, path: Path, *, window: np.ndarray,
     centre = median if median is not None else gn_curve
     fig, (ax, axr) = plt.subplots(2, 1, figsize=(9.0, 7.0), sharex=True,
                                   gridspec_kw={"height_ratios": [2.2, 1.0], "hspace": 0.06})
-    ax.plot(x[window], data[window], ".", color=C_DATA, ms=2.5, label="data (identification window)")
+    ax.plot(x[window], data[window], ".", color=C_DATA, ms=2.5, label="data (identification window)",
+            zorder=3)
     if (~window).any():
         ax.plot(x[~window], data[~window], ".", color="0.75", ms=2.0, label="data (outside window)")
     if predictive is not None:
@@ -173,7 +181,7 @@ def fit_plot(x: np.ndarray, data: np.ndarray, path: Path, *, window: np.ndarray,
         ins.set_title(f"zoom: strain up to {inset_xmax:g} (the paper's interval I)", fontsize=8)
     if centre is not None:
         r = data - centre
-        axr.plot(x[window], r[window], ".", color=C_DATA, ms=2.0)
+        axr.plot(x[window], r[window], ".", color=C_DATA, ms=2.0, zorder=3)
         if predictive is not None:
             axr.fill_between(x, predictive[0] - centre, predictive[1] - centre, color=C_MODEL, alpha=0.15,
                              lw=0, label="90 % predictive")
@@ -183,6 +191,10 @@ def fit_plot(x: np.ndarray, data: np.ndarray, path: Path, *, window: np.ndarray,
             for s in (-sigma0, sigma0):
                 axr.axhline(s, color=C_GN, lw=0.8, ls=":")
         axr.axhline(0.0, color="k", lw=0.8)
+        if discrepancy is not None:
+            axr.plot(x[window], discrepancy, color=C_TRUTH, lw=1.0, alpha=0.9, zorder=2,
+                     label="posterior mean of δ")
+            axr.legend(loc="lower right", fontsize=8, frameon=False)
         lim = np.nanquantile(np.abs(r[window]), 0.995) * 1.3 if window.any() else 1.0
         if np.isfinite(lim) and lim > 0:
             axr.set_ylim(-lim, lim)
@@ -192,6 +204,27 @@ def fit_plot(x: np.ndarray, data: np.ndarray, path: Path, *, window: np.ndarray,
     if sigma0 is not None:
         axr.text(0.01, 0.95, f"dotted: ±σ0 = ±{sigma0:.3g} MPa", transform=axr.transAxes, fontsize=8,
                  va="top")
+    return _save(fig, path)
+
+
+def acf_plot(lags: np.ndarray, series: Mapping[str, np.ndarray], n: int, path: Path,
+             xlabel: str = "lag (s)") -> Path:
+    """Autocorrelation of residual series against the lag, with the ±1.96/√n band of white noise.
+
+    series: label -> autocorrelation at ``lags`` (the same length)."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(9.0, 3.4))
+    colors = (C_DATA, C_TRUTH, C_MODEL)
+    for (label, acf), c in zip(series.items(), colors, strict=False):
+        ax.plot(lags, acf, color=c, lw=1.3, label=label)
+    band = 1.96 / math.sqrt(max(n, 1))
+    ax.fill_between(lags, -band, band, color=C_GN, alpha=0.15, lw=0, label="white noise, 95 %")
+    ax.axhline(0.0, color="k", lw=0.8)
+    ax.set_ylim(-1.05, 1.05)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("autocorrelation")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper right", fontsize=8, frameon=False)
     return _save(fig, path)
 
 

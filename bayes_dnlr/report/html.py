@@ -18,6 +18,7 @@ import numpy as np
 
 from bayes_dnlr import __version__
 from bayes_dnlr.report import figures as figs
+from bayes_dnlr.report import noise as rn
 from bayes_dnlr.report import tables as tb
 from bayes_dnlr.report.tables import RunResults, fmt, load_run
 
@@ -71,6 +72,17 @@ def sensitivities(model, params: dict[str, float], names: list[str]) -> dict[str
     return out
 
 
+def run_white_curve(run: RunResults, curves: Curves) -> np.ndarray:
+    """The white least-squares fit (fit.json's estimate) on the data grid."""
+    gn = run.gn()
+    if gn is None:
+        return curves.gn_curve
+    model, _ = _model(run)
+    p = dict(run.cfg.fixed_values)
+    p.update(gn["estimate"])
+    return _stress(model.basis(p["tau_max"], p.get("tau_max_R")).values, p)
+
+
 def model_curves(run: RunResults, n_draws: int = N_DRAWS, seed: int = 0) -> Curves:
     """Data, posterior median and 90 % bands (credible and predictive), the GN curve, sensitivities."""
     t = run.test
@@ -102,9 +114,15 @@ def model_curves(run: RunResults, n_draws: int = N_DRAWS, seed: int = 0) -> Curv
         c.median = np.median(curves, axis=0)
         lo, hi = np.quantile(curves, [0.05, 0.95], axis=0)
         c.band = (lo, hi)
-        # predictive band: model spread and noise combined as a normal (a smooth band; 200 noise
-        # replicates per point would make it ragged): mean ± 1.645 sqrt(var_model + E[σ0²])
+        # predictive band: model spread, noise and model discrepancy combined as a normal (a smooth
+        # band; 200 replicates per point would make it ragged): mean ± 1.645 sqrt(var_model + E[σ0²]
+        # (+ E[a²] with the discrepancy))
         s2 = float(np.mean(sig**2)) if sig is not None else (s0**2 if s0 is not None else 0.0)
+        if run.uses_discrepancy:
+            # the model error enters the prediction too: var(δ) = a² at every point
+            amp = flat.get("disc_amplitude")
+            fixed_amp = (((run.summary or {}).get("noise") or {}).get("amplitude") or {}).get("value", 0.0)
+            s2 += float(np.mean(amp**2)) if amp is not None else float(fixed_amp) ** 2
         half = 1.6448536269514722 * np.sqrt(curves.var(axis=0) + s2)
         mean = curves.mean(axis=0)
         plo, phi = mean - half, mean + half
@@ -164,8 +182,11 @@ def _headline(run: RunResults, std: dict | None) -> str:
             s += f"; 90 % HDI [{fmt(lo)}, {fmt(hi)}]"
         s += ")"
         gn = run.gn()
+        if run.uses_discrepancy:
+            s += "; with the model discrepancy"
         if gn is not None and src != "Gauss-Newton" and "E" in gn["estimate"]:
-            s += f"; least squares {fmt(gn['estimate']['E'])} ± {fmt((gn['sd'] or {}).get('E'))} MPa"
+            s += (f"; white-noise least squares (the paper's) {fmt(gn['estimate']['E'])} ± "
+                  f"{fmt((gn['sd'] or {}).get('E'))} MPa")
         parts.append(s + ".")
     iso = ((run.summary or {}).get("standards") or {}).get("iso527_1")
     if iso is None and std and std.get("iso527_1") is not None:
@@ -219,7 +240,7 @@ def build_report(run_dir: Path | str) -> Path:
         std = standard_results(run.test)
     curves = model_curves(run) if run.test is not None else None
     names = run.model_names
-    gn = run.gn()
+    gn = run.linearized()
     sec: list[str] = []
 
     cfg = run.cfg
@@ -260,10 +281,17 @@ def build_report(run_dir: Path | str) -> Path:
             est = [gn["estimate"][n] for n in names]
             cov = gn["covariance"][np.ix_(idx, idx)]
         truths = [run.truth.get(n) for n in names] if run.truth else None
-        p = figs.corner_plot(samples, names, figdir / "corner.png", est, cov, truths)
+        p = figs.corner_plot(samples, names, figdir / "corner.png", est, cov, truths,
+                             linearized_label="GLS" if run.uses_discrepancy and run.gls() else
+                             "Gauss-Newton")
+        lin_txt = ("the generalized least-squares estimate and the linearized 1σ and 2σ ellipses of "
+                   "Δ = (XᵀK⁻¹X)⁻¹ (eq. 32 with the discrepancy's covariance K, blue)"
+                   if run.uses_discrepancy and run.gls() else
+                   "the Gauss-Newton estimate and the linearized 1σ and 2σ ellipses of Δ = σ0²(XᵀX)⁻¹ "
+                   "(eq. 32, blue)")
         sec.append(_img(p, "corner plot", (
-            "Posterior of the free parameters (grey: histograms and the 39 % / 86 % contours) with the "
-            "Gauss-Newton estimate and the linearized 1σ and 2σ ellipses of Δ = σ0²(XᵀX)⁻¹ (eq. 32, blue)"
+            "Posterior of the free parameters (grey: histograms and the 39 % / 86 % contours) with "
+            + lin_txt
             + ("; green: the true values of this synthetic test" if truths else "")
             + ". Where the grey contours and the blue ellipses coincide, the linearization holds.")))
     elif run.has_posterior:
@@ -284,10 +312,16 @@ def build_report(run_dir: Path | str) -> Path:
             if dis:
                 sec.append('<div class="box warn"><b>Where the linearization fails</b>'
                            + _ul([d.text for d in dis], "flags") + "</div>")
-            else:
+            elif (run.fit or {}).get("residuals", {}).get("white"):
                 sec.append('<div class="box ok">The posterior agrees with the linearized analysis: '
                            f"every sd within {100 * tb.SD_TOLERANCE:.0f} % and every correlation within "
                            f"{tb.RHO_TOLERANCE}.</div>")
+            else:
+                sec.append('<div class="box">The posterior and the linearized analysis agree (every sd '
+                           f"within {100 * tb.SD_TOLERANCE:.0f} %, every correlation within "
+                           f"{tb.RHO_TOLERANCE}), but the residuals are not white: the agreement says the "
+                           "posterior is close to Gaussian, not that the model fits. See section 5 for "
+                           "which uncertainty to believe.</div>")
             if notes:
                 sec.append(_ul([d.text for d in notes]))
 
@@ -295,25 +329,40 @@ def build_report(run_dir: Path | str) -> Path:
     sec.append("<h2>4. Fit and residuals</h2>")
     if curves is not None:
         inset = None if run.test.relaxation_start is not None else INTERVAL_I
+        centre = curves.median if curves.median is not None else curves.gn_curve
+        disc = (rn.discrepancy_on_window(run, centre[curves.window])
+                if centre is not None and run.uses_discrepancy else None)
         p = figs.fit_plot(curves.x, curves.data, figdir / "fit.png", window=curves.window,
                           median=curves.median, band=curves.band, predictive=curves.predictive,
                           gn_curve=curves.gn_curve, sigma0=run.sigma0(), xlabel=curves.xlabel,
-                          inset_xmax=inset)
+                          inset_xmax=inset, discrepancy=None if disc is None else disc.mean)
         n_used = min(N_DRAWS, next(iter(run.draws.values())).size) if run.draws else 0
+        noise_txt = "model + discrepancy δ + noise σ0" if run.uses_discrepancy else "model + noise σ0"
         what = (f"the posterior median of the model over {n_used} posterior draws, its 90 % credible band "
-                "(dark) and the 90 % posterior predictive band (model + noise σ0, light)"
+                f"(dark) and the 90 % posterior predictive band ({noise_txt}, light)"
                 if curves.median is not None else "the least-squares fit")
+        if disc is not None:
+            what += "; green on the residuals: the posterior mean of the model discrepancy δ"
         sec.append(_img(p, "fit and residuals", (
             f"Data (grey dots) and {what}; the dashed blue line is the least-squares fit. Residuals "
             "(data - model) below, with ±σ0 dotted: without model bias they scatter evenly around zero "
             "(paper Figs 6-10).")))
     else:
         sec.append(_p("No fit figure: the test data could not be loaded."))
-    sec.append("<h3>Residual diagnostics (fit.json)</h3>" + _ul(tb.residual_words(run.fit, run.sigma0())))
+    fit_sigma0 = (run.fit or {}).get("sigma0", run.sigma0())   # the white analysis' own σ0
+    sec.append("<h3>Residual diagnostics of the white fit (fit.json)</h3>"
+               + _ul(tb.residual_words(run.fit, fit_sigma0)))
 
-    # 5. sensitivities
+    # 5. model error
+    sec.append("<h2>5. Model error: which uncertainty to believe</h2>")
+    white_resid = None
+    if curves is not None and curves.gn_curve is not None:
+        white_resid = (curves.data - run_white_curve(run, curves))[curves.window]
+    sec += rn.noise_section(run, figdir, disc if curves is not None else None, white_resid)
+
+    # 6. sensitivities
     if curves is not None and curves.sensitivities:
-        sec.append("<h2>5. Sensitivities (eq. 37)</h2>")
+        sec.append("<h2>6. Sensitivities (eq. 37)</h2>")
         p = figs.sensitivity_plot(curves.x, curves.sensitivities, figdir / "sensitivity.png",
                                   window=curves.window, xlabel=curves.xlabel)
         sec.append(_img(p, "sensitivities", (
@@ -333,17 +382,17 @@ def build_report(run_dir: Path | str) -> Path:
                 "line through the origin would make E and τ<sub>max</sub> impossible to separate; "
                 "the bend near ε = 0.13 (right: zoom) is what identifies them.")))
 
-    # 6. standards, Deborah, cross-checks
-    sec.append("<h2>6. Standards, Deborah number and independent measurements</h2>")
+    # 7. standards, Deborah, cross-checks
+    sec.append("<h2>7. Standards, Deborah number and independent measurements</h2>")
     sec.append(tb.standards_table(run, std).html())
     sec.append(tb.deborah_table(run).html())
     cc = tb.crosscheck_table(run, std)
     if cc is not None:
         sec.append(cc.html())
 
-    # 7. sampler diagnostics
+    # 8. sampler diagnostics
     if run.draws is not None:
-        sec.append("<h2>7. Sampler diagnostics</h2>")
+        sec.append("<h2>8. Sampler diagnostics</h2>")
         st = tb.sampler_table(run)
         if st is not None:
             sec.append(st.html())

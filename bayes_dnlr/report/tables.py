@@ -25,9 +25,12 @@ from bayes_dnlr.rundir import find_config
 SD_TOLERANCE = 0.15      # posterior sd vs linearized sd, relative
 RHO_TOLERANCE = 0.05     # posterior ρ vs linearized ρ, absolute
 NAMES_HTML = {"E": "E", "G": "G", "tau_max": "τ<sub>max</sub>", "sigma_inf": "σ<sub>∞</sub>",
-              "tau_max_R": "τ<sup>R</sup><sub>max</sub>", "sigma0": "σ<sub>0</sub>"}
+              "tau_max_R": "τ<sup>R</sup><sub>max</sub>", "sigma0": "σ<sub>0</sub>",
+              "disc_amplitude": "δ amplitude", "disc_length": "δ length"}
 NAMES_TEXT = {"E": "E", "G": "G", "tau_max": "tau_max", "sigma_inf": "sigma_inf",
-              "tau_max_R": "tau_max_R", "sigma0": "sigma0"}
+              "tau_max_R": "tau_max_R", "sigma0": "sigma0", "disc_amplitude": "disc_amplitude",
+              "disc_length": "disc_length"}
+NOISE_NAMES = ("sigma0", "disc_amplitude", "disc_length")
 
 
 @dataclass
@@ -105,8 +108,29 @@ class RunResults:
 
     @property
     def model_names(self) -> list[str]:
-        """The free model parameters (without a sampled sigma0)."""
-        return [n for n in self.names if n != "sigma0"]
+        """The free model parameters (without a sampled sigma0 and discrepancy hyperparameters)."""
+        return [n for n in self.names if n not in NOISE_NAMES]
+
+    @property
+    def uses_discrepancy(self) -> bool:
+        """True when the posterior used the model-discrepancy likelihood."""
+        return ((self.summary or {}).get("noise") or {}).get("model") == "discrepancy"
+
+    def gls(self) -> dict[str, Any] | None:
+        """The generalized least-squares analysis (fit.json's discrepancy block), in gn()'s layout."""
+        d = (self.fit or {}).get("discrepancy")
+        if not d or d.get("estimate") is None:
+            return None
+        names = list((self.fit or {}).get("parameters") or self.model_names)
+        return {"names": names, "estimate": per_name(d["estimate"], names),
+                "sd": per_name(d.get("sd"), names), "correlation": _matrix(d.get("correlation"), len(names)),
+                "covariance": _matrix(d.get("covariance"), len(names)),
+                "delta_tilde": _matrix(d.get("delta_tilde"), len(names))}
+
+    def linearized(self) -> dict[str, Any] | None:
+        """The linearized analysis the posterior is to be compared with: GLS when the posterior used
+        the discrepancy, else the paper's white Gauss-Newton analysis."""
+        return (self.gls() if self.uses_discrepancy else None) or self.gn()
 
     @property
     def truth(self) -> dict[str, float] | None:
@@ -138,9 +162,10 @@ class RunResults:
                 "delta_tilde": dt}
 
     def point(self) -> dict[str, float]:
-        """All model parameters at the best point: GN estimate, else posterior median; fixed values."""
+        """All model parameters at the best point: the least-squares estimate (generalized when the
+        posterior used the discrepancy), else the posterior median; fixed values."""
         out = dict(self.cfg.fixed_values)
-        gn = self.gn()
+        gn = self.linearized()
         if gn is not None:
             out.update(gn["estimate"])
         elif self.has_posterior:
@@ -266,15 +291,17 @@ def _unit(n: str) -> str:
 
 
 def parameter_table(run: RunResults) -> Table:
-    """Posterior mean, sd, median, 90 % HDI, ESS, R-hat beside the GN estimate ± sd (and the truth)."""
-    gn = run.gn()
+    """Posterior mean, sd, median, 90 % HDI, ESS, R-hat beside the least-squares estimate ± sd (the
+    generalized one when the posterior used the discrepancy) and the truth."""
+    gn = run.linearized()
+    gls = run.uses_discrepancy and run.gls() is not None
     post = (run.summary or {}).get("posterior") or {}
     truth = run.truth or {}
     header = ["parameter", "unit"]
     if post:
         header += ["posterior mean", "sd", "median", "90 % HDI", "ESS bulk", "ESS tail", "R-hat"]
     if gn is not None:
-        header += ["Gauss-Newton", "± sd", "Err (eq. 33)"]
+        header += ["least squares (GLS)" if gls else "Gauss-Newton", "± sd", "Err (eq. 33)"]
     if truth:
         header += ["true value"]
     rows = []
@@ -303,7 +330,10 @@ def parameter_table(run: RunResults) -> Table:
     if post:
         notes.append("HDI: highest-density interval. ESS: effective sample size; R-hat near 1.00 "
                      "(below 1.01) means the walkers agree.")
-    if gn is not None:
+    if gn is not None and gls:
+        notes.append("GLS: generalized least-squares estimate under the model discrepancy, with the "
+                     "linearized sd √Δ_jj (Δ = (XᵀK⁻¹X)⁻¹); the paper's white analysis is in section 5.")
+    elif gn is not None:
         notes.append("Gauss-Newton: least-squares estimate with the linearized sd √Δ_jj "
                      "(eq. 32, Δ = σ0² (XᵀX)⁻¹).")
     if truth and post:
@@ -373,7 +403,7 @@ class Disagreement:
 def disagreements(run: RunResults) -> list[Disagreement]:
     """Posterior vs linearized: sd differing by more than 15 %, ρ by more than 0.05 (and a mean shift
     beyond half a linearized sd, as a note). Empty without a posterior or a fit."""
-    gn = run.gn()
+    gn = run.linearized()
     post = (run.summary or {}).get("posterior") or {}
     if gn is None or not post or gn["sd"] is None:
         return []
@@ -414,7 +444,7 @@ def disagreements(run: RunResults) -> list[Disagreement]:
 
 def comparison_table(run: RunResults) -> Table | None:
     """sd and ρ side by side, posterior against linearized, flagged where they disagree."""
-    gn = run.gn()
+    gn = run.linearized()
     post = (run.summary or {}).get("posterior") or {}
     if gn is None or not post or gn["sd"] is None:
         return None
@@ -435,7 +465,9 @@ def comparison_table(run: RunResults) -> Table | None:
                 rl = float(gn["correlation"][gn["names"].index(n), gn["names"].index(m)])
                 f = " ⚑" if ("rho", (n, m)) in flags else ""
                 rows.append([f"ρ({n}, {m})", f"{rp:.4f}", f"{rl:.4f}", f"{rp - rl:+.4f}{f}"])
-    return Table(["quantity", "posterior", "linearized (eq. 32-35)", "difference"], rows,
+    lin = ("linearized with the discrepancy (Δ = (XᵀK⁻¹X)⁻¹)" if run.uses_discrepancy and run.gls()
+           else "linearized (eq. 32-35)")
+    return Table(["quantity", "posterior", lin, "difference"], rows,
                  "Posterior against the linearized analysis",
                  [f"⚑: sd differs by more than {100 * SD_TOLERANCE:.0f} % "
                   f"or ρ by more than {RHO_TOLERANCE}."],
