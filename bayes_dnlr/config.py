@@ -155,6 +155,9 @@ class ParameterSpec(_Strict):
 
     prior: PriorKind | None = None
     value: float | None = None
+    per: Literal["test"] | None = Field(
+        default=None, description="with several tests: one parameter per test (tau_max[r5e-3]), "
+                                  "else shared by all")
     low: float | None = None
     high: float | None = None
     mean: float | None = None
@@ -194,6 +197,10 @@ class ParameterSpec(_Strict):
     @property
     def fixed(self) -> bool:
         return self.value is not None
+
+    @property
+    def per_test(self) -> bool:
+        return self.per == "test"
 
     def bounds(self) -> tuple[float, float]:
         """Support of the prior (the truncation where given)."""
@@ -454,9 +461,24 @@ class OutputConfig(_Strict):
     dir: str | None = None
 
 
-class Config(_Strict):
-    name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
+NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9._-]*$"
+
+
+class TestSpec(_Strict):
+    """One test of a run with several tests: its own data, noise model and (for simulate) truth."""
+
+    __test__ = False  # not a pytest test class despite its name
+
+    name: str = Field(pattern=NAME_PATTERN)
     data: DataConfig
+    noise: NoiseConfig = Field(default_factory=NoiseConfig)
+    truth: TruthConfig | None = None
+
+
+class Config(_Strict):
+    name: str = Field(pattern=NAME_PATTERN)
+    data: DataConfig | None = None
+    tests: list[TestSpec] | None = None
     model: ModelConfig = Field(default_factory=ModelConfig)
     parameters: dict[str, ParameterSpec] = Field(default_factory=dict)
     noise: NoiseConfig = Field(default_factory=NoiseConfig)
@@ -479,6 +501,31 @@ class Config(_Strict):
         return v
 
     @model_validator(mode="after")
+    def _one_kind_of_run(self) -> Config:
+        if (self.data is None) == (self.tests is None):
+            raise ValueError("give either data: (one test) or tests: (a list of tests), not both "
+                             "and not neither")
+        if self.tests is not None:
+            if len(self.tests) == 0:
+                raise ValueError("tests: is empty; give at least one test, or data: for one test")
+            seen: dict[str, int] = {}
+            for i, t in enumerate(self.tests):
+                if t.name in seen:
+                    raise ValueError(f"tests[{i}].name: {t.name!r} is used twice (tests[{seen[t.name]}] "
+                                     "has it too); every test needs its own name")
+                seen[t.name] = i
+            if self.truth is not None:
+                raise ValueError("truth: belongs to each test (tests[i].truth) in a run with tests:")
+            if "noise" in self.model_fields_set:
+                raise ValueError("noise: belongs to each test (tests[i].noise) in a run with tests:")
+        else:
+            per = [k for k, v in self.parameters.items() if v is not None and v.per_test]
+            if per:
+                raise ValueError(f"parameters.{per[0]}.per: test needs several tests (a tests: list); "
+                                 "with one test (data:) every parameter is that test's own")
+        return self
+
+    @model_validator(mode="after")
     def _fill_parameters(self) -> Config:
         wanted = list(TENSILE_PARAMETERS)
         if self.has_relaxation:
@@ -486,7 +533,10 @@ class Config(_Strict):
         else:
             extra = [k for k in RELAXATION_PARAMETERS if k in self.parameters]
             if extra:
-                raise ValueError(f"parameters {extra} need data.relaxation_start (auto or a time)")
+                where = ("tests[i].data.relaxation_start of some test" if self.tests is not None
+                         else "data.relaxation_start")
+                raise ValueError(f"parameters {extra} need a relaxation hold: set {where} "
+                                 "(auto or a time)")
         filled = {k: self.parameters.get(k) or ParameterSpec(**DEFAULT_PRIORS[k]) for k in wanted}
         self.parameters = filled
         if not self.free_parameters:
@@ -494,8 +544,49 @@ class Config(_Strict):
         return self
 
     @property
+    def is_joint(self) -> bool:
+        """A run with several tests (``tests:``) and one joint posterior."""
+        return self.tests is not None
+
+    @property
+    def test_names(self) -> list[str]:
+        return [t.name for t in self.tests] if self.tests is not None else [self.name]
+
+    @property
     def has_relaxation(self) -> bool:
+        if self.tests is not None:
+            return any(t.data.relaxation_start is not None for t in self.tests)
         return self.data.relaxation_start is not None
+
+    @property
+    def per_test_parameters(self) -> list[str]:
+        """The parameters with one value per test (``per: test``), canonical order."""
+        return [k for k in self.parameter_names if self.parameters[k].per_test]
+
+    def for_test(self, name: str) -> Config:
+        """The single-test view of one test of a joint run: its data, noise and truth with the shared
+        model, parameters (``per`` dropped), sampler and fit sections; outputs (if any) under
+        ``<run_dir>/tests/<name>``."""
+        if self.tests is None:
+            if name != self.name:
+                raise KeyError(name)
+            return self
+        spec = next((t for t in self.tests if t.name == name), None)
+        if spec is None:
+            raise KeyError(f"no test named {name!r}; the tests are {self.test_names}")
+        params = {k: v.model_copy(update={"per": None}) for k, v in self.parameters.items()}
+        if spec.data.relaxation_start is None:
+            params = {k: v for k, v in params.items() if k not in RELAXATION_PARAMETERS}
+        view = Config.model_construct(
+            name=spec.name, data=spec.data, tests=None, model=self.model, parameters=params,
+            noise=spec.noise, sampler=self.sampler, fit=self.fit, truth=spec.truth,
+            crosscheck=self.crosscheck,
+            output=OutputConfig(dir=str(self.run_dir / "tests" / spec.name)), source=self.source)
+        return view
+
+    def test_configs(self) -> list[Config]:
+        """One single-test config per test (just ``[self]`` for a run with one test)."""
+        return [self.for_test(n) for n in self.test_names]
 
     @property
     def parameter_names(self) -> list[str]:
@@ -516,6 +607,9 @@ class Config(_Strict):
 
     @property
     def data_path(self) -> Path:
+        if self.data is None:
+            raise ConfigError(f"{self.source or 'config'}: a run with tests: has one data file per "
+                              "test (for_test(name).data_path)")
         p = Path(self.data.file)
         return p if p.is_absolute() else self.base_dir / p
 

@@ -61,7 +61,11 @@ def resolved_config_path(cfg: Config) -> Path:
 def resolved_config_text(cfg: Config) -> str:
     """The config as resolved (defaults filled in), with paths that work from the run directory."""
     raw = cfg.model_dump(mode="json", exclude_none=True)
-    raw["data"]["file"] = os.path.relpath(cfg.data_path, cfg.run_dir)
+    if cfg.is_joint:
+        for t, spec in zip(raw["tests"], cfg.test_configs(), strict=True):
+            t["data"]["file"] = os.path.relpath(spec.data_path, cfg.run_dir)
+    else:
+        raw["data"]["file"] = os.path.relpath(cfg.data_path, cfg.run_dir)
     raw["output"] = {"dir": "."}
     return yaml.safe_dump(raw, sort_keys=False)
 

@@ -59,7 +59,7 @@ def run(post, fitd, moves, steps: int, walkers: int, seed: int) -> tuple[np.ndar
     import emcee
 
     from bayes_dnlr.inference.mcmc import start_ensemble
-    from bayes_dnlr.pipeline.sample import start_point
+    from bayes_dnlr.pipeline.target import start_point
 
     x0, cov = start_point(post, fitd, None)
     coords, lp = start_ensemble(post, post.priors, x0, cov, walkers, seed)

@@ -54,7 +54,7 @@ def test_defaults_are_filled(tmp_path):
      "parameters.tau_max", "needs low > 0"),
     (with_("parameters.E", {"prior": "normal", "mean": 2000}), "parameters.E", "needs sd"),
     (with_("parameters.sigma_inf", {"prior": "uniform", "low": 0, "high": 5}), "(top level)",
-     "need data.relaxation_start"),
+     "need a relaxation hold: set data.relaxation_start"),
     (with_("parameters.Young", {"prior": "uniform", "low": 0, "high": 5}), "parameters",
      "unknown parameter(s) ['Young']"),
     (with_("data.area0", -3.0), "data.area0", "positive cross-section"),

@@ -19,11 +19,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.optimize import minimize
 
 from bayes_dnlr.config import DiscrepancyConfig, ParameterSpec
+from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.inference import gp
 from bayes_dnlr.inference.problem import LsqProblem
 
@@ -125,6 +127,18 @@ def resolved_priors(spec: DiscrepancyConfig, rms: float, axis: Axis, amplitude_m
             if spec.length is None:
                 out[LENGTH] = ParameterSpec(value=float(axis.span))
     return out
+
+
+def discrepancy_priors(fit: dict[str, Any]) -> dict[str, ParameterSpec] | None:
+    """The resolved priors of the discrepancy hyperparameters that fit.json records (None when the
+    fit had no discrepancy)."""
+    block = fit.get("discrepancy")
+    if not block:
+        return None
+    try:
+        return {k: ParameterSpec.model_validate(v) for k, v in block["priors"].items()}
+    except (KeyError, TypeError, ValueError) as err:
+        raise BayesDnlrError(f"fit.json: unreadable discrepancy priors ({err}); run `fit --force`") from None
 
 
 def is_white(priors: dict[str, ParameterSpec]) -> bool:

@@ -210,7 +210,10 @@ def _discrepancy_lines(d: dict[str, Any], white_sd: dict[str, float]) -> list[st
 
 # ---------------------------------------------------------------- the fit itself (no files)
 
-def _run(problem: LsqProblem, method: str, beta0: np.ndarray, max_iterations: int) -> optimize.Optimum:
+def run_minimiser(problem: LsqProblem, method: str, beta0: np.ndarray,
+                  max_iterations: int) -> optimize.Optimum:
+    """``fit.method`` from beta0: the paper's Gauss-Newton, or variable projection then a joint
+    trust-region polish (lm)."""
     if method == "gauss-newton":
         return optimize.gauss_newton(problem, beta0, max_iterations)
     vp = optimize.variable_projection(problem, beta0, max_iterations)
@@ -265,7 +268,7 @@ def fit_test(cfg: Config, test) -> FitResult:
             beta0[j] = fallback(specs[k], k)
             notes[k] = "centre of the prior box (no physics guess)"
     start = dict(zip(names, (float(b) for b in beta0), strict=True))
-    best = _run(problem, method, beta0, max_it)
+    best = run_minimiser(problem, method, beta0, max_it)
     main = best
 
     # multi-start over the prior box
@@ -275,7 +278,7 @@ def fit_test(cfg: Config, test) -> FitResult:
         tm = problem.model.time
         span = (float(np.median(np.diff(tm))), float(tm[-1] - tm[0]))
         for s in spread_starts(specs, names, n_ms, seed=0, time_span=span):
-            ms_runs.append((s, _run(problem, method, s, max_it)))
+            ms_runs.append((s, run_minimiser(problem, method, s, max_it)))
         # a meaningfully lower criterion (not rounding) replaces the physics-start optimum
         margin = 1e-9 * best.criterion + 1e-20 * float(problem.y @ problem.y)
         cands = [o for _, o in ms_runs if o.converged and o.criterion < best.criterion - margin]
@@ -373,7 +376,7 @@ def discrepancy_analysis(cfg: Config, test, problem: LsqProblem, beta_white: np.
     h = ml.hyper
     problem.whiten = whitener(axis, h, spec.kernel)
     try:
-        opt = _run(problem, cfg.fit.method, ml.beta, cfg.fit.max_iterations)
+        opt = run_minimiser(problem, cfg.fit.method, ml.beta, cfg.fit.max_iterations)
         if opt.criterion > problem.ssr(problem.params(ml.beta)):
             opt = optimize.Optimum(ml.beta, problem.ssr(problem.params(ml.beta)), 0, 0, True,
                                    "the profile-likelihood optimum (the polish did not improve it)")

@@ -49,7 +49,7 @@ def build_datatree(names: list[str], draws: np.ndarray, log_prob: np.ndarray,
     dt = az.from_dict({"posterior": post, "sample_stats": stats},
                       attrs={"posterior": flat_attrs}, check_conventions=False)
     for k in names:
-        dt["posterior"][k].attrs["units"] = UNITS.get(k, "")
+        dt["posterior"][k].attrs["units"] = UNITS.get(k.split("[", 1)[0], "")
     return dt
 
 
@@ -163,6 +163,12 @@ def _g(v: float | None) -> str:
     return f"{v:.4g}"
 
 
+def _sigma0_text(v: Any) -> str:
+    if isinstance(v, dict):
+        return ", ".join(f"{_g(x)} ({t})" for t, x in v.items())
+    return _g(v)
+
+
 @dataclass
 class Posterior:
     """What ``sample`` returns: the DataTree of kept draws, the run directory and summary.json."""
@@ -200,7 +206,8 @@ class Posterior:
         for k in s["parameters"]:
             p = s["posterior"][k]
             est, sd = (gn.get("estimate") or {}).get(k), (gn.get("sd") or {}).get(k)
-            rows.append([k, UNITS.get(k, ""), f"{fmt_at(p['mean'], p['sd'])} ± {fmt(p['sd'], 2)}",
+            unit = UNITS.get(k.split("[", 1)[0], "")
+            rows.append([k, unit, f"{fmt_at(p['mean'], p['sd'])} ± {fmt(p['sd'], 2)}",
                          f"[{fmt_at(p['hdi_90'][0], p['sd'])}, {fmt_at(p['hdi_90'][1], p['sd'])}]",
                          "-" if est is None else f"{fmt_at(est, sd)} ± {fmt(sd, 2)}",
                          f"{p['ess_bulk']:.0f}" if p.get("ess_bulk") else "-",
@@ -217,7 +224,7 @@ class Posterior:
                                                                             s.get("stop_reason", ""))
         lines.append(f"{s.get('name', self.run_dir.name)}: {s['walkers']} walkers x {s['steps']} steps "
                      f"(burn-in {s.get('burn_in', '-')}, {s.get('draws', '-')} draws kept), "
-                     f"moves {s.get('moves', '-')}, {reason}, sigma0 = {_g(s.get('sigma0'))} MPa, "
+                     f"moves {s.get('moves', '-')}, {reason}, sigma0 = {_sigma0_text(s.get('sigma0'))} MPa, "
                      f"{_g(s.get('wall_time_s'))} s")
         lines.append(line.format(*head))
         lines.append(line.format(*("-" * w for w in widths)))

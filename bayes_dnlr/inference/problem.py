@@ -137,11 +137,9 @@ class LsqProblem:
         return np.where(self.is_log[None, :], J / np.where(self.is_log, beta, 1.0)[None, :], J)
 
     # ---- variable projection
-    def project(self, params: Mapping[str, float]) -> dict[str, float]:
-        """Best E, G, sigma_inf (those free) for the time constants in ``params``, by linear least
-        squares within their bounds: the model is linear in them (variable projection)."""
-        if not self.linear:
-            return dict(params)
+    def linear_system(self, params: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+        """(A, b): the stress is A @ (free E, G, sigma_inf in ``linear`` order) + (fixed part), and
+        b = y minus the fixed linear part; both whitened when a whitening operator is set."""
         v = self.basis(params).values[self.mask]
         target = self.y.copy()
         for k in ("E", "G", "sigma_inf"):
@@ -151,13 +149,26 @@ class LsqProblem:
         if self.whiten is not None:
             w = self.whiten(np.column_stack([A, target]))
             A, target = w[:, :-1], w[:, -1]
+        return A, target
+
+    def project(self, params: Mapping[str, float]) -> dict[str, float]:
+        """Best E, G, sigma_inf (those free) for the time constants in ``params``, by linear least
+        squares within their bounds: the model is linear in them (variable projection)."""
+        if not self.linear:
+            return dict(params)
+        A, target = self.linear_system(params)
         idx = [self.names.index(k) for k in self.linear]
-        lo, hi = self.lower[idx], self.upper[idx]
-        scale = np.linalg.norm(A, axis=0)
-        scale[scale == 0] = 1.0
-        c = np.linalg.lstsq(A / scale, target, rcond=None)[0] / scale
-        if np.any(c < lo) or np.any(c > hi):
-            c = lsq_linear(A / scale, target, bounds=(lo * scale, hi * scale)).x / scale
+        c = bounded_lstsq(A, target, self.lower[idx], self.upper[idx])
         out = dict(params)
         out.update(zip(self.linear, (float(x) for x in c), strict=True))
         return out
+
+
+def bounded_lstsq(A: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """argmin |A c - b| within lo <= c <= hi (columns scaled for conditioning)."""
+    scale = np.linalg.norm(A, axis=0)
+    scale[scale == 0] = 1.0
+    c = np.linalg.lstsq(A / scale, b, rcond=None)[0] / scale
+    if np.any(c < lo) or np.any(c > hi):
+        c = lsq_linear(A / scale, b, bounds=(lo * scale, hi * scale)).x / scale
+    return c

@@ -10,16 +10,71 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from bayes_dnlr.config import Config
 from bayes_dnlr.errors import RunError
+from bayes_dnlr.inference.joint_fit import JointFitResult, fit_joint
 from bayes_dnlr.inference.lsq import FitResult, fit_test
-from bayes_dnlr.rundir import config_digest, file_sha256, prepare_run_dir, section_digests, write_json
+from bayes_dnlr.rundir import (
+    config_digest,
+    digest,
+    file_sha256,
+    prepare_run_dir,
+    section_digests,
+    write_json,
+)
 
 FIT_FILE = "fit.json"
 SECTIONS = ("data", "model", "parameters", "noise", "fit")
+
+
+def sections(cfg: Config, base: tuple[str, ...] = SECTIONS) -> tuple[str, ...]:
+    """The config sections a result depends on: ``base``, and ``tests`` in a run with tests."""
+    return (*base, "tests") if cfg.is_joint else base
+
+
+@dataclass(frozen=True)
+class TestSet:
+    """The tests of a run with ``tests:``, loaded, in config order, with one fingerprint."""
+
+    __test__ = False  # not a pytest test class despite its name
+
+    tests: dict[str, Any]        # name -> TestData
+
+    @property
+    def sha256(self) -> str:
+        return digest({t: d.sha256 for t, d in self.tests.items()})
+
+    @property
+    def n_points(self) -> int:
+        return int(sum(d.n_points for d in self.tests.values()))
+
+    @property
+    def path(self) -> str:
+        """The data files, for the record."""
+        return ", ".join(str(d.path) for d in self.tests.values())
+
+
+def load_tests(cfg: Config):
+    """The TestData of a one-test config, or the TestSet of a run with tests."""
+    from bayes_dnlr.data import load_test
+
+    if not cfg.is_joint:
+        return load_test(cfg)
+    return TestSet({t: load_test(cfg.for_test(t)) for t in cfg.test_names})
+
+
+def _data_sha(cfg: Config) -> str | None:
+    """The data fingerprint without loading (None when a data file is missing)."""
+    paths = [c.data_path for c in cfg.test_configs()]
+    if not all(p.is_file() for p in paths):
+        return None
+    if not cfg.is_joint:
+        return file_sha256(paths[0])
+    return digest(dict(zip(cfg.test_names, (file_sha256(p) for p in paths), strict=True)))
 
 def _fit_path(run_dir: Path) -> Path:
     return Path(run_dir) / FIT_FILE
@@ -39,10 +94,11 @@ def load_fit(run_dir: str | Path) -> dict[str, Any]:
 def _stale_reason(saved: Mapping[str, Any], cfg: Config, sha256: str) -> str | None:
     """Why a saved fit.json does not belong to this config and data (None when it does)."""
     reasons = []
-    if saved.get("config_digest") != config_digest(cfg, SECTIONS):
+    secs = sections(cfg)
+    if saved.get("config_digest") != config_digest(cfg, secs):
         old = saved.get("config_sections") or {}
-        diff = [s for s, d in section_digests(cfg, SECTIONS).items() if old.get(s) != d]
-        reasons.append(f"a different config (sections {', '.join(diff) or SECTIONS})")
+        diff = [s for s, d in section_digests(cfg, secs).items() if old.get(s) != d]
+        reasons.append(f"a different config (sections {', '.join(diff) or secs})")
     if saved.get("data_sha256") != sha256:
         reasons.append("a different data file (sha256 differs)")
     return " and ".join(reasons) or None
@@ -52,27 +108,27 @@ def fit_is_current(cfg: Config, data_sha256: str | None = None) -> bool:
     """True when ``cfg.run_dir/fit.json`` exists and was made from this config and data file
     (``data_sha256``: the data file's hash when the caller already has it)."""
     path = _fit_path(cfg.run_dir)
-    if not path.is_file() or (data_sha256 is None and not cfg.data_path.is_file()):
+    sha = data_sha256 or _data_sha(cfg)
+    if not path.is_file() or sha is None:
         return False
     try:
         saved = json.loads(path.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError, OSError):
         return False
-    return _stale_reason(saved, cfg, data_sha256 or file_sha256(cfg.data_path)) is None
+    return _stale_reason(saved, cfg, sha) is None
 
 
-def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) -> FitResult:
-    """Least-squares fit of the configured test; writes ``cfg.run_dir/fit.json`` (unless write=False).
+def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) -> FitResult | JointFitResult:
+    """Least-squares fit of the configured test(s); writes ``cfg.run_dir/fit.json`` (unless
+    write=False). Returns a FitResult, or a JointFitResult for a run with ``tests:``.
 
-    ``test``: the TestData of ``cfg`` when the caller has already loaded it (else it is loaded).
-    An existing fit.json made from another config (sections data, model, parameters, noise, fit) or
-    another data file is never replaced silently: RunError unless ``overwrite`` (CLI ``--force``).
+    ``test``: the TestData (or TestSet) of ``cfg`` when the caller has already loaded it.
+    An existing fit.json made from another config (sections data, model, parameters, noise, fit,
+    tests) or other data is never replaced silently: RunError unless ``overwrite`` (CLI ``--force``).
     """
-    from bayes_dnlr.data import load_test
-
     t0 = time.perf_counter()
     if test is None:
-        test = load_test(cfg)
+        test = load_tests(cfg)
     path = _fit_path(cfg.run_dir)
     if write and not overwrite and path.exists():
         try:
@@ -83,9 +139,13 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
         if reason is not None:
             raise RunError(f"{path} exists and was made from {reason}; pass --force "
                            "(overwrite=True) to replace it")
-    result = fit_test(cfg, test)
-    result.config_digest = config_digest(cfg, SECTIONS)
-    result.config_sections = section_digests(cfg, SECTIONS)
+    if cfg.is_joint:
+        result = fit_joint(cfg, test.tests)
+    else:
+        result = fit_test(cfg, test)
+    secs = sections(cfg)
+    result.config_digest = config_digest(cfg, secs)
+    result.config_sections = section_digests(cfg, secs)
     result.data_sha256 = test.sha256
     result.wall_time_s = time.perf_counter() - t0
     if write:

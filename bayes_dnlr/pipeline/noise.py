@@ -110,3 +110,40 @@ def residual_warnings(fit: dict[str, Any]) -> list[str]:
     """The fit's warnings about its residuals and the discrepancy, carried into sample's output."""
     keys = ("residuals are not white", "whitened residuals", "discrepancy")
     return [w for w in (fit.get("warnings") or []) if any(k in w for k in keys)]
+
+
+def joint_noise_block(cfg: Config, fit: dict[str, Any], summary: dict[str, Any], sigma0: dict,
+                      sigma0_source: dict, layout: dict[str, list[str]]) -> dict[str, Any]:
+    """The ``noise`` block of a joint run: each test's own block (its hyperparameters, E's
+    interval under white noise and under the discrepancy), under ``tests``."""
+    from bayes_dnlr.inference.joint import NOISE_NAMES, joint_name
+
+    per_test = set(cfg.per_test_parameters)
+    singles = fit.get("single_fits") or {}
+    blocks = {}
+    for t in cfg.test_names:
+        post = summary.get("posterior") or {}
+        local = {}
+        for k in layout.get(t, []):
+            g = joint_name(k, t) if (k in NOISE_NAMES or k in per_test) else k
+            if g in post:
+                local[k] = post[g]
+        view = {"posterior": local}
+        blocks[t] = noise_block(cfg.for_test(t), singles.get(t) or {}, view, sigma0.get(t),
+                                (sigma0_source or {}).get(t, ""))
+    models = {b["model"] for b in blocks.values()}
+    groups: dict[str, list[str]] = {}
+    for t, b in blocks.items():
+        silent = (b["model"] == "white" and b.get("likelihood_ratio") is not None
+                  and not b.get("evidence_of_model_error"))
+        kind = "no evidence of model error" if silent else b["verdict"]
+        groups.setdefault(kind, []).append(t)
+    words = []
+    for kind, tests in groups.items():
+        if kind == "no evidence of model error":
+            words.append(f"{', '.join(tests)}: no evidence of model error (2 Δ log L ≤ 9.21): white "
+                         "likelihood.")
+        else:
+            words.append(f"{', '.join(tests)}: {kind}")
+    return {"model": "discrepancy" if "discrepancy" in models else "white", "tests": blocks,
+            "verdict": " ".join(words)}

@@ -16,7 +16,6 @@ posterior.nc and summary.json (``python -m bayes_dnlr sample``).
 from __future__ import annotations
 
 import json
-import math
 import sys
 from contextlib import contextmanager
 from datetime import UTC, datetime
@@ -25,10 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.config import DISCREPANCY_PARAMETERS, Config, ConfigError, ParameterSpec, SampledNoise
+from bayes_dnlr.config import Config, ConfigError
 from bayes_dnlr.errors import RunError
-from bayes_dnlr.inference.discrepancy import AMPLITUDE, LENGTH, is_white
-from bayes_dnlr.inference.likelihood import LogPosterior, build_log_posterior
 from bayes_dnlr.inference.mcmc import (
     MIN_STEPS_FOR_TAU,
     MOVES,
@@ -54,7 +51,9 @@ from bayes_dnlr.inference.posterior import (
 )
 from bayes_dnlr.inference.priors import build_priors, sampled_names
 from bayes_dnlr.inference.store import ChainWriter, SamplerState, StoredRun, read_attrs, read_run
-from bayes_dnlr.pipeline.noise import noise_block, residual_warnings
+from bayes_dnlr.pipeline.fit import load_tests, sections
+from bayes_dnlr.pipeline.noise import joint_noise_block, noise_block, residual_warnings
+from bayes_dnlr.pipeline.target import joint_target, single_target
 from bayes_dnlr.rundir import digest, jsonable, prepare_run_dir, resolved_config_text, section_digests
 
 CHAINS_FILE = "chains.h5"
@@ -80,7 +79,7 @@ def check_sampler(cfg: Config, names: list[str]) -> None:
 
 def fingerprint_parts(cfg: Config, data_sha256: str) -> dict[str, str]:
     """Digests of what the chain depends on: config sections, sampler walkers/seed/moves, data file."""
-    parts = section_digests(cfg, POSTERIOR_SECTIONS)
+    parts = section_digests(cfg, sections(cfg, POSTERIOR_SECTIONS))
     sampler = cfg.sampler.model_dump(mode="json")
     parts["sampler"] = digest({k: sampler[k] for k in SAMPLER_KEYS})
     parts["data file"] = data_sha256
@@ -106,107 +105,7 @@ def stale_reason(attrs: dict[str, Any], parts: dict[str, str]) -> str | None:
     return " and ".join(what)
 
 
-def discrepancy_priors(fit: dict[str, Any]) -> dict[str, ParameterSpec] | None:
-    """The resolved priors of the discrepancy hyperparameters that fit.json records (None when the
-    fit had no discrepancy)."""
-    block = fit.get("discrepancy")
-    if not block:
-        return None
-    try:
-        return {k: ParameterSpec.model_validate(v) for k, v in block["priors"].items()}
-    except (KeyError, TypeError, ValueError) as err:
-        raise RunError(f"fit.json: unreadable discrepancy priors ({err}); run `fit --force`") from None
-
-
-def start_point(post: LogPosterior, fit: dict[str, Any],
-                sigma0_start: float | None) -> tuple[np.ndarray, np.ndarray]:
-    """Where the walkers start: the least-squares estimate and its linearized covariance (eq. 32)
-    from fit.json — the generalized (discrepancy) analysis when the likelihood has a discrepancy —,
-    in the order of the sampled parameters (physical units). A sampled sigma0 starts at
-    ``sigma0_start`` with the sd of a variance estimate from n points; the discrepancy
-    hyperparameters at their maximum-likelihood values with the spread of the likelihood's
-    curvature."""
-    names = post.names
-    disc = fit.get("discrepancy") if post.discrepancy is not None else None
-    src = disc if disc else fit
-    est = src.get("estimate") or {}
-    fit_names = list(fit.get("parameters") or [])
-    noise = ("sigma0", *DISCREPANCY_PARAMETERS)
-    missing = [k for k in names if k not in noise and k not in est]
-    if missing:
-        raise RunError(f"fit.json has no estimate for {missing}: run `fit --force`")
-    hyper = dict((disc or {}).get("hyperparameters") or {})
-    rms = float((fit.get("residuals") or {}).get("rms") or 1.0)
-    if disc and disc.get("amplitude_is_zero"):
-        hyper["amplitude"] = 0.05 * rms          # on the bound: start just inside, spread as much
-    start = {"sigma0": sigma0_start, AMPLITUDE: hyper.get("amplitude"), LENGTH: hyper.get("length")}
-    x0 = np.array([start[k] if k in noise else est[k] for k in names], dtype=float)
-    # strictly inside the support: exp(ln x) may overshoot a bound the estimate sits on by an ulp
-    lo = np.array([p.low for p in post.priors.priors])
-    hi = np.array([p.high for p in post.priors.priors])
-    with np.errstate(invalid="ignore"):           # inf - inf on unbounded sides: left as they are
-        x0 = np.clip(x0, np.where(np.isfinite(lo), lo + 1e-9 * np.abs(lo), lo),
-                     np.where(np.isfinite(hi), hi - 1e-9 * np.abs(hi), hi))
-    model_pos = [j for j, k in enumerate(names) if k not in noise]
-    cov = np.zeros((len(names), len(names)))
-    try:
-        fcov = np.asarray(src.get("covariance"), dtype=float)
-        idx = [fit_names.index(names[j]) for j in model_pos]
-        cov[np.ix_(model_pos, model_pos)] = fcov[np.ix_(idx, idx)]
-    except (TypeError, ValueError, IndexError):
-        cov[np.ix_(model_pos, model_pos)] = np.nan
-    fit_sigma = fit.get("sigma0")
-    if not disc and post.sigma0 is not None and fit_sigma and fit_sigma > 0:
-        cov *= (post.sigma0 / fit_sigma) ** 2     # the covariance scales with σ0²
-    if "sigma0" in names:
-        j = names.index("sigma0")
-        cov[j, j] = sigma0_start ** 2 / (2.0 * post.n)
-    if disc:
-        free = list(disc.get("estimated") or [])
-        log_cov = np.asarray(disc.get("hyper_log_covariance") or np.zeros((0, 0)), dtype=float)
-        for k in (AMPLITUDE, LENGTH):
-            if k not in names:
-                continue
-            j = names.index(k)
-            var_log = log_cov[free.index(k), free.index(k)] if k in free and log_cov.size else 1.0
-            if k == AMPLITUDE and disc.get("amplitude_is_zero"):
-                var_log = 1.0
-            cov[j, j] = min(var_log, 1.0) * x0[j] ** 2
-    return x0, cov
-
-
 # ---------------------------------------------------------------- helpers
-
-def _resolve_sigma0(cfg: Config, fit: dict[str, Any], test) -> tuple[float | None, str, float | None]:
-    """(σ0 for the likelihood or None when sampled, its source, a starting value when sampled).
-
-    With a discrepancy, ``residuals`` means the white part of the residuals: the maximum-likelihood
-    σ0 that fit.json's discrepancy analysis found beside the amplitude and length."""
-    spec = cfg.noise.sigma0
-    if isinstance(spec, int | float):
-        return float(spec), "config", None
-    disc = fit.get("discrepancy") if cfg.noise.has_discrepancy else None
-    priors = discrepancy_priors(fit) if disc else None
-    if priors is not None and is_white(priors):
-        disc = None                          # no evidence of model error: the white likelihood
-    ml_sigma = ((disc or {}).get("hyperparameters") or {}).get("sigma0")
-    fit_sigma = ml_sigma if disc else fit.get("sigma0")
-    if isinstance(spec, SampledNoise):
-        start = float(fit_sigma) if fit_sigma else None
-        if start is None:
-            from bayes_dnlr.inference.noise import resolve_sigma0
-
-            start = resolve_sigma0(cfg, test)[0]
-        return None, "sampled", start
-    if fit_sigma and math.isfinite(fit_sigma) and fit_sigma > 0:
-        source = ("white part of the residuals (maximum likelihood with the discrepancy)"
-                  if disc and spec == "residuals" else str(fit.get("sigma0_source") or spec))
-        return float(fit_sigma), source, None
-    from bayes_dnlr.inference.noise import resolve_sigma0
-
-    value, source = resolve_sigma0(cfg, test)
-    return float(value), source, None
-
 
 def _standards(test) -> dict[str, float | None] | None:
     try:
@@ -238,13 +137,11 @@ def _remove_outputs(run_dir: Path) -> None:
 def sample(cfg: Config, *, restart: bool = False, progress: bool = True) -> Posterior:
     """Sample the posterior of ``cfg`` to convergence (or max_steps); resumable. See the module doc."""
     names = sampled_names(cfg)
-    check_sampler(cfg, names)
+    if not cfg.is_joint:             # a joint run knows its names after the fit
+        check_sampler(cfg, names)
     build_priors(cfg)               # validate the model priors early
     make_moves(cfg.sampler.moves)
-
-    from bayes_dnlr.data import load_test
-
-    test = load_test(cfg)
+    test = load_tests(cfg)
     with _run_lock(cfg.run_dir):
         return _sample(cfg, test, names, restart=restart, progress=progress)
 
@@ -316,29 +213,20 @@ def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: boo
 
     fit = _current_fit(cfg, test, replace=restart, progress=progress)
     prepare_run_dir(cfg)
-    sigma0, sigma0_source, sigma0_start = _resolve_sigma0(cfg, fit, test)
-    # the resolved discrepancy priors belong to the chain: a resume keeps the chain's own
-    disc_priors = discrepancy_priors(fit)
-    if stored is not None and stored.attrs.get("discrepancy_priors"):
-        disc_priors = discrepancy_priors({"discrepancy": {
-            "priors": json.loads(stored.attrs["discrepancy_priors"])}})
-    if cfg.noise.has_discrepancy and disc_priors is None:
-        raise RunError(f"{cfg.run_dir / 'fit.json'} has no discrepancy analysis for this config "
-                       "(made by another version?): run `fit --force`")
-    names = sampled_names(cfg, disc_priors)
+    target = (joint_target(cfg, test.tests, fit, stored) if cfg.is_joint
+              else single_target(cfg, test, fit, stored))
+    post, priors, names = target.post, target.priors, target.names
+    sigma0, sigma0_source = target.sigma0, target.sigma0_source
     check_sampler(cfg, names)
-    priors = build_priors(cfg, disc_priors)
     if stored is not None and (stored.names != names or [bool(v) for v in stored.attrs.get(
             "log_space", [])] != [bool(v) for v in priors.log_space]):
         raise RunError(f"{chains} holds parameters {stored.names} sampled in other coordinates "
                        f"(made by bayes_dnlr {stored.attrs.get('version')}); it cannot be continued: "
                        "sample --restart discards it and starts again")
-    post = build_log_posterior(cfg, test, sigma0, priors, disc_priors)
 
     walkers, ndim = sc.walkers, len(names)
     if stored is None:
-        x0, cov = start_point(post, fit, sigma0_start)
-        coords, lp = start_ensemble(post, priors, x0, cov, walkers, sc.seed)
+        coords, lp = start_ensemble(post, priors, target.x0, target.cov, walkers, sc.seed)
         state0 = SamplerState(coords, lp, np.random.RandomState(sc.seed).get_state())
         meta = {
             "names": names, "log_space": [bool(v) for v in priors.log_space], "walkers": walkers,
@@ -346,12 +234,9 @@ def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: boo
             "fingerprint_parts": json.dumps(parts), "data_sha256": test.sha256,
             "data_file": str(test.path), "version": _version(), "modes": cfg.model.modes,
             "decades": cfg.model.decades, "moves": sc.moves, "seed": sc.seed,
-            "sigma0": float("nan") if sigma0 is None else sigma0, "sigma0_source": sigma0_source,
-            "created": datetime.now(UTC).isoformat(timespec="seconds"),
+            "sigma0": _sigma0_attr(sigma0), "sigma0_source": json.dumps(sigma0_source),
+            "created": datetime.now(UTC).isoformat(timespec="seconds"), **target.meta,
         }
-        if disc_priors is not None:
-            meta["discrepancy_priors"] = json.dumps(
-                {k: v.model_dump(mode="json", exclude_none=True) for k, v in disc_priors.items()})
         writer = ChainWriter.create(chains, meta, walkers, ndim, state0, priors.to_physical,
                                     chunk_steps=sc.checkpoint_every, n_evals=0)
         chain0 = np.empty((0, walkers, ndim))
@@ -387,6 +272,37 @@ def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: boo
                          wall_time=elapsed, store_time=store_time, evals=evals0 + out.evals)
 
 
+def _json_attr(v: Any) -> Any:
+    """A chain attribute written as JSON (older chains hold plain strings)."""
+    try:
+        return json.loads(v)
+    except (TypeError, ValueError):
+        return v
+
+
+def _sigma0_used(run: StoredRun, draws: np.ndarray, cfg: Config) -> Any:
+    """σ0 (MPa) of the likelihood: the fixed value, or the posterior mean when sampled; per test
+    ({test: value}) in a joint run."""
+    names = run.names
+    stored = _json_attr(run.attrs.get("sigma0"))
+
+    def value(name: str, fixed: Any) -> float:
+        if name in names:
+            return float(draws[:, :, names.index(name)].mean())
+        return float("nan") if fixed is None else float(fixed)
+
+    if cfg.is_joint:
+        return {t: value(f"sigma0[{t}]", (stored or {}).get(t)) for t in cfg.test_names}
+    return value("sigma0", stored)
+
+
+def _sigma0_attr(sigma0: Any) -> Any:
+    """σ0 as a chain attribute: a number, NaN when sampled, JSON for a joint run's per-test values."""
+    if isinstance(sigma0, dict):
+        return json.dumps({t: (None if v is None else float(v)) for t, v in sigma0.items()})
+    return float("nan") if sigma0 is None else float(sigma0)
+
+
 def _version() -> str:
     from bayes_dnlr import __version__
 
@@ -415,7 +331,7 @@ def _finished_result(cfg: Config, test, stored: StoredRun, fp: str) -> Posterior
     # outputs missing or made with other burn-in/stopping settings: rebuild them from the chain
     fit = _current_fit(cfg, test, replace=False, progress=False)
     post = _write_result(cfg, stored, fit, conv, reason, fp, test,
-                         str(stored.attrs.get("sigma0_source", "")), wall_time=stored.elapsed,
+                         _json_attr(stored.attrs.get("sigma0_source", "")), wall_time=stored.elapsed,
                          store_time=stored.store_time, evals=stored.n_evals)
     post.note = note + "; summary.json and posterior.nc rewritten from the chain"
     return post
@@ -432,11 +348,7 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
     burn = conv.burn_in
     draws = run.chain[burn:]
     lp = run.log_prob[burn:]
-    sigma_stored = run.attrs.get("sigma0")
-    if "sigma0" in names:
-        sigma0 = float(draws[:, :, names.index("sigma0")].mean())
-    else:
-        sigma0 = float(sigma_stored)
+    sigma0 = _sigma0_used(run, draws, cfg)
     sampling = max(wall_time - store_time, 1e-12)
     acc = float(run.accepted[burn:].mean()) if run.accepted.size else float("nan")
     warnings = []
@@ -446,7 +358,11 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
                         f"(about {conv.needed_steps} steps needed)")
     extra = {
         "sigma0": sigma0, "n_points": int(test.n_points), "steps": int(run.steps),
-        "wall_time_s": wall_time, "standards": _standards(test), "deborah_max": fit.get("deborah_max"),
+        "wall_time_s": wall_time,
+        "standards": ({t: _standards(d) for t, d in test.tests.items()} if cfg.is_joint
+                      else _standards(test)),
+        "deborah_max": ({t: f.get("deborah_max") for t, f in (fit.get("single_fits") or {}).items()}
+                        if cfg.is_joint else fit.get("deborah_max")),
         "name": cfg.name, "stop_reason": reason, "converged": reason == "converged",
         "burn_in": int(burn), "target_ess": sc.target_ess, "moves": MOVES.get(sc.moves, sc.moves),
         "seed": sc.seed, "acceptance_fraction": acc, "sigma0_source": sigma0_source,
@@ -462,14 +378,18 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
                                                      strict=False)})}
     dt = build_datatree(names, draws, lp, attrs)
     summary = summarize(names, draws, fit=fit, tau=conv.tau, extra=extra)
-    summary["noise"] = jsonable(noise_block(cfg, fit, summary, sigma0, sigma0_source))
-    if summary["noise"]["model"] == "discrepancy":
+    if cfg.is_joint:
+        summary["noise"] = jsonable(joint_noise_block(cfg, fit, summary, sigma0, sigma0_source,
+                                                      json.loads(run.attrs.get("layout", "{}"))))
+    else:
+        summary["noise"] = jsonable(noise_block(cfg, fit, summary, sigma0, sigma0_source))
+    if summary["noise"]["model"] == "discrepancy" and fit.get("discrepancy"):
         summary["generalized_least_squares"] = gauss_newton_block(
             {"parameters": fit.get("parameters"), **fit["discrepancy"]})
     summary["warnings"] = warnings + [
         f"R-hat of {k} is {summary['posterior'][k]['r_hat']:.4f} > 1.01"
         for k in names if (summary["posterior"][k]["r_hat"] or 0) > 1.01] + residual_warnings(fit)
-    if summary["noise"]["model"] == "white" and summary["noise"]["fit_residuals_white"] is False:
+    if summary["noise"]["model"] == "white" and summary["noise"].get("fit_residuals_white") is False:
         summary["warnings"].append(summary["noise"]["verdict"])
     write_outputs(cfg.run_dir, dt, summary)
     return Posterior(cfg.run_dir, summary, dt)
