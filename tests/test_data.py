@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import hashlib
 import re
-import time
 
 import numpy as np
 import pytest
@@ -407,15 +406,13 @@ def test_smoothed_is_the_default_and_measured_keeps_the_raw_strain(write_csv, ma
     assert any("strain_input: smoothed" in n for n in smoothed.notes)
 
 
-def test_26000_rows_load_quickly(write_csv, make_config):
+def test_26000_rows_load(write_csv, make_config):
+    """A long record loads whole (its speed is measured in benchmarks/, not asserted here)."""
     rng = np.random.default_rng(0)
     t = np.arange(26000) * 0.02
     e = 8e-3 * t + rng.normal(0, 1e-4, t.size)
     write_csv(csv_text({"t_s": t, "F_N": 900 * np.tanh(3 * e), "eps11": e}))
-    load_test(make_config(file="test.csv", window={"time_max": 1.0}))  # warm-up (numba cache, imports)
-    start = time.perf_counter()
     test = load_test(make_config())
-    assert time.perf_counter() - start < 3.0
     assert test.time.size == 26000
 
 

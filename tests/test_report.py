@@ -7,7 +7,6 @@ import json
 import re
 import shutil
 import struct
-import time
 from pathlib import Path
 
 import numpy as np
@@ -72,10 +71,7 @@ def _copy(src: Path, dst: Path, drop: tuple[str, ...] = ()) -> Path:
 
 def test_report_figures_and_numbers(finished_run, tmp_path):
     run = _copy(finished_run, tmp_path / "tiny")
-    t0 = time.perf_counter()
     out = build_report(run)
-    elapsed = time.perf_counter() - t0
-    assert elapsed < 15.0
     assert out == run / "report.html"
     figs = {p.name for p in (run / "figures").glob("*.png")}
     assert figs == FIGURES
