@@ -12,7 +12,7 @@ from bayes_dnlr.config import load_config
 from bayes_dnlr.synthetic import simulate_test
 
 HDPE = {"E": 2854.0, "G": 2.32, "tau_max": 5.79}
-TINY_SAMPLER = {"walkers": 12, "max_steps": 100, "target_ess": 50, "seed": 1, "checkpoint_every": 50}
+TINY_SAMPLER = {"walkers": 16, "max_steps": 100, "target_ess": 50, "seed": 1, "checkpoint_every": 50}
 WIDE_RELAXATION_PRIORS = {
     "E": {"prior": "uniform", "low": 100, "high": 20000},
     "G": {"prior": "uniform", "low": 0, "high": 5000},

@@ -316,7 +316,11 @@ def parameter_table(run: RunResults) -> Table:
                     fmt(s.get("ess_tail"), 3), fmt(s.get("r_hat"), 4)]
         if gn is not None:
             est, sd = gn["estimate"].get(n), (gn["sd"] or {}).get(n)
-            err = None if est in (None, 0) or sd is None else sd / abs(est)
+            saved_err = (run.fit or {}).get("err")
+            if isinstance(saved_err, dict) and n in saved_err:
+                err = saved_err[n]          # fit's Err: null for a value of zero (e.g. on a bound)
+            else:
+                err = None if est in (None, 0) or sd is None else sd / abs(est)
             row += [fmt_at(est, prec), fmt(sd), pct(err)]
         if truth:
             t = truth.get(n)
