@@ -59,7 +59,7 @@ def test_sample_starts_and_the_report_builds_on_a_run_with_g_on_its_bound(g_on_b
     g = post.summary["posterior"]["G"]
     assert g["hdi_90"][0] >= 0.0 and g["mean"] > 0.0
     assert main(["report", str(cfg.run_dir)]) == 0
-    assert len(list((cfg.run_dir / "figures").glob("*.png"))) == 6
+    assert len(list((cfg.run_dir / "figures").glob("*.png"))) >= 6
     page = (cfg.run_dir / "report.html").read_text()
     assert "G = 0 (its lower bound" in page
     # G's Err is undefined at 0: a dash in the parameter table, not sd / 1e-24 in %
