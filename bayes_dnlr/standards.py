@@ -138,7 +138,8 @@ def iso527_1_modulus(nominal_strain: np.ndarray, nominal_stress: np.ndarray,
     s1, s2 = _first_crossing(e, s, e1), _first_crossing(e, s, e2)
     if s1 is None or s2 is None:  # pragma: no cover - excluded by the checks above
         return StandardModulus(name, None, "chord", reason="the curve does not cross both strains")
-    note = f"chord: only {n} samples in the range" if method == "auto" else None
+    note = (f"only {n} sample(s) between the two strains, fewer than the {min_points} a least-squares "
+            "slope needs" if method == "auto" else None)
     return StandardModulus(name, (s2 - s1) / (e2 - e1), "chord", (e1, e2), 2, reason=note)
 
 

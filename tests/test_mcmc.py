@@ -234,7 +234,7 @@ def test_stale_fit_json_is_never_replaced_silently(tmp_path: Path) -> None:
     raw = yaml.safe_load(path.read_text())
     raw["parameters"] = {"E": {"prior": "uniform", "low": 100, "high": 10000}}
     path.write_text(yaml.safe_dump(raw))
-    with pytest.raises(RunError, match="fit.json exists and was made from.*sample --restart"):
+    with pytest.raises(RunError, match="fit.json was made from.*fit --force.*sample --restart"):
         sample(load_config(path), progress=False)
     assert (path.parent / "fit.json").read_text() == before
     assert not (path.parent / "chains.h5").exists()

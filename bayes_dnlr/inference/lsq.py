@@ -15,6 +15,7 @@ Methods (``cfg.fit.method``):
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time as _time
 from collections.abc import Mapping
@@ -38,8 +39,16 @@ from bayes_dnlr.inference.discrepancy import (
     whitener,
 )
 from bayes_dnlr.inference.noise import resolve_sigma0
+from bayes_dnlr.inference.plausibility import plausibility_warnings, singular_message
 from bayes_dnlr.inference.problem import LsqProblem
-from bayes_dnlr.inference.sensitivity import StochasticAnalysis, analyse, identifiability_warnings
+from bayes_dnlr.inference.sensitivity import (
+    StochasticAnalysis,
+    analyse,
+    analyse_holding,
+    bound_side,
+    bound_warning,
+    identifiability_warnings,
+)
 from bayes_dnlr.inference.start import clip_to, fallback, physics_start, spread_starts
 from bayes_dnlr.numbers import fmt, fmt_at
 from bayes_dnlr.rundir import jsonable
@@ -295,11 +304,20 @@ def fit_test(cfg: Config, test) -> FitResult:
     if zero:
         raise BayesDnlrError(f"parameter(s) {zero} have no effect on the model over the window: fix "
                              "them (value: ...) or widen data.window")
+    bounds = {k: specs[k].bounds() for k in names}
+    on_bound = {k: side for k, v in zip(names, values, strict=True)
+                if (side := bound_side(float(v), *bounds[k])) is not None}
+    held: list[str] = []
     try:
         sa = analyse(X, names, values, sigma0)
-    except np.linalg.LinAlgError as err:
-        raise BayesDnlrError(f"the sensitivity matrix is singular at the optimum ({err}): the free "
-                             f"parameters {names} cannot all be identified on this window") from None
+    except np.linalg.LinAlgError:
+        sa = None
+        if on_bound:     # parameters on a bound: the analysis of the others, those held there
+            held = list(on_bound)
+            with contextlib.suppress(np.linalg.LinAlgError):
+                sa = analyse_holding(X, names, values, sigma0, held)
+        if sa is None:
+            raise BayesDnlrError(singular_message(X, names, values, on_bound, bounds)) from None
 
     warnings: list[str] = []
     if not main.converged:
@@ -312,14 +330,10 @@ def fit_test(cfg: Config, test) -> FitResult:
     if n_ms and not multistart["same_optimum"]:
         warnings.append(f"multi-start: {multistart['converged']}/{n_ms} converged, and not all to the same "
                         "optimum: the criterion has several minima or flat directions in the prior box")
-    for j, k in enumerate(names):
-        lo, hi = specs[k].bounds()
-        v = values[j]
-        if (math.isfinite(lo) and abs(v - lo) <= 1e-6 * max(abs(lo), 1e-12 + abs(v))) or (
-                math.isfinite(hi) and abs(v - hi) <= 1e-6 * abs(hi)):
-            warnings.append(f"{k} = {v:.6g} sits on a bound of its prior [{lo:g}, {hi:g}]: the "
-                            "linearized sd and Δ̃ do not describe a constrained optimum")
-    warnings.extend(identifiability_warnings(sa))
+    warnings += [bound_warning(k, float(params[k]), *bounds[k], side, k in held)
+                 for k, side in on_bound.items()]
+    warnings.extend(identifiability_warnings(sa, held=held))
+    warnings.extend(plausibility_warnings(params))
     diag = residual_diagnostics(residuals, sigma0, source)
     disc = None
     if cfg.noise.has_discrepancy:

@@ -18,7 +18,7 @@ import math
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -57,31 +57,50 @@ def make_moves(kind: str) -> Any:
 @dataclass(frozen=True)
 class Convergence:
     """emcee τ per parameter on the kept chain, the burn-in and the ESS it implies; ArviZ's
-    diagnostics of the kept draws once emcee's criteria hold."""
+    diagnostics of the kept draws once emcee's criteria hold; the walkers that did not move."""
 
-    tau: np.ndarray          # (ndim,) steps
+    tau: np.ndarray          # (ndim,) steps; inf when no walker moved in that parameter
     burn_in: int             # steps discarded
     kept: int                # steps kept
-    ess: np.ndarray          # (ndim,) kept × walkers / τ
+    ess: np.ndarray          # (ndim,) kept × moving walkers / τ
     converged: bool
     needed_steps: int        # estimated total steps for the stopping rule
     arviz_ess: float | None = None   # min over parameters of ArviZ ess_bulk and ess_tail
     r_hat: float | None = None       # max over parameters of R-hat (4 walker groups)
+    stuck: dict[int, list[int]] = field(default_factory=dict)   # parameter index -> walkers that
+    #                                                             never moved over the kept chain
 
     @property
     def min_ess(self) -> float:
         return float(np.min(self.ess)) if self.ess.size else 0.0
 
 
+def _moving(chain: np.ndarray) -> np.ndarray:
+    """(walkers, ndim): True where the walker's coordinate changes at least once in ``chain``."""
+    return np.ptp(chain, axis=0) > 0
+
+
 def _tau(chain: np.ndarray) -> np.ndarray:
-    """emcee's integrated autocorrelation time per parameter; a walker that did not move over the
-    whole stretch makes emcee's estimate NaN (0/0): that counts as τ = the stretch's length (not
-    converged yet), never as a number the stopping rule could trust."""
+    """emcee's integrated autocorrelation time per parameter over the walkers that move in it.
+
+    A walker that stays at one point has no autocorrelation function (emcee divides 0 by 0 and
+    the average over walkers becomes NaN): it is left out, and a parameter in which no walker
+    moves gets τ = inf. Never NaN."""
     from emcee.autocorr import integrated_time
 
-    with np.errstate(invalid="ignore", divide="ignore"):
-        tau = np.asarray(integrated_time(chain, c=5, tol=0, quiet=True), dtype=float)
-    return np.where(np.isfinite(tau), tau, float(chain.shape[0]))
+    moving = _moving(chain)
+    tau = np.full(chain.shape[2], math.inf)
+    for j in range(chain.shape[2]):
+        m = moving[:, j]
+        if m.any():
+            t = float(integrated_time(chain[:, m, j][:, :, None], c=5, tol=0, quiet=True)[0])
+            tau[j] = t if math.isfinite(t) and t > 0 else math.inf
+    return tau
+
+
+def _steps(x: float, fallback: int) -> int:
+    """ceil(x) as steps; ``fallback`` when x is not finite (a τ that could not be estimated)."""
+    return int(math.ceil(x)) if math.isfinite(x) else int(fallback)
 
 
 def convergence(chain: np.ndarray, burn_in_tau: float, min_tau_multiple: float,
@@ -90,9 +109,11 @@ def convergence(chain: np.ndarray, burn_in_tau: float, min_tau_multiple: float,
 
     τ (emcee's estimator) on the whole chain sets the burn-in, ``burn_in_tau`` τ (τ re-estimated on
     the kept part enlarges it when larger); τ on the kept part gives ESS = kept × walkers / τ.
-    Converged when the kept part is >= ``min_tau_multiple`` τ long and every ESS >= ``target_ess``;
-    then (``check_arviz``) also ArviZ's bulk and tail ESS >= ``target_ess`` and R-hat <= RHAT_MAX,
-    so that every figure summary.json reports meets the target.
+    Converged when the kept part is >= ``min_tau_multiple`` τ long, every ESS >= ``target_ess`` and
+    every walker moves in every parameter over the kept part (a stuck walker, which rejects every
+    proposal, is a finding: ``stuck`` names it); then (``check_arviz``) also ArviZ's bulk and tail
+    ESS >= ``target_ess`` and R-hat <= RHAT_MAX, so that every figure summary.json reports meets
+    the target. A τ that cannot be estimated is inf, never NaN.
     """
     n, w, d = chain.shape
     if n < MIN_STEPS_FOR_TAU:
@@ -100,17 +121,25 @@ def convergence(chain: np.ndarray, burn_in_tau: float, min_tau_multiple: float,
         return Convergence(tau, 0, n, n * w / tau, False, 10 * MIN_STEPS_FOR_TAU)
     last = n - MIN_STEPS_FOR_TAU
     tau_all = _tau(chain)
-    burn = min(int(math.ceil(burn_in_tau * tau_all.max())), last)
+    burn = min(_steps(burn_in_tau * tau_all.max(), last), last)
     tau = _tau(chain[burn:])
     if burn_in_tau * tau.max() > burn and burn < last:
-        burn = min(int(math.ceil(burn_in_tau * tau.max())), last)
+        burn = min(_steps(burn_in_tau * tau.max(), last), last)
         tau = _tau(chain[burn:])
     kept = n - burn
+    moving = _moving(chain[burn:])
+    stuck = {j: [int(k) for k in np.flatnonzero(~moving[:, j])] for j in range(d)
+             if not moving[:, j].all()}
+    ess = kept * moving.sum(axis=0) / tau
+    converged = bool(not stuck and kept >= min_tau_multiple * tau.max() and np.all(ess >= target_ess))
     tau_max = float(max(tau.max(), tau_all.max()))
-    ess = kept * w / tau
-    converged = bool(kept >= min_tau_multiple * tau.max() and np.all(ess >= target_ess))
-    need_kept = max(min_tau_multiple * tau_max, target_ess * tau_max / w)
-    needed = int(math.ceil(burn_in_tau * tau_max + need_kept))
+    if math.isfinite(tau_max):
+        need_kept = max(min_tau_multiple * tau_max, target_ess * tau_max / w)
+        needed = _steps(burn_in_tau * tau_max + need_kept, 2 * n)
+    else:
+        needed = 2 * n        # no τ to extrapolate from: at least double the chain
+    if stuck:
+        needed = max(needed, n + 1)
     arviz_ess = r_hat = None
     if converged and check_arviz:
         from bayes_dnlr.inference.posterior import diagnostics
@@ -121,12 +150,28 @@ def convergence(chain: np.ndarray, burn_in_tau: float, min_tau_multiple: float,
         if not (arviz_ess >= target_ess and r_hat <= RHAT_MAX):
             converged = False
             needed = max(needed, n + 1)
-    return Convergence(tau, burn, kept, ess, converged, needed, arviz_ess, r_hat)
+    return Convergence(tau, burn, kept, ess, converged, needed, arviz_ess, r_hat, stuck)
+
+
+def stuck_words(conv: Convergence, names: list[str]) -> str | None:
+    """The stuck walkers in words (None when every walker moves)."""
+    if not conv.stuck:
+        return None
+    walkers = sorted({k for ws in conv.stuck.values() for k in ws})
+    total = len(walkers)
+    shown = ", ".join(str(k) for k in walkers[:10]) + (", ..." if total > 10 else "")
+    params = ", ".join(names[j] for j in sorted(conv.stuck))
+    return (f"{total} walker(s) ({shown}) did not move in {params} over the kept {conv.kept} steps: "
+            "stuck where every proposal is rejected (a far, narrow or bounded region of the "
+            "posterior), so the chain does not sample the posterior there")
 
 
 def shortfall(conv: Convergence, names: list[str], target_ess: float, min_tau_multiple: float) -> str:
     """Which part of the stopping rule a chain does not meet, in words."""
     parts = []
+    stuck = stuck_words(conv, names)
+    if stuck:
+        parts.append(stuck)
     tau_max = float(conv.tau.max())
     if conv.kept < min_tau_multiple * tau_max:
         parts.append(f"kept chain {conv.kept} steps < {min_tau_multiple:g} tau = "
@@ -151,46 +196,89 @@ def stop_reason(conv: Convergence | None, steps: int, max_steps: int) -> str | N
 
 # ---------------------------------------------------------------- start
 
+def support_box(priors) -> tuple[np.ndarray, np.ndarray]:
+    """The prior support in sampling coordinates: (low, high) per parameter (may be infinite)."""
+    lo = np.array([p.low for p in priors.priors], dtype=float)
+    hi = np.array([p.high for p in priors.priors], dtype=float)
+    with np.errstate(divide="ignore"):
+        zlo = np.where(priors.log_space, np.log(np.maximum(lo, 0.0)), lo)
+        zhi = np.where(priors.log_space, np.log(hi), hi)
+    return zlo, zhi
+
+
+def _into_box(z: np.ndarray, zlo: np.ndarray, zhi: np.ndarray, inner: np.ndarray) -> np.ndarray:
+    """Reflect points into [zlo, zhi] at each face, then clip into the box shrunk by ``inner``."""
+    z = z.copy()
+    for _ in range(2):     # a second pass for points beyond the width of the box
+        z = np.where(z < zlo, 2 * zlo - z, z)
+        z = np.where(z > zhi, 2 * zhi - z, z)
+    return np.clip(z, zlo + inner, zhi - inner)
+
+
 def start_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], priors, x0: np.ndarray,
                    cov: np.ndarray, walkers: int, seed: int,
                    scale: float = START_SCALE) -> tuple[np.ndarray, np.ndarray]:
-    """Walkers drawn from N(x0, scale² cov), carried into sampling coordinates (the Laplace
-    approximation of the posterior around the least-squares estimate, eq. 32); only points with a
-    finite log-density are kept (redrawn otherwise, up to 100 times).
+    """Walkers drawn from N(x0, scale² cov) truncated to the prior support, carried into sampling
+    coordinates (the Laplace approximation of the posterior around the least-squares estimate,
+    eq. 32). Deterministic for a seed.
 
-    ``x0`` and ``cov`` are in physical units; a non-finite ``cov`` falls back to a tiny ball.
+    A draw outside the support box is redrawn (up to 100 times per walker), then reflected into
+    it; a draw inside the box whose posterior density is still zero is pulled halfway towards the
+    estimate until it is not. So an estimate on a bound, or in a corner of the prior box, starts
+    as well as one in the middle. ``x0`` and ``cov`` are in physical units; a parameter whose
+    variance is not finite (e.g. held on a bound by the fit) gets a small spread of its own.
     """
     names = priors.names
-    jac = priors.jacobian(x0)
-    cov_z = cov * np.outer(jac, jac)
+    d = len(names)
+    zlo, zhi = support_box(priors)
+    width = zhi - zlo
+    inner = np.where(np.isfinite(width), 1e-9 * width, 0.0)
+    with np.errstate(divide="ignore"):
+        jac = priors.jacobian(x0)
     z0 = priors.from_physical(x0)
+    if np.all(np.isfinite(z0)):
+        z0 = np.clip(z0, zlo + inner, zhi - inner)   # an estimate on a bound, after exp/log round trip
     if not np.all(np.isfinite(z0)) or not np.isfinite(log_prob(z0[None])[0]):
         raise RunError(
             "the least-squares estimate " + ", ".join(f"{k} = {v:.6g}" for k, v in zip(names, x0,
                                                                                       strict=True))
             + " has a zero posterior density (outside the prior support?): check the priors in "
             "parameters: and fit.json")
-    if np.all(np.isfinite(cov_z)):
-        vals, vecs = np.linalg.eigh(0.5 * (cov_z + cov_z.T))
+    cov_z = np.asarray(cov, dtype=float) * np.outer(jac, jac)
+    ok = np.all(np.isfinite(cov_z), axis=0) & np.all(np.isfinite(cov_z), axis=1) & (np.diag(cov_z) > 0)
+    small = np.where(np.isfinite(width), 1e-3 * width, 1e-4 * np.maximum(np.abs(z0), 1e-3))
+    root = np.zeros((d, d))
+    if ok.any():
+        sub = cov_z[np.ix_(ok, ok)]
+        vals, vecs = np.linalg.eigh(0.5 * (sub + sub.T))
         vals = np.clip(vals, max(vals.max(), 0.0) * 1e-12, None)
-        root = vecs * np.sqrt(vals)
-    else:
-        root = np.diag(1e-4 * np.maximum(np.abs(z0), 1e-3))
+        root[np.ix_(ok, ok)] = vecs * np.sqrt(vals)
+    root[~ok, ~ok] = small[~ok]
     if not np.any(root):
         root = np.diag(1e-4 * np.maximum(np.abs(z0), 1e-3))
     rng = np.random.default_rng([int(seed) % 2**63, 0x5A4D])
-    coords = z0 + scale * rng.standard_normal((walkers, len(names))) @ root.T
+
+    def draw(k: int) -> np.ndarray:
+        return z0 + scale * rng.standard_normal((k, d)) @ root.T
+
+    coords = draw(walkers)
+    for _ in range(100):               # the Gaussian truncated to the support box
+        out = np.any((coords < zlo) | (coords > zhi), axis=1)
+        if not out.any():
+            break
+        coords[out] = draw(int(out.sum()))
+    coords = _into_box(coords, zlo, zhi, inner)
     lp = log_prob(coords)
-    for _ in range(100):
+    for _ in range(60):                # zero density inside the box: towards the estimate
         bad = ~np.isfinite(lp)
         if not bad.any():
             break
-        coords[bad] = z0 + scale * rng.standard_normal((int(bad.sum()), len(names))) @ root.T
+        coords[bad] = z0 + 0.5 * (coords[bad] - z0)
         lp[bad] = log_prob(coords[bad])
     if not np.all(np.isfinite(lp)):
         raise RunError(f"{int((~np.isfinite(lp)).sum())} of {walkers} starting walkers have a zero "
-                       "posterior density after 100 redraws; the least-squares estimate is probably "
-                       "at a prior bound")
+                       "posterior density even next to the least-squares estimate: check the priors "
+                       "in parameters: against fit.json")
     return coords, lp
 
 

@@ -12,6 +12,7 @@ The normalised sensitivities X̃_j = β_j ∂y/∂β_j (eq. 37) are in MPa and c
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -27,6 +28,9 @@ RHO_WARN = 0.99
 NEGLIGIBLE_SENSITIVITY = 0.05
 CONDITION_WARN = 1.0e8
 RELATIVE_ERROR_WARN = 0.5
+NEGLIGIBLE_ERR = 0.1     # ... and only for a parameter whose Err is above 10 %: a well-determined
+#                          parameter's sensitivity is not negligible, however small next to E's
+ZERO_VALUE = 1.0e-12     # |β_j|·|X_j| below this fraction of the largest: β_j counts as zero
 
 
 def log_sensitivity(basis: Basis, params: Mapping[str, float], name: str) -> np.ndarray:
@@ -70,18 +74,24 @@ def normalised(X: np.ndarray, values: Sequence[float]) -> np.ndarray:
 def covariance(X: np.ndarray, sigma0: float, values: Sequence[float] | None = None) -> np.ndarray:
     """Δ = sigma0² (XᵀX)⁻¹ (eq. 32).
 
-    Computed from the SVD of the column-scaled X (scaled by ``values`` when given, else by the
-    column norms), which is far better conditioned than forming XᵀX: ρ(E, tau_max) ≈ -0.999 makes
-    XᵀX nearly singular in double precision otherwise. Raises numpy.linalg.LinAlgError when X is
+    Computed from the SVD of the column-scaled X (scaled by ``values`` when given, else to unit
+    column norms; a column whose value is zero is scaled to unit norm), which is far better
+    conditioned than forming XᵀX: ρ(E, tau_max) ≈ -0.999 makes XᵀX nearly singular in double
+    precision otherwise. Raises numpy.linalg.LinAlgError when X is
     rank deficient.
     """
+    norms = np.linalg.norm(X, axis=0)
+    if np.any(norms == 0):
+        raise np.linalg.LinAlgError("a sensitivity column is zero: that parameter has no effect")
     if values is not None:
         scale = np.abs(np.asarray(values, dtype=float))
-        scale[scale == 0] = 1.0
+        # a value at (or next to) zero, e.g. G = 0 on its lower bound, would scale its column away:
+        # scale that column to unit norm instead (any column scaling gives the same Δ)
+        weight = scale * norms
+        tiny = ~(weight > ZERO_VALUE * weight.max())
+        scale[tiny] = 1.0 / norms[tiny]
     else:
-        scale = np.linalg.norm(X, axis=0)
-    if np.any(np.linalg.norm(X, axis=0) == 0):
-        raise np.linalg.LinAlgError("a sensitivity column is zero: that parameter has no effect")
+        scale = 1.0 / norms
     Xs = X * scale[None, :]
     _, s, vt = np.linalg.svd(Xs, full_matrices=False)
     if s[-1] <= s[0] * 1e-14:
@@ -137,24 +147,110 @@ class StochasticAnalysis:
     max_normalised: np.ndarray    # max |X̃_j| over the window, MPa
 
 
+def _zero_valued(X: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """True for parameters whose value is zero for the normalised analysis (|β_j|·|X_j| below
+    ZERO_VALUE of the largest): Err and X̃ are undefined or zero for them."""
+    weight = np.abs(values) * np.linalg.norm(X, axis=0)
+    return ~(weight > ZERO_VALUE * weight.max()) if weight.size else np.zeros(0, bool)
+
+
 def analyse(X: np.ndarray, names: Sequence[str], values: Sequence[float],
             sigma0: float) -> StochasticAnalysis:
-    """Δ, Err, ρ, Δ̃ and the conditioning from X (eq. 32-35, 37)."""
+    """Δ, Err, ρ, Δ̃ and the conditioning from X (eq. 32-35, 37).
+
+    A parameter whose value is zero (e.g. G = 0 on its lower bound) keeps its sd and correlations;
+    its Err (eq. 33) is undefined (NaN) and it is left out of the condition number of X̃ᵀX̃ (its
+    normalised column X̃ = 0 · X is zero)."""
     values = np.asarray(values, dtype=float)
     Xn = normalised(X, values)
     unit = covariance(X, 1.0, values)      # (XᵀX)⁻¹: ρ does not depend on sigma0
     delta = sigma0**2 * unit
+    zero = _zero_valued(X, values)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        err = np.where(zero, np.nan, relative_errors(delta, values))
     dt = correlation(unit)
-    np.fill_diagonal(dt, relative_errors(delta, values))
+    np.fill_diagonal(dt, err)
     return StochasticAnalysis(
         names=list(names), values=values, X=X, Xn=Xn, covariance=delta,
-        sd=standard_deviations(delta), err=relative_errors(delta, values),
+        sd=standard_deviations(delta), err=err,
         correlation=correlation(unit), delta_tilde=dt,
-        condition_number=condition_number(Xn), max_normalised=np.max(np.abs(Xn), axis=0))
+        condition_number=condition_number(Xn[:, ~zero]) if (~zero).any() else float("inf"),
+        max_normalised=np.max(np.abs(Xn), axis=0))
 
 
-def identifiability_warnings(a: StochasticAnalysis) -> list[str]:
-    """Warnings to read before sampling: near-collinear columns, negligible sensitivities."""
+def analyse_holding(X: np.ndarray, names: Sequence[str], values: Sequence[float], sigma0: float,
+                    held: Sequence[str]) -> StochasticAnalysis:
+    """The analysis of the parameters not in ``held``, those held at their values (parameters on a
+    bound of their prior: an active constraint). Δ, Err, ρ and Δ̃ of the others are conditional on
+    the held values; the held parameters' rows and columns are NaN (they have no linearized sd).
+    Raises numpy.linalg.LinAlgError when the others are not identifiable either."""
+    names = list(names)
+    values = np.asarray(values, dtype=float)
+    keep = np.array([k not in held for k in names])
+    if not keep.any():
+        raise np.linalg.LinAlgError("every free parameter is on a bound")
+    sub = analyse(X[:, keep], [k for k, f in zip(names, keep, strict=True) if f], values[keep], sigma0)
+    p = len(names)
+    idx = np.flatnonzero(keep)
+
+    def full(m: np.ndarray) -> np.ndarray:
+        out = np.full((p, p), np.nan)
+        out[np.ix_(idx, idx)] = m
+        return out
+
+    def vec(v: np.ndarray) -> np.ndarray:
+        out = np.full(p, np.nan)
+        out[idx] = v
+        return out
+
+    corr = full(sub.correlation)
+    np.fill_diagonal(corr, 1.0)
+    Xn = normalised(X, values)
+    return StochasticAnalysis(
+        names=names, values=values, X=X, Xn=Xn, covariance=full(sub.covariance), sd=vec(sub.sd),
+        err=vec(sub.err), correlation=corr, delta_tilde=full(sub.delta_tilde),
+        condition_number=sub.condition_number, max_normalised=np.max(np.abs(Xn), axis=0))
+
+
+def bound_side(value: float, low: float, high: float) -> str | None:
+    """"lower" or "upper" when ``value`` sits on that bound of its prior (within 1e-6 of the prior's
+    width, or of the bound's magnitude for a half-open prior), else None."""
+    width = high - low if math.isfinite(low) and math.isfinite(high) else 0.0
+    for side, b in (("lower", low), ("upper", high)):
+        if math.isfinite(b):
+            tol = 1e-6 * max(width, abs(b), 1e-300)
+            if abs(value - b) <= tol:
+                return side
+    return None
+
+
+def bound_warning(name: str, value: float, low: float, high: float, side: str, held: bool) -> str:
+    """The fit warning for a parameter on a bound of its prior: which bound, what it means for the
+    stochastic analysis, what to do."""
+    b = low if side == "lower" else high
+    shown = f"{b:g}" if abs(value - b) <= 1e-9 * max(abs(high - low), abs(b), 1e-300) else f"{value:.6g}"
+    text = (f"{name} = {shown} (its {side} bound; prior [{low:g}, {high:g}]): the data push {name} "
+            f"{'below' if side == 'lower' else 'above'} what the prior allows, a constrained optimum. ")
+    if held:
+        text += (f"The stochastic analysis holds {name} there: the sd, Err and Δ̃ of the other "
+                 f"parameters are conditional on {name} = {shown}, and {name} has none. ")
+    else:
+        text += "Its linearized sd and Δ̃ describe the unconstrained curvature only. "
+    if side == "lower":
+        text += (f"If {name} = {b:g} is physical, fix it (parameters.{name}: {{value: {b:g}}}); if not, "
+                 "the model or the window does not describe these data (read the residuals)")
+    else:
+        text += (f"If larger values are physical, raise parameters.{name}.high; else fix {name} or "
+                 "read the residuals for a model or window problem")
+    return text
+
+
+def identifiability_warnings(a: StochasticAnalysis, held: Sequence[str] = ()) -> list[str]:
+    """Warnings to read before sampling: near-collinear columns, negligible sensitivities.
+
+    A parameter in ``held`` (on a bound: it has its own warning) or with the value zero gets no
+    negligible-sensitivity or Err warning: both are relative to its value. A sensitivity is called
+    negligible only for a parameter that is also poorly determined (Err > NEGLIGIBLE_ERR)."""
     out: list[str] = []
     if not a.condition_number < CONDITION_WARN:
         out.append(f"the normalised information matrix X̃ᵀX̃ is ill-conditioned (condition number "
@@ -170,13 +266,14 @@ def identifiability_warnings(a: StochasticAnalysis) -> list[str]:
                     "correlated; their sensitivities are nearly proportional over most of the window. "
                     "The paper finds ρ(E, tau_max) ≈ -0.9988 on the whole curve and still identifies "
                     "both (Err ≈ 1.4 %); check Err and the multi-start outcome before trusting them")
+    skip = set(held) | {k for k, e in zip(a.names, a.err, strict=True) if not np.isfinite(e)}
     top = float(np.max(a.max_normalised)) if a.max_normalised.size else 0.0
-    for k, m in zip(a.names, a.max_normalised, strict=True):
-        if top > 0 and m < NEGLIGIBLE_SENSITIVITY * top:
+    for k, m, e in zip(a.names, a.max_normalised, a.err, strict=True):
+        if k not in skip and top > 0 and m < NEGLIGIBLE_SENSITIVITY * top and e > NEGLIGIBLE_ERR:
             out.append(f"the normalised sensitivity to {k} is negligible on this window (max |X̃| = "
-                       f"{m:.3g} MPa, {100 * m / top:.1f} % of the largest): fix {k} (value: ...) or "
-                       "widen the window (paper 4.2: G on interval I)")
+                       f"{m:.3g} MPa, {100 * m / top:.1f} % of the largest; Err({k}) = {100 * e:.0f} %): "
+                       f"fix {k} (value: ...) or widen the window (paper 4.2: G on interval I)")
     for k, e in zip(a.names, a.err, strict=True):
-        if e > RELATIVE_ERROR_WARN:
+        if k not in skip and e > RELATIVE_ERROR_WARN:
             out.append(f"Err({k}) = {100 * e:.0f} %: {k} is poorly determined by these data")
     return out

@@ -118,6 +118,18 @@ def fit_is_current(cfg: Config, data_sha256: str | None = None) -> bool:
     return _stale_reason(saved, cfg, sha) is None
 
 
+def stale_fit_reason(cfg: Config, data_sha256: str) -> str | None:
+    """Why an existing ``cfg.run_dir/fit.json`` does not belong to this config and data (None when
+    there is none or it does)."""
+    path = _fit_path(cfg.run_dir)
+    if not path.exists():
+        return None
+    try:
+        return _stale_reason(json.loads(path.read_text()), cfg, data_sha256)
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        return f"an unreadable file ({err})"
+
+
 def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) -> FitResult | JointFitResult:
     """Least-squares fit of the configured test(s); writes ``cfg.run_dir/fit.json`` (unless
     write=False). Returns a FitResult, or a JointFitResult for a run with ``tests:``.
@@ -131,11 +143,7 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
         test = load_tests(cfg)
     path = _fit_path(cfg.run_dir)
     if write and not overwrite and path.exists():
-        try:
-            saved = json.loads(path.read_text())
-            reason = _stale_reason(saved, cfg, test.sha256)
-        except (json.JSONDecodeError, UnicodeDecodeError) as err:
-            reason = f"an unreadable file ({err})"
+        reason = stale_fit_reason(cfg, test.sha256)
         if reason is not None:
             raise RunError(f"{path} exists and was made from {reason}; pass --force "
                            "(overwrite=True) to replace it")

@@ -170,15 +170,23 @@ def _current_fit(cfg: Config, test, *, replace: bool, progress: bool) -> dict[st
     """fit.json for this config and data, running the fit when it is missing. A fit.json made from
     another config or data is replaced only when ``replace`` (sample --restart): never silently."""
     from bayes_dnlr.pipeline.fit import fit as run_fit
-    from bayes_dnlr.pipeline.fit import fit_is_current, load_fit
+    from bayes_dnlr.pipeline.fit import fit_is_current, load_fit, stale_fit_reason
 
     if not fit_is_current(cfg, test.sha256):
+        reason = None if replace else stale_fit_reason(cfg, test.sha256)
+        if reason is not None:
+            path = cfg.run_dir / "fit.json"
+            config = cfg.source if cfg.source is not None else "<config.yaml>"
+            chain = ("the chain in chains.h5 still matches the config and is kept"
+                     if (cfg.run_dir / CHAINS_FILE).exists() else "nothing is lost")
+            raise RunError(
+                f"{path} was made from {reason}, and `sample` does not replace a fit silently. Redo "
+                f"the fit with `python -m bayes_dnlr fit --force {config}`, then run `sample` again "
+                f"({chain}); or `sample --restart`, which redoes the fit and also discards this run's "
+                "chain")
         if progress:
             print("fit.json missing or stale: running the least-squares fit first", file=sys.stderr)
-        try:
-            run_fit(cfg, overwrite=replace, test=test)
-        except RunError as err:
-            raise RunError(f"{err}; or sample --restart, which also discards this run's chain") from None
+        run_fit(cfg, overwrite=replace, test=test)
     return load_fit(cfg.run_dir)
 
 

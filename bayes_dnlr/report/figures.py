@@ -5,7 +5,8 @@
 - ``fit_plot``: data, posterior-median model and 90 % bands, residuals below (paper Figs 6-10).
 - ``sensitivity_plot``: normalised sensitivities X̃_j = β_j ∂σ/∂β_j (eq. 37) against strain (Fig. 11).
 - ``sensitivity_xy_plot``: X̃(E) against X̃(tau_max) (Fig. 12).
-- ``trace_plot`` / ``rank_plot``: ArviZ trace and rank plots of the walkers.
+- ``trace_plot``: the walkers' draws and marginal densities (names and units on every panel).
+- ``rank_plot``: ArviZ rank plot (Δ-ECDF of fractional ranks and the multi-chain uniformity test).
 - ``acf_plot``: autocorrelation of the residuals (white fit, and whitened by the discrepancy).
 """
 
@@ -134,17 +135,73 @@ def corner_plot(samples: np.ndarray, names: Sequence[str], path: Path,
     return _save(fig, path)
 
 
+# candidate places (axes fractions: x0, y0, width, height) for the zoom inset and the legend
+INSET_SIZE = (0.35, 0.40)
+INSET_SPOTS = ((0.07, 0.53), (0.33, 0.53), (0.60, 0.53), (0.60, 0.07), (0.33, 0.07), (0.60, 0.30))
+LEGEND_SPOTS = {"lower right": (0.55, 0.0, 0.45, 0.30), "upper left": (0.0, 0.70, 0.45, 0.30),
+                "upper right": (0.55, 0.70, 0.45, 0.30), "lower left": (0.0, 0.0, 0.45, 0.30),
+                "center right": (0.55, 0.35, 0.45, 0.30)}
+
+
+def _axes_fractions(ax, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Points (n, 2) of data coordinates in axes fractions (after autoscaling)."""
+    ax.autoscale_view()
+    pts = np.column_stack([x, y])
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    return (ax.transData + ax.transAxes.inverted()).transform(pts) if pts.size else pts.reshape(0, 2)
+
+
+def covered(frac: np.ndarray, box: tuple[float, float, float, float], pad: float = 0.02) -> int:
+    """How many points (axes fractions) fall inside ``box`` (x0, y0, w, h) grown by ``pad``."""
+    x0, y0, w, h = box
+    inside = ((frac[:, 0] >= x0 - pad) & (frac[:, 0] <= x0 + w + pad)
+              & (frac[:, 1] >= y0 - pad) & (frac[:, 1] <= y0 + h + pad))
+    return int(inside.sum())
+
+
+def _overlap(a: tuple[float, ...], b: tuple[float, ...]) -> bool:
+    return not (a[0] + a[2] <= b[0] or b[0] + b[2] <= a[0] or a[1] + a[3] <= b[1] or b[1] + b[3] <= a[1])
+
+
+def place_inset(ax, x: np.ndarray, y: np.ndarray) -> tuple[float, float, float, float]:
+    """An inset box (axes fractions) over no data: the emptiest candidate spot; when every spot
+    holds data, the y-axis is extended upwards so that the top spots are empty."""
+    w, h = INSET_SIZE
+    frac = _axes_fractions(ax, x, y)
+    spots = [(x0, y0, w, h) for x0, y0 in INSET_SPOTS]
+    counts = [covered(frac, b) for b in spots]
+    best = int(np.argmin(counts))
+    if counts[best] > 0:
+        lo, hi = ax.get_ylim()
+        ax.set_ylim(lo, hi + (hi - lo) * (h + 0.08) / (1.0 - h - 0.08))   # the data below the top spots
+        frac = _axes_fractions(ax, x, y)
+        counts = [covered(frac, b) for b in spots]
+        best = int(np.argmin(counts))
+    return spots[best]
+
+
+def place_legend(ax, x: np.ndarray, y: np.ndarray, avoid: tuple[float, ...] | None = None) -> dict:
+    """Keyword arguments of ``ax.legend``: an empty corner not overlapping ``avoid``, else above the
+    axes (every corner holds data)."""
+    frac = _axes_fractions(ax, x, y)
+    for loc, box in LEGEND_SPOTS.items():
+        if (avoid is None or not _overlap(box, avoid)) and covered(frac, box, pad=0.0) == 0:
+            return {"loc": loc}
+    return {"loc": "lower left", "bbox_to_anchor": (0.0, 1.01), "ncol": 2, "borderaxespad": 0.0}
+
+
 def fit_plot(x: np.ndarray, data: np.ndarray, path: Path, *, window: np.ndarray,
              median: np.ndarray | None = None, band: tuple[np.ndarray, np.ndarray] | None = None,
              predictive: tuple[np.ndarray, np.ndarray] | None = None,
              gn_curve: np.ndarray | None = None, sigma0: float | None = None,
              xlabel: str = r"true strain $\varepsilon_{11}$", inset_xmax: float | None = None,
-             discrepancy: np.ndarray | None = None) -> Path:
+             inset_title: str | None = None, discrepancy: np.ndarray | None = None) -> Path:
     """Data and model (paper Figs 6-10) with the residuals below.
 
     median: pointwise posterior median of the model curve; band: its 90 % credible band;
     predictive: the 90 % posterior predictive band (model + noise σ0); gn_curve: the least-squares
     fit, used for the residuals when there is no posterior. Points outside ``window`` are grey.
+    ``inset_xmax``: a zoom on x <= inset_xmax, placed where it hides no data (the legend too).
     discrepancy: the posterior mean of the model discrepancy δ on the window (drawn on the residuals).
     """
     plt = _plt()
@@ -166,11 +223,15 @@ def fit_plot(x: np.ndarray, data: np.ndarray, path: Path, *, window: np.ndarray,
     if gn_curve is not None:
         ax.plot(x, gn_curve, color=C_GN, lw=1.0, ls="--", label="least-squares fit (Gauss-Newton)")
     ax.set_ylabel("true stress (MPa)")
-    ax.legend(loc="lower right", fontsize=9, frameon=False)
     ax.grid(alpha=0.3)
-    if inset_xmax is not None and centre is not None:
-        ins = ax.inset_axes([0.08, 0.5, 0.35, 0.42])
-        sel = x <= inset_xmax
+    # what the inset and the legend must not hide: the data and the model curves
+    ys = [data] + [c for c in (centre, *(predictive or ())) if c is not None]
+    px, py = np.concatenate([x] * len(ys)), np.concatenate(ys)
+    box = None
+    sel = x <= inset_xmax if inset_xmax is not None else None
+    if sel is not None and centre is not None and int(sel.sum()) >= 3:
+        box = place_inset(ax, px, py)
+        ins = ax.inset_axes(list(box))
         ins.plot(x[sel & window], data[sel & window], ".", color=C_DATA, ms=2.5)
         if predictive is not None:
             ins.fill_between(x[sel], predictive[0][sel], predictive[1][sel], color=C_MODEL, alpha=0.15, lw=0)
@@ -178,7 +239,9 @@ def fit_plot(x: np.ndarray, data: np.ndarray, path: Path, *, window: np.ndarray,
         ins.set_xlim(x[sel].min(), inset_xmax)
         ins.tick_params(labelsize=8)
         ins.grid(alpha=0.3)
-        ins.set_title(f"zoom: strain up to {inset_xmax:g} (the paper's interval I)", fontsize=8)
+        ins.set_title(inset_title or f"zoom: x up to {inset_xmax:g}", fontsize=8)
+    ax.legend(**place_legend(ax, px, py, box), fontsize=9, frameon=True, framealpha=0.85,
+              edgecolor="none")
     if centre is not None:
         r = data - centre
         axr.plot(x[window], r[window], ".", color=C_DATA, ms=2.0, zorder=3)
@@ -247,33 +310,49 @@ def sensitivity_plot(strain: np.ndarray, sens: Mapping[str, np.ndarray], path: P
     return _save(fig, path)
 
 
-def sensitivity_xy_plot(x_tau: np.ndarray, x_e: np.ndarray, strain: np.ndarray, path: Path,
-                        mark_strain: float = 0.13) -> Path:
-    """X̃(E) against X̃(tau_max) coloured by strain (Fig. 12); a straight line through the origin
-    would mean E and tau_max cannot be told apart. The point at ``mark_strain`` is marked; the right
-    panel zooms on the rest of the test, where the two sensitivities part (the paper's insert)."""
+def sensitivity_xy_plot(x_tau: np.ndarray, x_e: np.ndarray, colour: np.ndarray, path: Path, *,
+                        colour_label: str = r"strain $\varepsilon_{11}$", zoom: np.ndarray | None = None,
+                        zoom_title: str = "", mark: int | None = None, mark_label: str = "",
+                        log_colour: bool = False) -> Path:
+    """X̃(E) against X̃(tau_max) coloured by ``colour`` (strain or time, ``log_colour``: on a log
+    scale; Fig. 12); a straight line
+    through the origin would mean E and tau_max cannot be told apart. The sample ``mark`` (an
+    index) is circled; a right panel zooms on the samples where ``zoom`` is True (the paper's
+    insert: the part of the test where the two sensitivities part), when it holds 3 or more."""
     plt = _plt()
-    from matplotlib.colors import Normalize
+    from matplotlib.colors import LogNorm, Normalize
 
-    fig, axes = plt.subplots(1, 2, figsize=(10.5, 4.4), gridspec_kw={"wspace": 0.45})
-    zoom = mark_strain
-    for ax, sel in ((axes[0], np.ones(strain.size, bool)), (axes[1], strain >= 0.8 * zoom)):
-        norm = Normalize(float(np.min(strain[sel])), float(np.max(strain[sel])))
-        sc = ax.scatter(x_tau[sel], x_e[sel], c=strain[sel], s=4, cmap="viridis", norm=norm)
-        fig.colorbar(sc, ax=ax, label=r"strain $\varepsilon_{11}$", shrink=0.9, pad=0.02)
-        k = int(np.argmin(np.abs(strain - mark_strain)))
-        if sel[k]:
-            ax.plot(x_tau[k], x_e[k], "o", mfc="none", mec=C_MODEL, ms=9, mew=1.5)
-            ax.annotate(rf"$\varepsilon$ = {mark_strain:g}", (x_tau[k], x_e[k]), textcoords="offset points",
-                        xytext=(-70, -14), color=C_MODEL, fontsize=9)
-        if ax is axes[0]:
+    x_tau, x_e, colour = (np.asarray(v, dtype=float) for v in (x_tau, x_e, colour))
+    positive = colour[colour > 0]
+    log_colour = log_colour and positive.size > 0
+    if log_colour:                    # a time axis starting at 0: the first sample at the next one
+        colour = np.maximum(colour, positive.min())
+    n = colour.size
+    panels = [(np.ones(n, bool), "whole window" if zoom is not None else "")]
+    if zoom is not None and int(np.count_nonzero(zoom)) >= 3:
+        panels.append((np.asarray(zoom, bool), zoom_title))
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.25 * len(panels), 4.4),
+                             gridspec_kw={"wspace": 0.45}, squeeze=False)
+    for k, (ax, (sel, title)) in enumerate(zip(axes[0], panels, strict=True)):
+        lo, hi = float(np.min(colour[sel])), float(np.max(colour[sel]))
+        norm = (LogNorm if log_colour else Normalize)(lo, hi if hi > lo else lo * 2.0 + 1.0)
+        sc = ax.scatter(x_tau[sel], x_e[sel], c=colour[sel], s=4, cmap="viridis", norm=norm)
+        fig.colorbar(sc, ax=ax, label=colour_label, shrink=0.9, pad=0.02)
+        if mark is not None and 0 <= mark < n and sel[mark]:
+            ax.plot(x_tau[mark], x_e[mark], "o", mfc="none", mec=C_MODEL, ms=9, mew=1.5)
+            left = x_tau[mark] <= np.median(x_tau[sel])
+            low = x_e[mark] <= np.median(x_e[sel])
+            ax.annotate(mark_label, (x_tau[mark], x_e[mark]), textcoords="offset points",
+                        xytext=(9 if left else -9, 8 if low else -14), color=C_MODEL, fontsize=9,
+                        ha="left" if left else "right")
+        if k == 0:
             ax.axhline(0, color="k", lw=0.5)
             ax.axvline(0, color="k", lw=0.5)
         ax.set_xlabel(r"$\tilde X(\tau_{max})$ (MPa)")
         ax.set_ylabel(r"$\tilde X(E)$ (MPa)")
         ax.grid(alpha=0.3)
-    axes[0].set_title("whole test", fontsize=10)
-    axes[1].set_title(rf"zoom on $\varepsilon \geq$ {zoom:g} (after the rise)", fontsize=10)
+        if title:
+            ax.set_title(title, fontsize=10)
     return _save(fig, path)
 
 
@@ -298,28 +377,66 @@ def _posterior_tree(draws: Mapping[str, np.ndarray], max_chains: int | None, max
     return az.from_dict({"posterior": out})
 
 
-def trace_plot(draws: Mapping[str, np.ndarray], path: Path, max_draws: int = 1000) -> Path:
-    """ArviZ trace and marginal plot of every walker (draws thinned to ``max_draws`` per walker)."""
-    import arviz as az
+def trace_plot(draws: Mapping[str, np.ndarray], path: Path, max_draws: int = 1000, groups: int = 8,
+               step: float = 1.0) -> Path:
+    """Trace plot of every walker (right) and the marginal density (left), one row per parameter,
+    with names and units on every panel.
 
+    Left: the density of all kept draws (grey) and of the walkers pooled into ``groups`` groups
+    (thin lines): groups that disagree mean the chain is not converged. Right: each walker's kept
+    draws against the step after burn-in (thinned to at most ``max_draws`` per walker; ``step``:
+    steps between stored draws)."""
     plt = _plt()
-    dt = _posterior_tree(draws, None, max_draws)
-    pc = az.plot_trace_dist(dt, sample_dims=["chain", "draw"], compact=True)
-    pc.savefig(str(path), dpi=DPI, bbox_inches="tight")
-    plt.close("all")
-    return Path(path)
+    names = list(draws)
+    fig, axes = plt.subplots(len(names), 2, figsize=(11.0, 2.3 * len(names) + 0.6), squeeze=False,
+                             gridspec_kw={"width_ratios": [1.0, 1.6], "hspace": 0.55, "wspace": 0.22})
+    cmap = plt.get_cmap("tab10")
+    for row, name in zip(axes, names, strict=True):
+        v = np.asarray(draws[name], dtype=float)          # (walker, draw)
+        label = LABELS.get(name, name)
+        unit = label[label.rfind("(") + 1: label.rfind(")")] if "(" in label else ""
+        ad, at = row
+        flat = v[np.isfinite(v)]
+        lo, hi = (float(np.min(flat)), float(np.max(flat))) if flat.size else (0.0, 1.0)
+        if not hi > lo:
+            lo, hi = lo - max(abs(lo) * 1e-6, 1e-12), hi + max(abs(hi) * 1e-6, 1e-12)
+        parts = np.array_split(np.arange(v.shape[0]), min(groups, v.shape[0]))
+        per_group = min(idx.size for idx in parts) * v.shape[1]
+        bins = int(np.clip(np.sqrt(per_group), 8, 40))       # a group's histogram is not all noise
+        edges = np.linspace(lo, hi, bins + 1)
+        ad.hist(flat, bins=edges, density=True, color="0.8", label="all walkers")
+        for g, idx in enumerate(parts):
+            h, _ = np.histogram(v[idx].ravel(), bins=edges, density=True)
+            ad.stairs(h, edges, color=cmap(g % 10), lw=0.9, alpha=0.9)
+        ad.set_xlabel(label)
+        ad.set_ylabel(f"density (1/{unit})" if unit else "density")
+        ad.grid(alpha=0.3)
+        thin = max(1, int(math.ceil(v.shape[1] / max_draws)))
+        vt = v[:, ::thin]
+        xs = np.arange(vt.shape[1]) * thin * step
+        for w in range(vt.shape[0]):
+            at.plot(xs, vt[w], lw=0.5, alpha=0.45, color=cmap(w % 10))
+        at.set_ylabel(label)
+        at.set_xlabel("step after burn-in")
+        at.grid(alpha=0.3)
+    axes[0, 0].set_title(f"marginal density: all walkers (grey), {len(parts)} walker groups (lines)",
+                         fontsize=9)
+    axes[0, 1].set_title("kept draws of every walker", fontsize=9)
+    return _save(fig, path)
 
 
 def rank_plot(draws: Mapping[str, np.ndarray], path: Path, groups: int = 8, max_draws: int = 400,
               thin: int = 1) -> Path:
-    """ArviZ rank (ECDF difference) plot. Walkers are thinned by ``thin`` (pass the autocorrelation
-    time: the envelope assumes independent draws), pooled into ``groups`` groups, and at most
-    ``max_draws`` draws per group are kept (the envelope costs seconds per thousand draws)."""
+    """ArviZ rank plot: per walker group, the ECDF of the fractional ranks minus the uniform one,
+    with ArviZ's multi-chain uniformity test (its p-value against α, and the ranks that deviate
+    most marked). Walkers are thinned by ``thin`` (pass the autocorrelation time), pooled into
+    ``groups`` groups, and at most ``max_draws`` draws per group are kept (the test costs seconds
+    per thousand draws)."""
     import arviz as az
 
     plt = _plt()
     dt = _posterior_tree(draws, groups, max_draws, thin)
-    pc = az.plot_rank(dt, sample_dims=["chain", "draw"])
+    pc = az.plot_rank(dt, sample_dims=["chain", "draw"], visuals={"remove_axis": False})
     pc.savefig(str(path), dpi=DPI, bbox_inches="tight")
     plt.close("all")
     return Path(path)

@@ -17,13 +17,14 @@ from pathlib import Path
 import numpy as np
 
 from bayes_dnlr import __version__
+from bayes_dnlr.inference.plausibility import plausibility_warnings
 from bayes_dnlr.report import figures as figs
 from bayes_dnlr.report import noise as rn
 from bayes_dnlr.report import tables as tb
+from bayes_dnlr.report import views
 from bayes_dnlr.report.tables import RunResults, fmt, load_run
 
 N_DRAWS = 200          # posterior draws pushed through the model for the bands
-INTERVAL_I = 0.13      # the paper's interval I (strain at yield), marked on Fig. 12
 
 
 @dataclass
@@ -139,7 +140,7 @@ h1{font-size:1.7em;margin:0 0 4px}h2{font-size:1.3em;margin:34px 0 10px;border-b
 padding-bottom:4px}h3{font-size:1.05em;margin:20px 0 6px}
 .meta{color:#666;font-size:.9em;margin-bottom:18px}
 .box{background:#f5f7fa;border:1px solid #dde3ea;border-radius:6px;padding:12px 16px;margin:14px 0}
-.warn{background:#fff6e5;border-color:#f0c36d}.ok{background:#eef8f0;border-color:#a6d8b0}
+.warn{background:#fff6e5;border-color:#f0c36d}.bad{color:#a61b1b;font-weight:600}.ok{background:#eef8f0;border-color:#a6d8b0}
 table{border-collapse:collapse;margin:10px 0 6px;font-size:.92em}
 caption{text-align:left;font-weight:600;padding:4px 0;color:#333}
 th,td{border:1px solid #d8dde3;padding:4px 9px}thead th{background:#eef1f5}
@@ -193,6 +194,9 @@ def _headline(run: RunResults, std: dict | None) -> str:
         iso = std["iso527_1"].modulus
     if iso is not None and e:
         parts.append(f"ISO 527-1 on the same curve: {fmt(iso)} MPa, {iso / e:.2f} × E.")
+    above = tb.standards_above_e(run, std)
+    if above:
+        parts.append(f'<span class="bad">{html.escape(above)}</span>')
     de, de_sd, _ = tb.deborah(run)
     if de is not None:
         parts.append(f"De<sub>max</sub> = τ<sub>max</sub>·ε̇ = {fmt(de, 3)} (eq. 45).")
@@ -208,6 +212,14 @@ def _warnings(run: RunResults) -> list[str]:
     for src in (run.fit, run.summary):
         if src:
             out += [str(w) for w in src.get("warnings") or [] if str(w) not in out]
+    point = run.point()
+    post = (run.summary or {}).get("posterior") or {}
+    if post:      # the posterior medians too: a fit.json made before the check, or a shifted posterior
+        point = {**point, **{k: v["median"] for k, v in post.items() if k in ("E", "G")}}
+    for w in plausibility_warnings(point):
+        kind = w.split("=")[0]          # "3G ": one warning of each kind, the fit's when it has one
+        if not any(x.startswith(kind) for x in out):
+            out.append(w)
     post = (run.summary or {}).get("posterior") or {}
     for k, v in post.items():
         rh, ess = v.get("r_hat"), v.get("ess_bulk")
@@ -328,14 +340,16 @@ def build_report(run_dir: Path | str) -> Path:
     # 4. fit and residuals
     sec.append("<h2>4. Fit and residuals</h2>")
     if curves is not None:
-        inset = None if run.test.relaxation_start is not None else INTERVAL_I
+        inset = views.fit_inset(curves.x, run.test.relaxation_start)
         centre = curves.median if curves.median is not None else curves.gn_curve
         disc = (rn.discrepancy_on_window(run, centre[curves.window])
                 if centre is not None and run.uses_discrepancy else None)
         p = figs.fit_plot(curves.x, curves.data, figdir / "fit.png", window=curves.window,
                           median=curves.median, band=curves.band, predictive=curves.predictive,
                           gn_curve=curves.gn_curve, sigma0=run.sigma0(), xlabel=curves.xlabel,
-                          inset_xmax=inset, discrepancy=None if disc is None else disc.mean)
+                          inset_xmax=inset.xmax if inset else None,
+                          inset_title=inset.title if inset else None,
+                          discrepancy=None if disc is None else disc.mean)
         n_used = min(N_DRAWS, next(iter(run.draws.values())).size) if run.draws else 0
         noise_txt = "model + discrepancy δ + noise σ0" if run.uses_discrepancy else "model + noise σ0"
         what = (f"the posterior median of the model over {n_used} posterior draws, its 90 % credible band "
@@ -344,7 +358,8 @@ def build_report(run_dir: Path | str) -> Path:
         if disc is not None:
             what += "; green on the residuals: the posterior mean of the model discrepancy δ"
         sec.append(_img(p, "fit and residuals", (
-            f"Data (grey dots) and {what}; the dashed blue line is the least-squares fit. Residuals "
+            f"Data (grey dots) and {what}; the dashed blue line is the least-squares fit"
+            + (f"; {inset.caption}" if inset else "") + ". Residuals "
             "(data - model) below, with ±σ0 dotted: without model bias they scatter evenly around zero "
             "(paper Figs 6-10).")))
     else:
@@ -369,18 +384,14 @@ def build_report(run_dir: Path | str) -> Path:
             "Normalised sensitivities X̃<sub>j</sub> = β<sub>j</sub> ∂σ/∂β<sub>j</sub> (eq. 37, MPa) at the "
             "least-squares estimate (paper Fig. 11). Parameters are identifiable where their curves differ "
             "in shape; proportional curves mean correlated parameters.")))
-        s = curves.sensitivities
-        if "E" in s and "tau_max" in s:
-            tens = curves.strain if run.test.relaxation_start is None else curves.strain
-            keep = np.ones(tens.size, bool)
-            if run.test.relaxation_start is not None:
-                keep = run.test.time[: tens.size] <= run.test.relaxation_start
-            p = figs.sensitivity_xy_plot(s["tau_max"][keep], s["E"][keep], tens[keep],
-                                         figdir / "sensitivity_xy.png", mark_strain=INTERVAL_I)
-            sec.append(_img(p, "X(E) against X(tau_max)", (
-                "X̃(E) against X̃(τ<sub>max</sub>) along the tensile test (paper Fig. 12). A straight "
-                "line through the origin would make E and τ<sub>max</sub> impossible to separate; "
-                "the bend near ε = 0.13 (right: zoom) is what identifies them.")))
+        view = views.xy_view(curves.sensitivities, curves.strain, run.test.time,
+                             run.test.relaxation_start)
+        if view is not None:
+            p = figs.sensitivity_xy_plot(view.x_tau, view.x_e, view.colour, figdir / "sensitivity_xy.png",
+                                         colour_label=view.colour_label, zoom=view.zoom,
+                                         zoom_title=view.zoom_title, mark=view.mark,
+                                         mark_label=view.mark_label, log_colour=view.log_colour)
+            sec.append(_img(p, "X(E) against X(tau_max)", view.caption))
 
     # 7. standards, Deborah, cross-checks
     sec.append("<h2>7. Standards, Deborah number and independent measurements</h2>")
@@ -399,16 +410,22 @@ def build_report(run_dir: Path | str) -> Path:
         model_draws = {n: run.draws[n] for n in run.names if n in run.draws}
         p = figs.trace_plot(model_draws, figdir / "trace.png")
         sec.append(_img(p, "trace plot", (
-            "ArviZ trace plot: marginal density per walker (left) and the kept draws per walker (right). "
-            "Walkers that wander off or densities that disagree mean the chain is not converged.")))
+            "Trace plot, one row per parameter. Left: the marginal density of all kept draws (grey) and "
+            "of the walkers pooled into 8 groups (lines); right: the kept draws of every walker against "
+            "the step after burn-in. Walkers that wander off, stay flat (stuck) or groups whose "
+            "densities disagree mean the chain is not converged.")))
         tau = (run.summary or {}).get("autocorr_time")
-        thin = int(np.ceil(max(tau.values()))) if isinstance(tau, dict) and tau else 1
+        taus = [float(v) for v in (tau.values() if isinstance(tau, dict) else [tau])
+                if isinstance(v, int | float) and np.isfinite(v)]
+        thin = max(1, int(np.ceil(max(taus)))) if taus else 1
         p = figs.rank_plot(model_draws, figdir / "rank.png", thin=thin)
         sec.append(_img(p, "rank plot", (
             f"ArviZ rank plot: walkers thinned by their autocorrelation time ({thin} steps) and pooled "
-            "into 8 groups; the ECDF of each group's ranks minus the uniform one. Lines inside the "
-            "envelope (p above α) mean the groups sample the same distribution; emcee walkers are not "
-            "independent chains, so read an excursion as a hint, not a proof.")))
+            "into 8 groups; each line is the ECDF of one group's fractional ranks minus the uniform "
+            "one (flat near zero when the groups sample the same distribution). Above each panel, "
+            "ArviZ's multi-chain uniformity test: p above α means no evidence that the groups differ "
+            "(the ranks that drive a deviation are marked, when there are any). emcee walkers are not "
+            "independent chains, so read a small p as a hint, not a proof.")))
 
     elapsed = time.perf_counter() - t0
     files = ", ".join(f for f in ("config.yaml", "fit.json", "summary.json", "posterior.nc", "chains.h5")

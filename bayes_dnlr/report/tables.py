@@ -316,7 +316,11 @@ def parameter_table(run: RunResults) -> Table:
                     fmt(s.get("ess_tail"), 3), fmt(s.get("r_hat"), 4)]
         if gn is not None:
             est, sd = gn["estimate"].get(n), (gn["sd"] or {}).get(n)
-            err = None if est in (None, 0) or sd is None else sd / abs(est)
+            saved_err = (run.fit or {}).get("err")
+            if isinstance(saved_err, dict) and n in saved_err:
+                err = saved_err[n]          # fit's Err: null for a value of zero (e.g. on a bound)
+            else:
+                err = None if est in (None, 0) or sd is None else sd / abs(est)
             row += [fmt_at(est, prec), fmt(sd), pct(err)]
         if truth:
             t = truth.get(n)
@@ -530,13 +534,40 @@ def standards_table(run: RunResults, results: dict | None) -> Table:
         how = _standard_how(r) if r is not None else ("from summary.json" if val is not None
                                                       else "not available")
         ratio = "–" if val is None or not e_mean else f"{val / e_mean:.3f}"
+        if val is not None and e_mean and val > e_mean:
+            ratio += " ⚑"
         rows.append([label[key], fmt(val), ratio, how])
     rows.append([f"E, model ({src})", fmt(e_mean), "1", f"± {fmt(e_sd)} MPa" if e_sd else ""])
     notes = ["Ratio: standard modulus / E. The paper's Table 1 and 4 find 1138 (ISO) and 1141 (ASTM) "
              "against E = 2830 MPa (ratio 0.40) for HDPE at 5 mm/min: the standards measure an apparent "
              "modulus that depends on the test speed, not the instantaneous modulus."]
+    above = standards_above_e(run, results)
+    if above:
+        notes.append("⚑ " + above)
     return Table(["method", "modulus (MPa)", "ratio to E", "how"], rows,
                  "Standards on the same curve against the model's E", notes, css="num")
+
+
+def standards_above_e(run: RunResults, results: dict | None) -> str | None:
+    """A remark when a standard modulus exceeds the model's instantaneous E (None otherwise)."""
+    e_mean, _, src = e_model(run)
+    if not e_mean:
+        return None
+    std = dict((run.summary or {}).get("standards") or {})
+    above = []
+    for key, label in (("iso527_1", "ISO 527-1"), ("astm_d638", "ASTM D638")):
+        val = std.get(key)
+        if val is None and (results or {}).get(key) is not None:
+            val = results[key].modulus
+        if val is not None and val > e_mean:
+            above.append(f"{label} {fmt(val)} MPa")
+    if not above:
+        return None
+    return (f"{' and '.join(above)} above the model's instantaneous E = {fmt(e_mean)} MPa ({src}): a "
+            "modulus measured at a finite strain rate cannot exceed the instantaneous modulus of a "
+            "viscoelastic solid. Either E is underestimated (E and tau_max trade off on this window: "
+            "read ρ(E, tau_max) and Err), or the standard's strain range is distorted (a toe, a cropped "
+            "or preloaded start, few or noisy samples: see how it was computed).")
 
 
 def _standard_how(r) -> str:
@@ -544,7 +575,11 @@ def _standard_how(r) -> str:
     if r.modulus is None:
         return f"not available: {r.reason}"
     lo, hi = r.strain_range
-    text = f"{r.method}, nominal strain {100 * lo:.3f}-{100 * hi:.3f} %, {r.n_points} samples"
+    if r.method == "chord":       # two stresses interpolated at the range's ends, not samples
+        text = (f"chord between the stresses interpolated at nominal strains {100 * lo:.3f} % and "
+                f"{100 * hi:.3f} %")
+    else:
+        text = f"{r.method}, nominal strain {100 * lo:.3f}-{100 * hi:.3f} %, {r.n_points} samples"
     if r.standard == "ASTM D638":
         text += f", corrected zero at {100 * r.corrected_zero:.4f} %"
     return text + (f" ({r.reason})" if r.reason else "")
