@@ -258,6 +258,10 @@ class DiscrepancyConfig(_Strict):
         default="exp", description="exp (Ornstein-Uhlenbeck): measured to keep E identified on real "
                                    "curves where matern32 lets it drift (docs/model-error.md)")
     axis: Literal["time", "strain"] = "time"
+    start: Literal["pinned", "stationary"] = Field(
+        default="stationary", description="pinned: δ = 0 (and, for matern32, δ' = 0) at the test's first "
+                                      "sample, where the specimen is unloaded and the model exact; "
+                                      "stationary: δ has its stationary spread everywhere")
     amplitude: ParameterSpec | None = None
     length: ParameterSpec | None = None
 

@@ -123,3 +123,24 @@ def test_against_celerite2() -> None:
     assert errors[0] > 1e-6                       # the default eps = 0.01 is visibly approximate
     assert errors[0] > errors[1] > errors[2]
     assert errors[2] < 1e-10
+
+
+@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("start", [0.0, 4.0, 5.0])
+def test_pinned_start_equals_the_conditioned_dense_normal(kind, start) -> None:
+    """start: δ = 0 (and δ' = 0 for matern32) at ``start``: the Kalman filter's first state is
+    P∞ - Φ P∞ Φᵀ; the reference conditions the dense covariance on the pinned state."""
+    x = irregular_axis() + 5.0
+    K = gp.covariance(x, 2.0, 12.0, kind, 0.3, start=start)
+    r = np.random.default_rng(8).multivariate_normal(np.zeros(x.size), K)
+    ref = multivariate_normal(np.zeros(x.size), K).logpdf(r)
+    assert gp.log_likelihood(x, r, 0.3, 2.0, 12.0, kind, start=start) == pytest.approx(ref, abs=1e-9)
+    assert gp.log_likelihood_batch(x, r[None], 0.3, 2.0, 12.0, kind, start=start)[0] == pytest.approx(
+        ref, abs=1e-9)
+    W, _ = gp.whiten(x, r, 0.3, 2.0, 12.0, kind, start=start)
+    np.testing.assert_allclose(W, np.linalg.solve(np.linalg.cholesky(K), r), atol=1e-10)
+    mref = (K - 0.09 * np.eye(x.size)) @ np.linalg.solve(K, r)
+    np.testing.assert_allclose(gp.posterior_mean(x, r, 0.3, 2.0, 12.0, kind, start=start), mref,
+                               atol=1e-9)
+    with pytest.raises(ValueError, match="after the first point"):
+        gp.log_likelihood(x, r, 0.3, 2.0, 12.0, kind, start=x[0] + 1.0)

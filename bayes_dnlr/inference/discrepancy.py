@@ -46,6 +46,7 @@ class Axis:
     values: np.ndarray          # sorted
     order: np.ndarray | None
     unit: str                   # s | - (strain)
+    origin: float | None = None  # where δ is pinned to 0 (the test's first sample); None: stationary
 
     @property
     def median_step(self) -> float:
@@ -62,14 +63,31 @@ class Axis:
         return v if self.order is None else v[self.order]
 
 
-def make_axis(kind: str, time: np.ndarray, strain: np.ndarray) -> Axis:
-    """The axis of the compared samples (``time`` and ``strain`` already restricted to them)."""
+def make_axis(kind: str, time: np.ndarray, strain: np.ndarray, origin: float | None = None) -> Axis:
+    """The axis of the compared samples (``time`` and ``strain`` already restricted to them);
+    ``origin``: the test's first sample on this axis, where δ is pinned (None: stationary δ)."""
     x = np.asarray(time if kind == "time" else strain, dtype=float)
     unit = "s" if kind == "time" else "-"
     if np.all(np.diff(x) >= 0):
-        return Axis(kind, np.ascontiguousarray(x), None, unit)
-    order = np.argsort(x, kind="stable")
-    return Axis(kind, np.ascontiguousarray(x[order]), order, unit)
+        xs, order = np.ascontiguousarray(x), None
+    else:
+        order = np.argsort(x, kind="stable")
+        xs = np.ascontiguousarray(x[order])
+    if origin is not None:
+        origin = min(float(origin), float(xs[0]))
+    return Axis(kind, xs, order, unit, origin)
+
+
+def test_axis(spec: DiscrepancyConfig, test, rows) -> Axis:
+    """The discrepancy's axis on the compared samples ``rows`` of a TestData (a mask or indices
+    into its first ``len`` samples), pinned at the test's first sample unless ``start: stationary``."""
+    t = np.asarray(test.time)
+    e = np.asarray(test.strain_input)
+    n = len(rows) if isinstance(rows, np.ndarray) and rows.dtype == bool else test.model_end
+    origin = None
+    if spec.start == "pinned":
+        origin = float(t[0] if spec.axis == "time" else e[0])
+    return make_axis(spec.axis, t[:n][rows], e[:n][rows], origin)
 
 
 @dataclass(frozen=True)
@@ -151,7 +169,8 @@ def whitener(axis: Axis, h: Hyper, kind: str) -> Callable[[np.ndarray], np.ndarr
     """v (window order, (n,) or (n, m)) -> L⁻¹ v in axis order; ``.logdet`` holds log det K."""
 
     def w(v: np.ndarray) -> np.ndarray:
-        out, w.logdet = gp.whiten(axis.values, axis.sort(v), h.sigma0, h.amplitude, h.length, kind)
+        out, w.logdet = gp.whiten(axis.values, axis.sort(v), h.sigma0, h.amplitude, h.length, kind,
+                                  axis.origin)
         return out
 
     w.logdet = float("nan")

@@ -106,6 +106,16 @@ def _predict_cov(kind: int, f00, f01, f10, f11, p00, p01, p11, q0, q1):
 
 
 @njit(cache=True)
+def _initial_cov(kind: int, gap: float, lam: float, q0: float, q1: float):
+    """The state covariance at the first point: stationary (``gap`` = inf), or that of a process
+    pinned to δ = 0 (and δ' = 0) ``gap`` before the first point: P∞ - Φ(gap) P∞ Φ(gap)ᵀ."""
+    if not math.isfinite(gap):
+        return q0, 0.0, q1
+    f00, f01, f10, f11 = _transition(kind, max(gap, 0.0), lam)
+    return _predict_cov(kind, f00, f01, f10, f11, 0.0, 0.0, 0.0, q0, q1)
+
+
+@njit(cache=True)
 def _rate(kind: int, length: float) -> float:
     return 1.0 / length if kind == 0 else math.sqrt(3.0) / length
 
@@ -119,7 +129,7 @@ def _valid(sigma0: float, amplitude: float, length: float) -> bool:
 
 
 @njit(cache=True)
-def _filter(x, V, sigma0, amplitude, length, kind, out, store):
+def _filter(x, V, sigma0, amplitude, length, kind, gap, out, store):
     """Kalman filter of every column of V (n, m) with the same gains.
 
     Writes the normalised innovations (L⁻¹ V) into ``out`` (n, m) and returns log det K. With
@@ -133,9 +143,7 @@ def _filter(x, V, sigma0, amplitude, length, kind, out, store):
     q1 = q0 * lam * lam
     m0 = np.zeros(m)
     m1 = np.zeros(m)
-    p00 = q0
-    p01 = 0.0
-    p11 = q1
+    p00, p01, p11 = _initial_cov(kind, gap, lam, q0, q1)
     d_prev = -1.0
     f00 = f01 = f10 = f11 = 0.0
     logdet = 0.0
@@ -182,7 +190,7 @@ def _filter(x, V, sigma0, amplitude, length, kind, out, store):
 
 
 @njit(cache=True)
-def _loglike(x, r, sigma0, amplitude, length, kind):
+def _loglike(x, r, sigma0, amplitude, length, kind, gap):
     """log N(r | 0, k(x, x) + σ0² I) by the Kalman filter; -inf for invalid hyperparameters.
 
     The hot loop of sampling: no division and no log per sample (log det K accumulates as a
@@ -198,9 +206,7 @@ def _loglike(x, r, sigma0, amplitude, length, kind):
     q1 = q0 * lam * lam
     m0 = 0.0
     m1 = 0.0
-    p00 = q0
-    p01 = 0.0
-    p11 = q1
+    p00, p01, p11 = _initial_cov(kind, gap, lam, q0, q1)
     x_ref = -1.0
     e_ref = 1.0
     quad = 0.0
@@ -243,7 +249,7 @@ _LANES = dict(cache=True, fastmath={"contract", "nsz", "arcp"}, error_model="num
 
 
 @njit(**_LANES)
-def loglike_lanes(x, Rt, lo, hi, sigma0, amplitude, length, kind, out):
+def loglike_lanes(x, Rt, lo, hi, sigma0, amplitude, length, kind, gap, out):
     """The filter of ``_loglike`` for the walkers lo..hi-1 side by side, one SIMD lane each.
 
     Rt (n, k): residuals, one column per walker (time-major, so a step's lanes are contiguous).
@@ -276,8 +282,7 @@ def loglike_lanes(x, Rt, lo, hi, sigma0, amplitude, length, kind, out):
         s2[w] = sigma0[lo + w] ** 2 if ok[w] else 1.0
         q0[w] = amplitude[lo + w] ** 2 if ok[w] else 0.0
         q1[w] = q0[w] * lam[w] * lam[w]
-        p00[w] = q0[w]
-        p11[w] = q1[w]
+        p00[w], p01[w], p11[w] = _initial_cov(kind, gap, lam[w], q0[w], q1[w])
     lam_max = lam.max() if k else 0.0
     d_ref = -1.0
     for i in range(n):
@@ -339,23 +344,23 @@ LANE_GROUP = 8     # walkers per group: one group per thread at a time
 
 
 @njit(cache=True, parallel=True)
-def _loglike_batch(x, Rt, sigma0, amplitude, length, kind, out):
+def _loglike_batch(x, Rt, sigma0, amplitude, length, kind, gap, out):
     k = Rt.shape[1]
     groups = (k + LANE_GROUP - 1) // LANE_GROUP
     for g in prange(groups):
         lo = g * LANE_GROUP
-        loglike_lanes(x, Rt, lo, min(k, lo + LANE_GROUP), sigma0, amplitude, length, kind, out)
+        loglike_lanes(x, Rt, lo, min(k, lo + LANE_GROUP), sigma0, amplitude, length, kind, gap, out)
 
 
 @njit(cache=True)
-def _smooth_mean(x, r, sigma0, amplitude, length, kind):
+def _smooth_mean(x, r, sigma0, amplitude, length, kind, gap):
     """E[δ(x_i) | r] by the Kalman filter and the Rauch-Tung-Striebel smoother."""
     n = x.shape[0]
     store = np.empty((n, 8))
     V = np.empty((n, 1))
     V[:, 0] = r
     white = np.empty((n, 1))
-    _filter(x, V, sigma0, amplitude, length, kind, white, store)
+    _filter(x, V, sigma0, amplitude, length, kind, gap, white, store)
     # filtered means again (the filter above keeps covariances only): redo the mean recursion
     lam = _rate(kind, length)
     mf = np.zeros((n, 2))
@@ -435,21 +440,34 @@ def _axis(x: np.ndarray) -> np.ndarray:
     return x
 
 
+def _gap(x: np.ndarray, start: float | None) -> float:
+    """Distance from the pinned start to the first point (inf: stationary)."""
+    if start is None:
+        return math.inf
+    gap = float(x[0] - start)
+    if not gap >= 0:
+        raise ValueError(f"the pinned start {start} lies after the first point {x[0]}")
+    return gap
+
+
 def log_likelihood(x: np.ndarray, r: np.ndarray, sigma0: float, amplitude: float, length: float,
-                   kind: str = "matern32") -> float:
+                   kind: str = "matern32", start: float | None = None) -> float:
     """log N(r | 0, K), K = k(x, x) + σ0² I, exactly in O(n); -inf for invalid hyperparameters.
 
-    amplitude = 0 gives the white (independent) likelihood with sd σ0.
+    amplitude = 0 gives the white (independent) likelihood with sd σ0. ``start``: δ is pinned to
+    0 (and its slope to 0, for matern32) there, at or before x[0]; None: stationary δ.
     """
     x = _axis(x)
     r = np.ascontiguousarray(r, dtype=float)
     if r.shape != x.shape:
         raise ValueError(f"residuals {r.shape} and axis {x.shape} differ")
-    return float(_loglike(x, r, float(sigma0), float(amplitude), float(length), kernel_code(kind)))
+    return float(_loglike(x, r, float(sigma0), float(amplitude), float(length), kernel_code(kind),
+                          _gap(x, start)))
 
 
 def log_likelihood_batch(x: np.ndarray, R: np.ndarray, sigma0: np.ndarray, amplitude: np.ndarray,
-                         length: np.ndarray, kind: str = "matern32") -> np.ndarray:
+                         length: np.ndarray, kind: str = "matern32",
+                         start: float | None = None) -> np.ndarray:
     """The log-likelihood of each row of R (k, n) with its own hyperparameters (k,) each; the rows
     run in parallel (numba threads), each one alone, so the result does not depend on threads."""
     x = _axis(x)
@@ -458,12 +476,12 @@ def log_likelihood_batch(x: np.ndarray, R: np.ndarray, sigma0: np.ndarray, ampli
     hyper = [np.ascontiguousarray(np.broadcast_to(np.asarray(v, dtype=float), (k,)))
              for v in (sigma0, amplitude, length)]
     out = np.empty(k)
-    _loglike_batch(x, Rt, *hyper, kernel_code(kind), out)
+    _loglike_batch(x, Rt, *hyper, kernel_code(kind), _gap(x, start), out)
     return out
 
 
 def whiten(x: np.ndarray, V: np.ndarray, sigma0: float, amplitude: float, length: float,
-           kind: str = "matern32") -> tuple[np.ndarray, float]:
+           kind: str = "matern32", start: float | None = None) -> tuple[np.ndarray, float]:
     """(L⁻¹ V, log det K) for K = L Lᵀ = k(x, x) + σ0² I; V (n,) or (n, m). O(n m).
 
     Generalized least squares with covariance K is ordinary least squares on L⁻¹ y and L⁻¹ X.
@@ -478,33 +496,48 @@ def whiten(x: np.ndarray, V: np.ndarray, sigma0: float, amplitude: float, length
         raise ValueError(f"invalid hyperparameters sigma0 = {sigma0}, amplitude = {amplitude}, "
                          f"length = {length}")
     out = np.empty_like(V2)
-    logdet = _filter(x, V2, float(sigma0), float(amplitude), float(length), kernel_code(kind), out,
-                     np.empty((0, 8)))
+    logdet = _filter(x, V2, float(sigma0), float(amplitude), float(length), kernel_code(kind),
+                     _gap(x, start), out, np.empty((0, 8)))
     return (out[:, 0] if vec else out), float(logdet)
 
 
 def posterior_mean(x: np.ndarray, r: np.ndarray, sigma0: float, amplitude: float, length: float,
-                   kind: str = "matern32") -> np.ndarray:
+                   kind: str = "matern32", start: float | None = None) -> np.ndarray:
     """E[δ | r]: the discrepancy the residuals imply (Kalman filter + RTS smoother), O(n)."""
     x = _axis(x)
     r = np.ascontiguousarray(r, dtype=float)
     if amplitude == 0:
         return np.zeros_like(r)
-    return _smooth_mean(x, r, float(sigma0), float(amplitude), float(length), kernel_code(kind))
+    return _smooth_mean(x, r, float(sigma0), float(amplitude), float(length), kernel_code(kind),
+                        _gap(x, start))
 
 
 def covariance(x: np.ndarray, amplitude: float, length: float, kind: str = "matern32",
-               sigma0: float = 0.0) -> np.ndarray:
-    """The dense covariance k(x, x) + σ0² I (for checks and small n; O(n²) memory)."""
+               sigma0: float = 0.0, start: float | None = None) -> np.ndarray:
+    """The dense covariance k(x, x) + σ0² I (for checks and small n; O(n²) memory); with ``start``
+    the covariance of δ conditioned on δ(start) = 0 (and δ'(start) = 0 for matern32)."""
     x = np.asarray(x, dtype=float)
-    tau = np.abs(x[:, None] - x[None, :])
-    if kind == "exp":
-        K = amplitude**2 * np.exp(-tau / length)
-    elif kind == "matern32":
-        u = math.sqrt(3.0) * tau / length
-        K = amplitude**2 * (1.0 + u) * np.exp(-u)
-    else:
+
+    def k(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        tau = np.abs(a[:, None] - b[None, :])
+        if kind == "exp":
+            return amplitude**2 * np.exp(-tau / length)
+        if kind == "matern32":
+            u = math.sqrt(3.0) * tau / length
+            return amplitude**2 * (1.0 + u) * np.exp(-u)
         kernel_code(kind)
         raise AssertionError("unreachable")
+
+    K = k(x, x)
+    if start is not None and amplitude > 0:
+        s = np.array([float(start)])
+        C = k(x, s)                                  # cov(δ(x), δ(start))
+        S = [[amplitude**2]]
+        if kind == "matern32":
+            lam = math.sqrt(3.0) / length
+            tau = x - float(start)                   # >= 0: cov(δ(x), δ'(start)) = a² λ² τ e^{-λτ}
+            C = np.column_stack([C[:, 0], amplitude**2 * lam**2 * tau * np.exp(-lam * tau)])
+            S = [[amplitude**2, 0.0], [0.0, amplitude**2 * lam**2]]
+        K = K - C @ np.linalg.solve(np.asarray(S), C.T)
     K[np.diag_indices_from(K)] += sigma0**2
     return K

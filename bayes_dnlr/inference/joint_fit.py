@@ -22,7 +22,7 @@ import numpy as np
 from bayes_dnlr.config import UNITS, Config
 from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.inference.diagnostics import residual_diagnostics
-from bayes_dnlr.inference.discrepancy import Hyper, discrepancy_priors, is_white, make_axis, whitener
+from bayes_dnlr.inference.discrepancy import Hyper, discrepancy_priors, is_white, test_axis, whitener
 from bayes_dnlr.inference.joint import JointProblem, Layout, base_name, pooled_start
 from bayes_dnlr.inference.lsq import FitResult, fit_test, run_minimiser
 from bayes_dnlr.inference.problem import LsqProblem
@@ -198,11 +198,7 @@ def _joint_gls(cfg: Config, problem: JointProblem, white: dict[str, float],
         if priors is None or is_white(priors):
             continue
         view = cfg.for_test(t)
-        b = problem.blocks[t]
-        end = b.mask.size
-        data = tests[t]
-        axis = make_axis(view.noise.discrepancy.axis, np.asarray(data.time)[:end][b.mask],
-                         np.asarray(data.strain_input)[:end][b.mask])
+        axis = test_axis(view.noise.discrepancy, tests[t], problem.blocks[t].mask)
         h = d["hyperparameters"]
         used[t] = whitener(axis, Hyper(h["sigma0"], h["amplitude"], h["length"]),
                            view.noise.discrepancy.kernel)

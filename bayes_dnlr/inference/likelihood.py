@@ -28,7 +28,7 @@ import numpy as np
 from bayes_dnlr.config import DISCREPANCY_PARAMETERS, Config, ParameterSpec
 from bayes_dnlr.data import TestData
 from bayes_dnlr.inference import gp
-from bayes_dnlr.inference.discrepancy import AMPLITUDE, LENGTH, Axis, is_white, make_axis
+from bayes_dnlr.inference.discrepancy import AMPLITUDE, LENGTH, Axis, is_white, test_axis
 from bayes_dnlr.inference.priors import PriorSet, build_priors
 from bayes_dnlr.model import DNLR
 
@@ -168,7 +168,7 @@ class LogPosterior:
         bad = ~np.all(np.isfinite(R), axis=1)
         R[bad] = 0.0
         out = gp.log_likelihood_batch(d.axis.values, R, sig, self._col(theta, AMPLITUDE),
-                                      self._col(theta, LENGTH), d.kernel)
+                                      self._col(theta, LENGTH), d.kernel, d.axis.origin)
         out[bad] = -np.inf
         return out
 
@@ -209,8 +209,7 @@ def build_log_posterior(cfg: Config, test: TestData, sigma0: float | None,
         if discrepancy_priors is None:
             raise ValueError("a likelihood with a discrepancy needs its resolved priors (run fit)")
     if cfg.noise.has_discrepancy and not is_white(discrepancy_priors):
-        end = test.model_end
-        axis = make_axis(cfg.noise.discrepancy.axis, test.time[:end][rows], test.strain_input[:end][rows])
+        axis = test_axis(cfg.noise.discrepancy, test, rows)
         disc = Discrepancy(cfg.noise.discrepancy.kernel, axis,
                            {k: float(v.value) for k, v in discrepancy_priors.items() if v.fixed})
     priors = priors or build_priors(cfg, discrepancy_priors)

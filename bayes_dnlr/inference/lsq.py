@@ -32,10 +32,10 @@ from bayes_dnlr.inference.discrepancy import (
     AMPLITUDE_FLOOR,
     EVIDENCE_LR,
     likelihood_ratio,
-    make_axis,
     maximum_likelihood,
     resolved_priors,
     search_priors,
+    test_axis,
     whitener,
 )
 from bayes_dnlr.inference.noise import resolve_sigma0
@@ -378,9 +378,7 @@ def discrepancy_analysis(cfg: Config, test, problem: LsqProblem, beta_white: np.
     its Δ̃ (eq. 32-35 with K in place of σ0² I), and whether the whitened residuals look white."""
     spec = cfg.noise.discrepancy
     names = problem.names
-    end = problem.mask.size
-    axis = make_axis(spec.axis, np.asarray(test.time)[:end][problem.mask],
-                     np.asarray(test.strain_input)[:end][problem.mask])
+    axis = test_axis(spec, test, problem.mask)
     rms = float(np.sqrt(np.mean(residuals**2)))
     fixed_sigma0 = None
     if not isinstance(cfg.noise.sigma0, SampledNoise) and cfg.noise.sigma0 != "residuals":

@@ -60,23 +60,24 @@ def discrepancy_on_window(run: RunResults, model_window: np.ndarray) -> Discrepa
     if hyper is None or run.test is None:
         return None
     from bayes_dnlr.inference import gp
-    from bayes_dnlr.inference.discrepancy import make_axis
+    from bayes_dnlr.inference.discrepancy import test_axis
 
     t = run.test
     n = t.model_end
     win = np.asarray(t.window[:n], bool)
     noise = run.summary["noise"]
-    axis = make_axis(noise.get("axis", "time"), t.time[:n][win], t.strain_input[:n][win])
+    axis = test_axis(run.cfg.noise.discrepancy, t, win)
     r = np.asarray(t.stress[:n], dtype=float)[win] - model_window
     kind = noise.get("kernel", "exp")
     amp = max(hyper["amplitude"], 0.0)
-    mean_sorted = gp.posterior_mean(axis.values, axis.sort(r), hyper["sigma0"], amp, hyper["length"], kind)
+    mean_sorted = gp.posterior_mean(axis.values, axis.sort(r), hyper["sigma0"], amp, hyper["length"], kind,
+                                    axis.origin)
     mean = np.empty_like(mean_sorted)
     if axis.order is None:
         mean = mean_sorted
     else:
         mean[axis.order] = mean_sorted
-    white, _ = gp.whiten(axis.values, axis.sort(r), hyper["sigma0"], amp, hyper["length"], kind)
+    white, _ = gp.whiten(axis.values, axis.sort(r), hyper["sigma0"], amp, hyper["length"], kind, axis.origin)
     return Discrepancy(kind, axis.name, axis, r, mean, white, hyper)
 
 
