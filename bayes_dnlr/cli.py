@@ -94,7 +94,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("compare", help="Table 3/5-style table across runs (Markdown and CSV)")
     p.add_argument("run_dirs", nargs="+", metavar="run_dir")
-    p.add_argument("--out", type=Path, default=None, help="folder for compare.md and compare.csv")
+    p.add_argument("--out", type=Path, default=None,
+                   help="folder for compare.md and compare.csv (default: the folder that holds the runs)")
     p.set_defaults(func=cmd_compare)
     return parser
 

@@ -7,6 +7,7 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from bayes_dnlr.cli import main
@@ -40,6 +41,14 @@ def make_run(root: Path, name: str, rate: float, e: float, sd: float, tau: float
                                                                          "astm_d638": 0.6 * e},
                    "deborah_max": tau * rate, "sigma0": 0.3}
         (d / "summary.json").write_text(json.dumps(summary))
+        # posterior.nc: normal draws with these means and sds (16 walkers x 400 steps)
+        from bayes_dnlr.inference.posterior import build_datatree
+
+        rng = np.random.default_rng(int(rate * 1e6))
+        draws = np.stack([rng.normal(v, s_, (400, 16)) for v, s_ in ((e, sd), (2.3, 0.001),
+                                                                       (tau, 0.03))], axis=-1)
+        build_datatree(names, draws, np.zeros((400, 16))).to_netcdf(d / "posterior.nc",
+                                                                     engine="h5netcdf")
     return d
 
 
@@ -95,10 +104,33 @@ def test_gauss_newton_only_runs_and_cli(tmp_path, capsys, monkeypatch):
     a = make_run(root, "a", 5e-3, 2850.0, 15.0, posterior=False)
     b = make_run(root, "b", 1e-2, 2860.0, 15.0, posterior=False)
     monkeypatch.chdir(tmp_path)
-    assert main(["compare", str(a), str(b)]) == 0          # writes into the current directory
+    assert main(["compare", str(a), str(b)]) == 0          # writes beside the runs, not into cwd
     printed = capsys.readouterr().out
     assert "E Gauss-Newton (MPa)" in printed and "Yes:" in printed
-    assert (tmp_path / "compare.md").is_file() and (tmp_path / "compare.csv").is_file()
-    assert "no posterior yet" in (tmp_path / "compare.md").read_text()
+    assert (root / "compare.md").is_file() and (root / "compare.csv").is_file()
+    assert not (tmp_path / "compare.md").exists()
+    assert "no posterior yet" in (root / "compare.md").read_text()
     with pytest.raises(RunError):
         compare_runs([tmp_path / "nope"])
+
+
+def _posterior_runs(root, e_of_rate):
+    """Three single runs at 2.5e-3, 5e-3, 1e-2 1/s whose E posteriors are normal draws."""
+    dirs = []
+    for i, rate in enumerate((2.5e-3, 5e-3, 1e-2)):
+        d = make_run(root, f"r{i}", rate, e_of_rate(rate), 12.0, posterior=True)
+        dirs.append(d)
+    return dirs
+
+
+@pytest.mark.parametrize(("label", "e_of_rate", "verdict"), [
+    ("one E", lambda rate: 2854.0, "consistent"),
+    ("10 % per decade", lambda rate: 2854.0 * 1.1 ** math.log10(rate / 5e-3), "rate-dependent"),
+])
+def test_the_rate_question_is_answered_from_the_posteriors(tmp_path, label, e_of_rate, verdict):
+    dirs = _posterior_runs(tmp_path, e_of_rate)
+    comp = compare_runs(dirs)
+    assert comp.rate is not None and comp.rate.verdict == verdict, comp.rate.words
+    md = (tmp_path / "compare.md").read_text()
+    assert "Savage-Dickey" in md and "% per decade" in md
+    assert "The paper's way" in md                      # the χ² table stays

@@ -52,6 +52,7 @@ class Comparison:
     consistency: Consistency
     notes: list[str] = field(default_factory=list)
     written: list[Path] = field(default_factory=list)
+    rate: Any = None            # inference.rate.RateAnalysis of the posteriors, when there are draws
 
     def table(self) -> Table:
         """Table 3/5 layout: one column per run, one row per quantity."""
@@ -79,8 +80,12 @@ class Comparison:
         return c.verdict
 
     def markdown(self) -> str:
-        parts = [self.table().markdown(), "", "**Is E the same at every strain rate?**", "",
-                 self.consistency_text()]
+        parts = [self.table().markdown(), "", "**Is E the same at every strain rate?**", ""]
+        if self.rate is not None:
+            parts += [rate_table(self.rate).markdown(), "", f"Posterior: {self.rate.words}",
+                      *[f"- {n}" for n in self.rate.notes], "",
+                      "The paper's way (each run's sd, a χ² test):", ""]
+        parts.append(self.consistency_text())
         if self.notes:
             parts += ["", *[f"- {n}" for n in self.notes]]
         return "\n".join(parts) + "\n"
@@ -180,9 +185,46 @@ def consistency_of_e(rows: Sequence[dict[str, Any]]) -> Consistency:
     return c
 
 
+def rate_table(ra) -> Table:
+    """The posterior differences of E from the slowest rate, and the trend per decade."""
+    rows = [[f"E[{t}] - E[{ra.reference}] (MPa)", fmt(ra.rates[t], 3), fmt(d["mean"]), fmt(d["sd"]),
+             f"[{fmt(d['hdi_90'][0])}, {fmt(d['hdi_90'][1])}]", f"{d['z']:+.1f}"]
+            for t, d in ra.differences.items()]
+    s = ra.slope
+    rows.append(["trend of E (% per decade of rate)", "", f"{s['mean']:+.2f}", fmt(s["sd"]),
+                 f"95 % [{s['lo95']:+.2f}, {s['hi95']:+.2f}]", ""])
+    return Table(["quantity", "rate (1/s)", "posterior mean", "sd", "interval", "mean / sd"], rows,
+                 "E across strain rates, from the posteriors", css="num")
+
+
+def _rate_of_runs(runs: Sequence[RunResults]):
+    """The rate analysis of separate runs (independent posteriors of E), when ≥ 2 have draws."""
+    from bayes_dnlr.inference.priors import Prior
+    from bayes_dnlr.inference.rate import rate_analysis
+
+    use = [r for r in runs if r.draws is not None and "E" in r.draws and r.strain_rate()]
+    rates = {r.name: r.strain_rate() for r in use}
+    if len(use) < 2 or len(set(rates.values())) < 2:
+        return None
+    draws = {r.name: r.draws["E"].ravel() for r in use}
+    priors = {r.name: Prior.from_spec("E", r.cfg.parameters["E"]) for r in use}
+    return rate_analysis(draws, rates, priors, joint=False)
+
+
+def default_out_dir(run_dirs: Sequence[Path | str]) -> Path:
+    """Where compare writes by default: the folder that holds the runs (never the current
+    directory by accident)."""
+    parents = {Path(d).resolve().parent for d in run_dirs}
+    if len(parents) == 1:
+        return parents.pop()
+    import os
+
+    return Path(os.path.commonpath([str(p) for p in parents]))
+
+
 def compare_runs(run_dirs: Sequence[Path | str], out_dir: Path | str | None = None) -> Comparison:
     """Table 3/5-style comparison of runs; writes compare.md and compare.csv into ``out_dir``
-    (the current directory when None)."""
+    (by default the folder that holds the runs)."""
     if not run_dirs:
         raise RunError("compare needs at least one run directory")
     runs = []
@@ -200,8 +242,8 @@ def compare_runs(run_dirs: Sequence[Path | str], out_dir: Path | str | None = No
         runs.append(run)
     rows = sorted((run_row(r) for r in runs),
                   key=lambda r: (r["strain_rate"] is None, r["strain_rate"] or 0.0, r["run"]))
-    comp = Comparison(rows, consistency_of_e(rows), notes)
-    out = Path(out_dir) if out_dir is not None else Path.cwd()
+    comp = Comparison(rows, consistency_of_e(rows), notes, rate=_rate_of_runs(runs))
+    out = Path(out_dir) if out_dir is not None else default_out_dir(run_dirs)
     out.mkdir(parents=True, exist_ok=True)
     md, cs = out / "compare.md", out / "compare.csv"
     md.write_text(comp.markdown(), encoding="utf-8")
