@@ -277,18 +277,23 @@ def _stress_phase(i0, i1, fg, ig, exact, ta, tb, tc, itau, ptau, spt, e_mod, g_h
 
 
 @njit(cache=True, fastmath=_FASTMATH)
-def _phase_tables(grid, tau_max, relaxation, kind):
-    """Relaxed-mode count, active spectrum and level tables of one phase."""
+def _phase_tables(grid, tau_max, relaxation, for_stress):
+    """Relaxed-mode count, active spectrum and level tables of one phase (relaxation: 0 tensile,
+    1 relaxation; for_stress: 0 gives the _TAB_DECAY tables of integrate, 1 those of the stress).
+
+    Callers pass int64 values made at run time (np.int64(...)): a literal constant would make
+    numba compile one more specialisation per value.
+    """
     fg, ig, lev, spec, imeta, fmeta = grid
     p = spec[0]
     shape = spec[1]
-    j0 = _n_relaxed(shape, tau_max, fmeta[2] if relaxation else fmeta[1])
+    j0 = _n_relaxed(shape, tau_max, fmeta[1 + relaxation])
     itau, ptau, spt = _active_spectrum(p, shape, tau_max, j0)
-    first = imeta[1] if relaxation else 0
-    nl = imeta[2] if relaxation else imeta[1]
-    if kind != _TAB_DECAY:
-        exact = imeta[4 if relaxation else 3] != 0
-        kind = _TAB_EXACT if exact else _TAB_QUANT
+    first = imeta[1] * relaxation
+    nl = imeta[1 + relaxation]
+    kind = _TAB_DECAY
+    if for_stress != 0:
+        kind = _TAB_EXACT if imeta[3 + relaxation] != 0 else _TAB_QUANT
     t1, t2, t3 = _level_tables(lev[first:first + nl], itau, ptau, kind)
     return j0, itau, ptau, spt, t1, t2, t3
 
@@ -321,8 +326,8 @@ def stress_into(E, G, sigma_inf, tau_max, tau_max_R, grid, out):
     D = np.zeros(n)
     j0t = 0
     if nt > 0:
-        j0t, itau, ptau, spt, t1, t2, t3 = _phase_tables(grid, tau_max, False, _TAB_EXACT)
-        _stress_phase(0, nt, fg, ig, imeta[3] != 0, t1, t2, t3, itau, ptau, spt,
+        j0t, itau, ptau, spt, t1, t2, t3 = _phase_tables(grid, tau_max, np.int64(0), np.int64(1))
+        _stress_phase(np.int64(0), nt, fg, ig, imeta[3] != 0, t1, t2, t3, itau, ptau, spt,
                       E, G, 0.0, D[j0t:], out)
     if not relax:
         return True
@@ -337,7 +342,7 @@ def stress_into(E, G, sigma_inf, tau_max, tau_max_R, grid, out):
         h_sw = fmeta[0]
     for j in range(n):
         D[j] += p[j] * (G * h_sw - sigma_inf)
-    j0r, itau, ptau, spt, t1, t2, t3 = _phase_tables(grid, tau_max_R, True, _TAB_EXACT)
+    j0r, itau, ptau, spt, t1, t2, t3 = _phase_tables(grid, tau_max_R, np.int64(1), np.int64(1))
     _stress_phase(nt, n_steps, fg, ig, imeta[4] != 0, t1, t2, t3, itau, ptau, spt,
                   E, 0.0, sigma_inf, D[j0r:], out)
     return True
@@ -396,7 +401,7 @@ def integrate(tau_max, tau_max_R, grid, want_grad, out, grad_t, grad_r):
     # ---- tensile phase (eq. 18)
     j0_t = 0
     if n_tensile > 0:
-        j0_t, itau, ptau, spt_t, ta, tom, _ = _phase_tables(grid, tau_max, False, _TAB_DECAY)
+        j0_t, itau, ptau, spt_t, ta, tom, _ = _phase_tables(grid, tau_max, np.int64(0), np.int64(0))
         sp_t = 0.0
         for j in range(j0_t):
             sp_t += p[j]
@@ -462,7 +467,7 @@ def integrate(tau_max, tau_max_R, grid, want_grad, out, grad_t, grad_r):
             gB[j] = -p[j] * tau * rate_h
 
     # ---- relaxation phase (section 4.1): same E and weights, spectrum tau_max_R, σ^r = σ_inf
-    j0_r, itau, ptau, spt_r, ta, tom, _ = _phase_tables(grid, tau_max_R, True, _TAB_DECAY)
+    j0_r, itau, ptau, spt_r, ta, tom, _ = _phase_tables(grid, tau_max_R, np.int64(1), np.int64(0))
     sp_r = 0.0
     for j in range(j0_r):
         sp_r += p[j]
@@ -544,7 +549,9 @@ def step_levels(steps: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     new_index = np.cumsum(keep) - 1
     levels = distinct[0] * np.exp(used[keep] * LEVEL_SPACING)
     index = np.where(keep[which], new_index[which], -1).astype(np.int64)
-    rho = np.where(index >= 0, steps - levels[np.maximum(index, 0)], 0.0)
+    rho = np.zeros(steps.size)
+    on_level = index >= 0
+    rho[on_level] = steps[on_level] - levels[index[on_level]]
     return levels, index, rho, False
 
 
