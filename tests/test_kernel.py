@@ -58,14 +58,17 @@ def test_decay_is_exp_to_a_few_ulp():
     assert om[x == 0].tolist() == [0.0]
 
 
-def test_small_correction_matches_expm1():
-    z = np.linspace(-kernel.Z_MAX, kernel.Z_MAX, 2001)
-    u = np.array([kernel._one_minus_exp_small(v) for v in z])
+def test_level_correction_matches_expm1():
+    # 1 - exp(-ρ/tau) by Horner in 1/tau with the step's coefficients; |ρ/tau| <= 0.2 by design
+    rng = np.random.default_rng(4)
+    rho = rng.uniform(-1e-3, 1e-3, 4000)
+    itau = np.abs(rho).max() ** -1 * rng.uniform(0.0, 0.2, 4000)
+    z = rho * itau
+    u = np.array([kernel._one_minus_exp_small(it, *kernel._rho_powers(r))
+                  for it, r in zip(itau, rho, strict=True)])
     exact = -np.expm1(-z)
-    # truncation after z^6/6!: the error is |z|^7/7! (1 + O(z)), below 1e-10 at the clip
-    assert np.max(np.abs(u - exact) - 1.2 * np.abs(z) ** 7 / 5040) < 1e-17
-    small = np.abs(z) <= 0.01
-    assert np.max(np.abs(u[small] - exact[small]) / np.maximum(np.abs(exact[small]), 1e-300)) < 1e-15
+    # truncation after z^6/6!: the error is |z|^7/7! (1 + O(z)), plus rounding
+    assert np.all(np.abs(u - exact) <= 1.3 * np.abs(z) ** 7 / 5040 + 4e-16 * np.abs(exact))
 
 
 # -------------------------------------------------------------------------------- step levels
@@ -174,7 +177,7 @@ def test_gradients_on_quantized_levels_match_finite_differences(monkeypatch):
     monkeypatch.setattr(kernel, "MIN_LEVEL_COUNT", 1)
     t, e = jittered(400, 0.15, hold=200.0, n_hold=100)
     m = DNLR(t, e, relaxation_start=380.0)
-    assert paths(m)["level"] == t.size - 1
+    assert paths(m)["level"] > 0.9 * (t.size - 1)     # the rest: steps > 2x the shortest
     b = m.basis(5.79, 40.0, grad=True)
     step = 1e-5
     lt, lr = np.log(5.79), np.log(40.0)

@@ -65,7 +65,8 @@ except ImportError as err:  # pragma: no cover - exercised only without numba
 X_RELAXED = 40.0        # exp(-40) = 4e-18: a mode this fast has no memory of the previous step
 TINY = 1.0e-200         # states below this are flushed to zero (denormals are slow)
 LEVEL_SPACING = 0.005   # ln(Δ_L+1/Δ_L) of quantized levels: |ρ|/Δ_L <= 0.0025, |ρ/tau| <= 0.0025 x
-Z_MAX = 0.125           # clip of ρ/tau (reached only where x > X_RELAXED, a ~ 4e-18)
+LEVEL_RANGE = 2.0       # only steps up to 2x the shortest of their phase get a level: active modes
+                        # then have x_L <= 80 and |ρ/tau| <= 0.2 (longer steps take a full exp)
 MIN_LEVEL_COUNT = 4     # a quantized level must serve this many steps, else they take a full exp
 EXACT_LEVELS_MAX = 256  # at most this many exact levels (and at most 1/8 of the steps, or 16)
 
@@ -106,15 +107,25 @@ def _decay(x):
 
 
 @njit(cache=True, fastmath=_FASTMATH, inline="always")
-def _one_minus_exp_small(z):
-    """1 - exp(-z) for |z| <= Z_MAX: z Q(-z) with Q of degree 5.
+def _rho_powers(rho):
+    """Coefficients of 1 - exp(-ρ/tau) = Σ_{m=1..6} c_m (1/tau)^m, c_m = -(-ρ)^m/m!."""
+    c1 = rho
+    c2 = -0.5 * rho * c1
+    c3 = -(1.0 / 3.0) * rho * c2
+    c4 = -0.25 * rho * c3
+    c5 = -0.2 * rho * c4
+    c6 = -(1.0 / 6.0) * rho * c5
+    return c1, c2, c3, c4, c5, c6
 
-    Used as a = a_L (1 - u) for a step Δ_L + ρ, z = ρ/tau <= 0.0025 x_L: the absolute error of
-    a is below e^-x (0.0025 x)^7/7! < 1e-19 for every x.
+
+@njit(cache=True, fastmath=_FASTMATH, inline="always")
+def _one_minus_exp_small(it, c1, c2, c3, c4, c5, c6):
+    """1 - exp(-z), z = ρ·it, by Horner in it with the step's coefficients (``_rho_powers``).
+
+    For a step Δ_L + ρ on a level, a = a_L (1 - u): with |z| <= 0.0025 x_L the absolute error
+    of a is below e^-x (0.0025 x)^7/7! < 1e-19 for every x (and |z| <= 0.2 for active modes).
     """
-    r = -z
-    r2 = r * r
-    return z * ((_C0 + _C1 * r) + (_C2 + _C3 * r) * r2 + (_C4 + _C5 * r) * (r2 * r2))
+    return it * (c1 + it * (c2 + it * (c3 + it * (c4 + it * (c5 + it * c6)))))
 
 
 @njit(cache=True, fastmath=_FASTMATH, inline="always")
@@ -173,21 +184,29 @@ def _level_tables(lev, itau, ptau, kind):
     return t1, t2, t3
 
 
+_BLOCK = 32     # steps whose decays integrate computes in one call
+
+
 @njit(cache=True, fastmath=_FASTMATH)
-def _step_decays(m, rho, d, itau, ta, tom, a_out, om_out):
-    """(a, 1 - a) of one step for the active modes: from its level m (a_L, 1 - a_L tables, with
-    the ρ correction) or by a full exp when the step has no level (m < 0)."""
-    if m >= 0:
-        for k in range(itau.size):
-            u = _one_minus_exp_small(min(max(rho * itau[k], -Z_MAX), Z_MAX))
-            a_l = ta[m, k]
-            a_out[k] = a_l - a_l * u
-            om_out[k] = tom[m, k] + a_l * u
-    else:
-        for k in range(itau.size):
-            a, om = _decay(min(d * itau[k], X_RELAXED))
-            a_out[k] = a
-            om_out[k] = om
+def _block_decays(i0, i1, fg, ig, itau, ta, tom, a_out, om_out):
+    """(a, 1 - a) of steps i0..i1-1 (rows 0.. of a_out, om_out) for the active modes: from the
+    step's level m (tables a_L, 1 - a_L, with the ρ correction) or by a full exp (m < 0)."""
+    for i in range(i0, i1):
+        b = i - i0
+        m = ig[i]
+        if m >= 0:
+            c1, c2, c3, c4, c5, c6 = _rho_powers(fg[i, 5])
+            for k in range(itau.size):
+                u = _one_minus_exp_small(itau[k], c1, c2, c3, c4, c5, c6)
+                a_l = ta[m, k]
+                a_out[b, k] = a_l - a_l * u
+                om_out[b, k] = tom[m, k] + a_l * u
+        else:
+            d = fg[i, 0]
+            for k in range(itau.size):
+                a, om = _decay(min(d * itau[k], X_RELAXED))
+                a_out[b, k] = a
+                om_out[b, k] = om
 
 
 # ---------------------------------------------------------------- one parameter set: the stress
@@ -251,17 +270,17 @@ def _stress_phase(i0, i1, fg, ig, exact, ta, tb, tc, itau, ptau, spt, e_mod, g_h
                 D[k] = v
                 s += v
         elif m >= 0:
-            z_step = fg[j, 5]
+            c1, c2, c3, c4, c5, c6 = _rho_powers(fg[j, 5])
             if flush:
                 for k in range(nk):
-                    u = _one_minus_exp_small(min(max(z_step * itau[k], -Z_MAX), Z_MAX))
+                    u = _one_minus_exp_small(itau[k], c1, c2, c3, c4, c5, c6)
                     a_l = ta[m, k]
                     v = _flush((a_l - a_l * u) * D[k] + (tb[m, k] + tc[m, k] * u) * wi)
                     D[k] = v
                     s += v
             else:
                 for k in range(nk):
-                    u = _one_minus_exp_small(min(max(z_step * itau[k], -Z_MAX), Z_MAX))
+                    u = _one_minus_exp_small(itau[k], c1, c2, c3, c4, c5, c6)
                     a_l = ta[m, k]
                     v = (a_l - a_l * u) * D[k] + (tb[m, k] + tc[m, k] * u) * wi
                     D[k] = v
@@ -388,8 +407,8 @@ def integrate(tau_max, tau_max_R, grid, want_grad, out, grad_t, grad_r):
     rA = np.zeros(n)      # d/d ln tau_max_R (relaxation spectrum)
     rB = np.zeros(n)
     rC = np.zeros(n)
-    av = np.empty(n)      # decays of the current step (active modes)
-    omv = np.empty(n)
+    av = np.empty((_BLOCK, n))      # decays of a block of steps (active modes)
+    omv = np.empty((_BLOCK, n))
     out[0, 0] = 0.0
     out[0, 1] = h_first
     out[0, 2] = 0.0
@@ -418,16 +437,18 @@ def integrate(tau_max, tau_max_R, grid, want_grad, out, grad_t, grad_r):
             dh = fg[i, 3]
             h1 = fg[i, 4]
             h0 = h1 - dh
-            _step_decays(ig[i], fg[i, 5], d, itau, ta, tom, av, omv)
+            b = i % _BLOCK
+            if b == 0:
+                _block_decays(i, min(i + _BLOCK, n_tensile), fg, ig, itau, ta, tom, av, omv)
             sa = spt_t * de * idt
             sb = sp_t * h1 - spt_t * dh * idt
             if want_grad:
                 ga = sa
                 gb = -spt_t * dh * idt
                 for k in range(nk):
-                    a = av[k]
+                    a = av[b, k]
                     x_a = d * itau[k] * a
-                    pdphi = ptau[k] * omv[k] * idt - pt[k] * a
+                    pdphi = ptau[k] * omv[b, k] * idt - pt[k] * a
                     gAt[k] = _flush(a * gAt[k] + x_a * At[k] + pdphi * de)
                     gBt[k] = _flush(a * gBt[k] + x_a * (Bt[k] - pt[k] * h0) - pdphi * dh)
                     ga += gAt[k]
@@ -439,8 +460,8 @@ def integrate(tau_max, tau_max_R, grid, want_grad, out, grad_t, grad_r):
                 grad_r[i + 1, 1] = 0.0
                 grad_r[i + 1, 2] = 0.0
             for k in range(nk):
-                a = av[k]
-                c = ptau[k] * omv[k] * idt
+                a = av[b, k]
+                c = ptau[k] * omv[b, k] * idt
                 At[k] = _flush(a * At[k] + c * de)
                 Bt[k] = _flush(a * Bt[k] + pt[k] * (h1 - a * h0) - c * dh)
                 sa += At[k]
@@ -485,7 +506,9 @@ def integrate(tau_max, tau_max_R, grid, want_grad, out, grad_t, grad_r):
         d = fg[i, 0]
         idt = fg[i, 1]
         de = fg[i, 2]
-        _step_decays(ig[i], fg[i, 5], d, itau, ta, tom, av, omv)
+        b = (i - n_tensile) % _BLOCK
+        if b == 0:
+            _block_decays(i, min(i + _BLOCK, q - 1), fg, ig, itau, ta, tom, av, omv)
         sa = spt_r * de * idt
         sb = 0.0
         sc = sp_r
@@ -496,9 +519,9 @@ def integrate(tau_max, tau_max_R, grid, want_grad, out, grad_t, grad_r):
             rb = 0.0
             rc = 0.0
             for k in range(nk):
-                a = av[k]
+                a = av[b, k]
                 x_a = d * itau[k] * a
-                pdphi = ptau[k] * omv[k] * idt - pr[k] * a
+                pdphi = ptau[k] * omv[b, k] * idt - pr[k] * a
                 gAr[k] = _flush(a * gAr[k])
                 gBr[k] = _flush(a * gBr[k])
                 rAr[k] = _flush(a * rAr[k] + x_a * Ar[k] + pdphi * de)
@@ -516,8 +539,8 @@ def integrate(tau_max, tau_max_R, grid, want_grad, out, grad_t, grad_r):
             grad_r[i + 1, 1] = rb
             grad_r[i + 1, 2] = rc
         for k in range(nk):
-            a = av[k]
-            oma = omv[k]
+            a = av[b, k]
+            oma = omv[b, k]
             Ar[k] = _flush(a * Ar[k] + ptau[k] * oma * idt * de)
             Br[k] = _flush(a * Br[k])
             Cr[k] = _flush(a * Cr[k] + pr[k] * oma)
@@ -544,8 +567,9 @@ def step_levels(steps: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     if distinct.size <= min(EXACT_LEVELS_MAX, max(16, steps.size // 8)):
         return distinct, inverse.astype(np.int64), np.zeros(steps.size), True
     bins = np.rint(np.log(steps / distinct[0]) / LEVEL_SPACING).astype(np.int64)
+    bins[steps > LEVEL_RANGE * distinct[0]] = -1          # long steps: a full exp
     used, which, counts = np.unique(bins, return_inverse=True, return_counts=True)
-    keep = counts >= MIN_LEVEL_COUNT
+    keep = (counts >= MIN_LEVEL_COUNT) & (used >= 0)
     new_index = np.cumsum(keep) - 1
     levels = distinct[0] * np.exp(used[keep] * LEVEL_SPACING)
     index = np.where(keep[which], new_index[which], -1).astype(np.int64)
