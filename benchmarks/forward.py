@@ -9,7 +9,8 @@ Prints, with ratios against baselines measured in the same run:
 4. the batch (32 parameter sets, q = 2000) with 1 and 2 threads, against a Python loop of single
    calls and the old stress_batch;
 5. simulate() called repeatedly with the same time vector, against building the model each time;
-6. at q = 2000: scipy's LSODA (rtol 1e-8) and a plain numba loop with one libm exp per mode-step.
+6. at q = 2000: scipy's LSODA (rtol 1e-8) and a plain numba loop with one libm exp per mode-step;
+7. the basis (least squares, with and without gradients) and the Python cost of one stress().
 
 Times are CPU time of this process (time.process_time), the minimum over repeated bursts, except
 the multi-thread batch (wall clock). The machine is shared: figures vary from run to run.
@@ -27,6 +28,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import numba
 import numpy as np
 from numba import njit
 from scipy.integrate import solve_ivp
@@ -169,11 +171,19 @@ def scaling(sizes: tuple[int, ...]) -> dict[tuple[int, str], float]:
 # -------------------------------------------------------------------------------- 3. memory
 
 MEMORY_PROBE = """
-import resource, sys
+import sys
 import numpy as np
 sys.path.insert(0, {bench!r})
 from baseline_forward import OldDNLR
 from bayes_dnlr.model import DNLR
+
+
+def status(key):
+    for line in open("/proc/self/status"):
+        if line.startswith(key):
+            return int(line.split()[1]) / 1024
+
+
 impl, jitter, q = sys.argv[1], float(sys.argv[2]), int(sys.argv[3])
 cls = DNLR if impl == "new" else OldDNLR
 dt = np.full(q - 1, 380.0 / (q - 1))
@@ -184,26 +194,34 @@ p = {{"E": 2854.0, "G": 2.32, "tau_max": 5.79}}
 small = cls(t[:50], 5e-3 * t[:50])
 small.stress(p)                                     # compile or load, outside the measurement
 model = cls(t, 5e-3 * t)
-before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+grid = sum(a.nbytes for a in model.kernel_args) / 2**20 if impl == "new" else 0.0
+with open("/proc/self/clear_refs", "w") as f:       # reset the peak RSS (VmHWM)
+    f.write("5")
+before = status("VmRSS")
 model.stress(p)
-after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-grid = sum(a.nbytes for a in model.kernel_args) if impl == "new" else 0
-print((after - before) / 1024, grid / 2**20)
+print(status("VmHWM") - before, grid)
 """
 
 
 def memory(q: int = 128000) -> None:
-    print(f"3. peak extra memory of one evaluation at q = {q} (max RSS increase of a fresh"
-          " process, MB; includes the (q,) result, 1 MB)")
+    print(f"3. peak extra memory of one evaluation at q = {q}: peak RSS during the call minus RSS"
+          " before it, fresh process, MB (includes the (q,) result, 1 MB)")
     code = MEMORY_PROBE.format(bench=str(Path(__file__).resolve().parent))
+    # allocations >= 64 kB are mapped and unmapped at once: RSS follows what is alive
+    env = {**os.environ, "MALLOC_MMAP_THRESHOLD_": "65536", "MALLOC_TRIM_THRESHOLD_": "0"}
     for name, jitter in (("uniform", 0.0), ("±15 %", 0.15)):
         vals = {}
         for impl in ("new", "old"):
-            out = subprocess.run([sys.executable, "-c", code, impl, str(jitter), str(q)],
-                                 capture_output=True, text=True, check=True, cwd=ROOT)
+            try:
+                out = subprocess.run([sys.executable, "-c", code, impl, str(jitter), str(q)],
+                                     capture_output=True, text=True, check=True, cwd=ROOT,
+                                     env=env)
+            except subprocess.CalledProcessError as err:
+                print(f"   (not measured: {err.stderr.strip().splitlines()[-1]})")
+                return
             vals[impl] = [float(v) for v in out.stdout.split()]
-        print(f"   {name:8} new {vals['new'][0]:7.1f} MB   old {vals['old'][0]:7.1f} MB"
-              f"   (the new model's prepared grid, held once: {vals['new'][1]:.1f} MB)")
+        print(f"   {name:8} new {vals['new'][0]:6.1f} MB   old {vals['old'][0]:6.1f} MB"
+              f"   (the new model's prepared grid, held once per model: {vals['new'][1]:.1f} MB)")
     print("   target: <= 10 MB\n")
 
 
@@ -211,14 +229,14 @@ def memory(q: int = 128000) -> None:
 
 def batch(q: int = 2000, k: int = 32) -> None:
     print(f"4. batch of {k} parameter sets, q = {q}: time per set (µs), wall clock; machine has"
-          f" {os.cpu_count()} CPUs, numba pool {available_threads()}")
+          f" {os.cpu_count()} CPUs, numba pool {available_threads()}, layer and load below")
     rng = np.random.default_rng(1)
     theta = np.column_stack([rng.uniform(2500, 3200, k), rng.uniform(2.0, 2.6, k),
                              np.exp(rng.uniform(np.log(3), np.log(12), k))])
     names = ["E", "G", "tau_max"]
     before = get_threads()
     print(f"   {'grid':9}{'old batch':>11}{'loop of stress':>16}{'1 thread':>10}{'2 threads':>11}"
-          f"{'2 vs 1':>8}{'× old':>8}")
+          f"{'2 vs 1':>8}{'× old':>8}{'CPU/wall (2)':>14}")
     for name, jitter in (("uniform", 0.0), ("±15 %", 0.15)):
         t, e = grid(q, jitter)
         new, old = DNLR(t, e, N), OldDNLR(t, e, N)
@@ -227,15 +245,22 @@ def batch(q: int = 2000, k: int = 32) -> None:
                                           for r in theta], repeats=15) / k
         set_threads(1)
         one = new.stress_batch(theta, names)
-        t_1 = wall_best(lambda m=new: m.stress_batch(theta, names), repeats=25) / k
+        t_1 = wall_best(lambda m=new: m.stress_batch(theta, names), repeats=40) / k
         n2 = set_threads(2)
         two = new.stress_batch(theta, names)
-        t_2 = wall_best(lambda m=new: m.stress_batch(theta, names), repeats=25) / k
+        t_2 = wall_best(lambda m=new: m.stress_batch(theta, names), repeats=40) / k
+        c0, w0 = time.process_time(), time.perf_counter()
+        for _ in range(20):
+            new.stress_batch(theta, names)
+        usage = (time.process_time() - c0) / (time.perf_counter() - w0)
         assert np.array_equal(one, two), "thread count changed the result"
         print(f"   {name:9}{t_old * 1e6:>11.1f}{t_loop * 1e6:>16.1f}{t_1 * 1e6:>10.1f}"
-              f"{t_2 * 1e6:>11.1f}{t_1 / t_2:>8.2f}{t_old / t_2:>8.1f}"
+              f"{t_2 * 1e6:>11.1f}{t_1 / t_2:>8.2f}{t_old / t_2:>8.1f}{usage:>14.2f}"
               + ("" if n2 == 2 else f"   (only {n2} thread available)"))
     set_threads(before)
+    print(f"   threading layer {numba.threading_layer()}, OMP_WAIT_POLICY"
+          f" {os.environ.get('OMP_WAIT_POLICY')}, load average now {os.getloadavg()[0]:.1f}:"
+          " a speed-up needs a second idle core")
     print("   1- and 2-thread results bit-identical: yes (checked above)\n")
 
 
@@ -312,6 +337,27 @@ def references(q: int = 2000) -> None:
     print()
 
 
+def basis_and_overhead() -> None:
+    print("7. basis (unit responses, used by least squares) and the Python cost of stress(), µs")
+    print(f"   {'q':>7} {'grid':8}{'basis':>9}{'old':>9}{'× old':>7}{'+grad':>9}{'old':>9}{'× old':>7}"
+          f"{'stress()':>10}{'stress_into':>13}")
+    for q in (2000, 32000):
+        for name, jitter in (("uniform", 0.0), ("±15 %", 0.15)):
+            t, e = grid(q, jitter)
+            new, old = DNLR(t, e, N), OldDNLR(t, e, N)
+            b = cpu_best(lambda m=new: m.basis(5.79))
+            bo = cpu_best(lambda m=old: m.basis(5.79))
+            g = cpu_best(lambda m=new: m.basis(5.79, grad=True))
+            go = cpu_best(lambda m=old: m.basis(5.79, grad=True))
+            out = np.empty(q)
+            args = (PARAMS["E"], PARAMS["G"], 0.0, 5.79, 5.79, new.kernel_args, out)
+            s_py = cpu_best(lambda m=new: m.stress(PARAMS))
+            s_nb = cpu_best(lambda a=args: kernel.stress_into(*a))
+            print(f"   {q:>7} {name:8}{b * 1e6:>9.1f}{bo * 1e6:>9.1f}{bo / b:>7.1f}{g * 1e6:>9.1f}"
+                  f"{go * 1e6:>9.1f}{go / g:>7.1f}{s_py * 1e6:>10.1f}{s_nb * 1e6:>13.1f}")
+    print()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="skip compile and memory probes")
@@ -327,6 +373,7 @@ def main() -> None:
     batch()
     repeated_simulate()
     references()
+    basis_and_overhead()
 
 
 if __name__ == "__main__":

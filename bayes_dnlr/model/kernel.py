@@ -194,7 +194,11 @@ def _block_decays(i0, i1, fg, ig, itau, ta, tom, a_out, om_out):
     for i in range(i0, i1):
         b = i - i0
         m = ig[i]
-        if m >= 0:
+        if m >= 0 and fg[i, 5] == 0.0:
+            for k in range(itau.size):
+                a_out[b, k] = ta[m, k]
+                om_out[b, k] = tom[m, k]
+        elif m >= 0:
             c1, c2, c3, c4, c5, c6 = _rho_powers(fg[i, 5])
             for k in range(itau.size):
                 u = _one_minus_exp_small(itau[k], c1, c2, c3, c4, c5, c6)
