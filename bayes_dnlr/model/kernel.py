@@ -170,17 +170,18 @@ def _level_tables(lev, itau, ptau, kind):
     t3 = np.empty((nl if kind == _TAB_QUANT else 0, nk))
     for m in range(nl):
         d = lev[m]
-        idl = 1.0 / d
         for k in range(nk):
             a, om = _decay(min(d * itau[k], X_RELAXED))
             t1[m, k] = a
-            if kind == _TAB_DECAY:
-                t2[m, k] = om
-            elif kind == _TAB_EXACT:
-                t2[m, k] = ptau[k] * om * idl
-            else:
-                t2[m, k] = ptau[k] * om
-                t3[m, k] = ptau[k] * a
+            t2[m, k] = om
+        if kind == _TAB_EXACT:
+            idl = 1.0 / d
+            for k in range(nk):
+                t2[m, k] = ptau[k] * t2[m, k] * idl
+        elif kind == _TAB_QUANT:
+            for k in range(nk):
+                t3[m, k] = ptau[k] * t1[m, k]
+                t2[m, k] = ptau[k] * t2[m, k]
     return t1, t2, t3
 
 
