@@ -7,12 +7,13 @@ stress responses to unit E, G and σ_inf for given time constants (the model is 
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from bayes_dnlr.model import kernel
+from bayes_dnlr.model import kernel, threads
 from bayes_dnlr.model.spectrum import tau_scale, weights
 
 LINEAR_PARAMETERS = ("E", "G", "sigma_inf")
@@ -58,6 +59,11 @@ class DNLR:
     """The DNLR model on one strain history (time and strain in s and Hencky strain).
 
     relaxation_start: a time in s; every step that ends after it follows the relaxation law.
+
+    Everything that does not depend on the parameters is prepared once here (the step levels of
+    the kernel): build one ``DNLR`` per strain history and call ``stress``/``stress_batch``/
+    ``basis`` on it as often as needed. ``kernel_args`` exposes the prepared grid for compiled code
+    (``kernel.stress_into``).
     """
 
     def __init__(self, time: np.ndarray, strain: np.ndarray, modes: int = 50,
@@ -70,7 +76,6 @@ class DNLR:
         if not self.decades > 0:
             raise ValueError(f"decades must be > 0, got {decades}")
         self.relaxation_start = None if relaxation_start is None else float(relaxation_start)
-        self.h = haward_thackray(self.strain)
         self.dt = np.diff(self.time)
         self.p = weights(self.modes, self.decades)
         self.shape = tau_scale(self.modes, self.decades)
@@ -79,8 +84,37 @@ class DNLR:
         else:
             # a step i (t_i -> t_{i+1}) is a relaxation step when it ends after the switch
             self.n_tensile = int(np.searchsorted(self.time[1:], self.relaxation_start, "right"))
-        self._phase_t = np.unique(self.dt[: self.n_tensile], return_inverse=True)
-        self._phase_r = np.unique(self.dt[self.n_tensile:], return_inverse=True)
+        self.h = haward_thackray(self.strain)
+
+    @property
+    def h(self) -> np.ndarray:
+        """ε_HT at the samples (eq. 7-8). Assigning another array (same length) re-prepares the
+        grid: the model then uses that ε_HT, linear between samples."""
+        return self._h
+
+    @h.setter
+    def h(self, value: np.ndarray) -> None:
+        h = np.ascontiguousarray(value, dtype=float)
+        if h.shape != self.time.shape:
+            raise ValueError(f"h must have the shape of time {self.time.shape}, got {h.shape}")
+        self._h = h
+        self._kernel_args = kernel.grid_arrays(self.time, self.strain, h, self.n_tensile,
+                                               self.p, self.shape)
+
+    @property
+    def kernel_args(self) -> tuple[np.ndarray, ...]:
+        """The prepared grid, a tuple of six arrays, for ``kernel.stress_into`` and
+        ``kernel.stress_batch_into`` (their docstrings give the calling convention). Pass it
+        unchanged; it is read-only data owned by this model. Example in another njit function::
+
+            grid = model.kernel_args                      # once, in Python
+            @njit(parallel=True)
+            def many(theta, grid, out):                   # theta (k, 5): E, G, σ_inf, τ, τ_R
+                for r in prange(theta.shape[0]):
+                    stress_into(theta[r, 0], theta[r, 1], theta[r, 2], theta[r, 3],
+                                theta[r, 4], grid, out[r])
+        """
+        return self._kernel_args
 
     @property
     def has_relaxation(self) -> bool:
@@ -90,36 +124,23 @@ class DNLR:
     def n_points(self) -> int:
         return self.time.size
 
-    def _phase(self, tau_max: float, steps: tuple[np.ndarray, np.ndarray]):
-        dtu, row = steps
-        tau = tau_max * self.shape
-        if dtu.size == 0:
-            return tau, 0, np.ones(1), np.zeros(1, dtype=np.int64), np.ones((1, 1))
-        # modes with dt/tau > X_RELAXED in every step: quasi-static, handled in O(1) per step
-        j0 = int(np.searchsorted(tau, dtu[0] / kernel.X_RELAXED, "left"))
-        x = np.multiply.outer(dtu, -1.0 / tau[j0:])
-        np.maximum(x, -kernel.X_RELAXED, out=x)
-        np.exp(x, out=x)
-        return tau, j0, dtu, row.astype(np.int64, copy=False), x
+    def _check_times(self, tau_max: float, tau_max_R: float | None) -> float:
+        if not (np.isfinite(tau_max) and tau_max > 0):
+            raise ValueError(f"tau_max must be a positive number, got {tau_max}")
+        if not self.has_relaxation:
+            return float(tau_max)
+        if tau_max_R is None or not (np.isfinite(tau_max_R) and tau_max_R > 0):
+            raise ValueError(f"tau_max_R must be a positive number, got {tau_max_R}")
+        return float(tau_max_R)
 
     def basis(self, tau_max: float, tau_max_R: float | None = None, grad: bool = False) -> Basis:
         """Unit responses to E, G and σ_inf for these time constants (and their derivatives)."""
-        if not (np.isfinite(tau_max) and tau_max > 0):
-            raise ValueError(f"tau_max must be a positive number, got {tau_max}")
-        if self.has_relaxation:
-            if tau_max_R is None or not (np.isfinite(tau_max_R) and tau_max_R > 0):
-                raise ValueError(f"tau_max_R must be a positive number, got {tau_max_R}")
-        else:
-            tau_max_R = tau_max
+        tau_max_R = self._check_times(tau_max, tau_max_R)
         q = self.n_points
         out = np.empty((q, 3))
         gt = np.empty((q, 3)) if grad else np.empty((1, 3))
         gr = np.empty((q, 3)) if grad else np.empty((1, 3))
-        tt, j0t, dtut, rowt, dect = self._phase(float(tau_max), self._phase_t)
-        tr, j0r, dtur, rowr, decr = self._phase(float(tau_max_R), self._phase_r)
-        kernel.integrate(self.dt, self.strain, self.h, self.n_tensile, self.p,
-                         tt, j0t, dtut, rowt, dect, tr, j0r, dtur, rowr, decr,
-                         grad, out, gt, gr)
+        kernel.integrate(float(tau_max), tau_max_R, self._kernel_args, grad, out, gt, gr)
         if not grad:
             return Basis(out)
         return Basis(out, gt, gr if self.has_relaxation else None)
@@ -137,29 +158,69 @@ class DNLR:
     def stress(self, params: Mapping[str, float]) -> np.ndarray:
         """True stress (MPa) at every sample for a parameter mapping."""
         self._check_params(params)
-        b = self.basis(params["tau_max"], params.get("tau_max_R")).values
-        s = params["E"] * b[:, 0] + params["G"] * b[:, 1]
-        if self.has_relaxation:
-            s = s + params["sigma_inf"] * b[:, 2]
-        return s
+        tau_r = self._check_times(params["tau_max"], params.get("tau_max_R"))
+        s_inf = float(params["sigma_inf"]) if self.has_relaxation else 0.0
+        out = np.empty(self.n_points)
+        kernel.stress_into(float(params["E"]), float(params["G"]), s_inf,
+                           float(params["tau_max"]), tau_r, self._kernel_args, out)
+        return out
 
     def stress_batch(self, theta: np.ndarray, names: Sequence[str]) -> np.ndarray:
-        """Stress for many parameter sets: theta (k, p) in the order ``names`` -> (k, q)."""
+        """Stress for many parameter sets: theta (k, p) in the order ``names`` -> (k, q).
+
+        Compiled and parallel over the sets (``bayes_dnlr.model.set_threads``); each set is
+        computed on its own, so the result does not depend on the thread count.
+        """
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         names = list(names)
-        if theta.shape[1] != len(names):
-            raise ValueError(f"theta has {theta.shape[1]} columns for {len(names)} names")
+        if theta.ndim != 2 or theta.shape[1] != len(names):
+            raise ValueError(f"theta has {theta.shape[-1]} columns for {len(names)} names")
         self._check_params(dict.fromkeys(names, 0.0))
-        col = {k: names.index(k) for k in names}
+        sets = np.zeros((theta.shape[0], 5))
+        for c, k in enumerate(("E", "G", "sigma_inf", "tau_max", "tau_max_R")):
+            if k in names:
+                sets[:, c] = theta[:, names.index(k)]
+        if not self.has_relaxation:
+            sets[:, 4] = sets[:, 3]
+        bad = ~(np.isfinite(sets[:, 3:]).all(axis=1) & (sets[:, 3:] > 0).all(axis=1))
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"row {k} of theta: tau_max and tau_max_R must be positive numbers, "
+                             f"got {sets[k, 3]} and {sets[k, 4]}")
         out = np.empty((theta.shape[0], self.n_points))
-        for k, row in enumerate(theta):
-            tau_r = row[col["tau_max_R"]] if self.has_relaxation else None
-            b = self.basis(row[col["tau_max"]], tau_r).values
-            s = row[col["E"]] * b[:, 0] + row[col["G"]] * b[:, 1]
-            if self.has_relaxation:
-                s += row[col["sigma_inf"]] * b[:, 2]
-            out[k] = s
+        threads.ensure_configured()
+        kernel.stress_batch_into(sets, self._kernel_args, out)
         return out
+
+
+_CACHE: OrderedDict[tuple, tuple[np.ndarray, np.ndarray, DNLR]] = OrderedDict()
+_CACHE_SIZE = 8
+
+
+def cached_model(time: np.ndarray, strain: np.ndarray, modes: int = 50, decades: float = 6.0,
+                 relaxation_start: float | None = None) -> DNLR:
+    """A ``DNLR`` for these inputs, reused while time and strain hold the same values.
+
+    The cache (the last 8 distinct inputs) keeps private copies of time and strain and compares them in
+    full with the arguments on every call: changing an array in place never returns a stale
+    model. The returned model is shared: do not modify it.
+    """
+    t, e = _as_grid(time, strain)
+    mid = t.size // 2
+    key = (t.size, int(modes), float(decades),
+           None if relaxation_start is None else float(relaxation_start),
+           t[0], t[mid], t[-1], e[mid], e[-1])   # a fingerprint; the full comparison follows
+    hit = _CACHE.get(key)
+    if hit is not None and np.array_equal(hit[0], t) and np.array_equal(hit[1], e):
+        _CACHE.move_to_end(key)
+        return hit[2]
+    t, e = t.copy(), e.copy()
+    model = DNLR(t, e, modes, decades, relaxation_start)
+    _CACHE[key] = (t, e, model)
+    _CACHE.move_to_end(key)
+    while len(_CACHE) > _CACHE_SIZE:
+        _CACHE.popitem(last=False)
+    return model
 
 
 def simulate(time: np.ndarray, strain: np.ndarray, params: Mapping[str, float],
@@ -169,5 +230,7 @@ def simulate(time: np.ndarray, strain: np.ndarray, params: Mapping[str, float],
 
     params: E, G, tau_max; with ``relaxation_start`` (s) also sigma_inf and tau_max_R.
     The strain is used exactly as given (linear between samples); no smoothing happens here.
+    Repeated calls with the same time and strain values reuse the prepared model
+    (``cached_model``); for many parameter sets, ``DNLR(...).stress_batch`` is faster still.
     """
-    return DNLR(time, strain, modes, decades, relaxation_start).stress(params)
+    return cached_model(time, strain, modes, decades, relaxation_start).stress(params)

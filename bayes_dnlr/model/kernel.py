@@ -1,21 +1,49 @@
 """The exponential integrator of the DNLR modal equations (paper eq. 18), compiled with numba.
 
 Each mode j obeys  dσ_j/dt = p_j E dε/dt - (σ_j - p_j σ^r(t)) / tau_j  (eq. 10, 18).
-Between two samples the input (ε and ε_HT) is taken linear in time, and the update over a step
-of length Δ is exact. With x = Δ/tau_j, a = exp(-x), φ = (1 - a)/x:
+Between two samples the input (ε and ε_HT = h) is taken linear in time, and the update over a
+step of length Δ is exact. With x = Δ/tau_j, a = exp(-x), φ = (1 - a)/x:
 
-    tensile (σ^r = G ε_HT, eq. 17):   A_j <- a A_j + p_j φ Δε
-                                      B_j <- a B_j + p_j (h1 - a h0 - φ Δh)
-    relaxation (σ^r = σ_inf):         A_j <- a A_j + p_j φ Δε,  B_j <- a B_j,  C_j <- a C_j + p_j (1 - a)
+    tensile (σ^r = G h, eq. 17):  A_j <- a A_j + p_j φ Δε
+                                  B_j <- a B_j + p_j (h1 - a h0 - φ Δh)
+    relaxation (σ^r = σ_inf):     A_j <- a A_j + p_j φ Δε,  B_j <- a B_j,  C_j <- a C_j + p_j (1 - a)
 
-and the stress is σ = E ΣA + G ΣB + σ_inf ΣC: linear in E, G, σ_inf for fixed time constants.
+and σ = E ΣA + G ΣB + σ_inf ΣC: linear in E, G, σ_inf for fixed time constants (``integrate``,
+the unit responses with their derivatives, used by least squares). For one parameter set the
+three sums fold into one state per mode, the distance to the relaxed state D_j = σ_j - p_j σ^r:
+
+    D_j <- a D_j + p_j φ w,   w = E Δε - G Δh (tensile) or E Δε (relaxation),
+    σ = G h1 (or σ_inf) + Σ_j D_j                                   (``stress_into``)
 
 Modes with x > X_RELAXED in every step of a phase have forgotten their past (a < 5e-18): their
-states are the quasi-static values A_j = p_j tau_j Δε/Δ, B_j = p_j (h1 - tau_j Δh/Δ), C_j = p_j,
-whose sums over those modes cost O(1) per step. Only the remaining "active" modes are iterated.
+D_j is the quasi-static p_j tau_j w/Δ, summed in O(1) per step. Only the "active" modes iterate.
 
-The same loops carry the derivatives with respect to ln(tau_max) (forward-mode, exact):
-d a/d ln tau = x a, d φ/d ln tau = φ - a.
+Decays without a table over all steps (O(N) memory, cost linear in q): the steps of each phase
+are grouped once per grid (``step_levels``, parameter-free) into *levels*:
+
+- exact levels: few distinct step lengths (uniform grids, timestamps on a clock tick): a level is
+  a distinct step, its decays are computed once per call, each step only reads them;
+- quantized levels (jittered grids): geometric levels Δ_L with spacing LEVEL_SPACING; a step
+  Δ = Δ_L + ρ has a = a_L·exp(-ρ/tau) with |ρ/tau| <= 0.1, a short polynomial, and
+  1 - a = (1 - a_L) + a_L (1 - exp(-ρ/tau)) without cancellation;
+- steps in sparse regions (levels with fewer than MIN_LEVEL_COUNT steps) take a full exp.
+
+exp is computed by ``_decay``, an inlined polynomial (Cody-Waite reduction, degree-12 Estrin,
+2 ulp) that the compiler vectorises over modes: llvmlite has no SVML, and a libm exp in the loop
+costs 10-15 ns. The same routines serve ``integrate`` and ``stress_into``, so both agree to
+rounding.
+
+Grid data (``DNLR.kernel_args``, a tuple, built by ``grid_arrays``):
+
+    fg     float64 (q-1, 6)  per step i (t_i -> t_i+1): Δ, 1/Δ, Δε, Δh, h_{i+1}, ρ
+    ig     int64   (q-1,)    the step's level within its phase, -1 for a full exp
+    lev    float64 (n_t+n_r,) the level step lengths Δ_L, tensile levels first
+    spec   float64 (2, N)    the weights p_j and the spectrum shape tau_j/tau_max (eq. 12-14)
+    imeta  int64   (5,)      n_tensile steps, n_t levels, n_r levels, exact_t, exact_r
+    fmeta  float64 (3,)      h_0, shortest tensile step, shortest relaxation step
+
+The derivatives with respect to ln(tau_max) and ln(tau_max_R) are carried forward-mode in
+``integrate`` (exact): d a/d ln tau = x a, d φ/d ln tau = φ - a.
 
 All njit functions stay in this one module: numba's on-disk cache does not notice changes in a
 helper imported from another module (see NOTES-apis.md).
@@ -23,148 +51,454 @@ helper imported from another module (see NOTES-apis.md).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 try:
-    from numba import njit
+    from numba import njit, prange
 except ImportError as err:  # pragma: no cover - exercised only without numba
     raise ImportError(
         "bayes_dnlr needs numba for its forward model: pip install 'numba>=0.60' "
         "(or reinstall the package with `make install`)") from err
 
-X_RELAXED = 40.0      # exp(-40) = 4e-18: a mode this fast has no memory of the previous step
-X_SERIES = 1.0e-4     # below this, φ = (1 - a)/x loses digits: use its series
-TINY = 1.0e-250       # states below this are flushed to zero (denormals are slow)
+X_RELAXED = 40.0        # exp(-40) = 4e-18: a mode this fast has no memory of the previous step
+TINY = 1.0e-200         # states below this are flushed to zero (denormals are slow)
+LEVEL_SPACING = 0.005   # ln(Δ_L+1/Δ_L) of quantized levels: |ρ|/Δ_L <= 0.0025, |ρ/tau| <= 0.0025 x
+LEVEL_RANGE = 2.0       # only steps up to 2x the shortest of their phase get a level: active modes
+                        # then have x_L <= 80 and |ρ/tau| <= 0.2 (longer steps take a full exp)
+MIN_LEVEL_COUNT = 4     # a quantized level must serve this many steps, else they take a full exp
+EXACT_LEVELS_MAX = 256  # at most this many exact levels (and at most 1/8 of the steps, or 16)
 
 _FASTMATH = {"reassoc", "contract", "nsz"}
 
+_LOG2E = 1.4426950408889634
+_LN2_HI = 6.93147180369123816490e-01    # 0x3fe62e42fee00000: n·_LN2_HI is exact
+_LN2_LO = 1.90821492927058770002e-10
+_C = [1.0 / math.factorial(m + 1) for m in range(13)]   # expm1(r)/r = Σ r^m/(m+1)!
+_C0, _C1, _C2, _C3, _C4, _C5, _C6, _C7, _C8, _C9, _C10, _C11, _C12 = _C
+
+# Table kinds of _level_tables
+_TAB_DECAY = 0      # (a_L, 1 - a_L): integrate
+_TAB_EXACT = 1      # (a_L, p tau (1 - a_L)/Δ_L): stress on exact levels
+_TAB_QUANT = 2      # (a_L, p tau (1 - a_L), p tau a_L): stress on quantized levels
+
 
 @njit(cache=True, fastmath=_FASTMATH, inline="always")
-def _flush(v: float) -> float:
+def _decay(x):
+    """(exp(-x), 1 - exp(-x)) for 0 <= x <= 40, to 2 and 4 ulp, branch-free (vectorises).
+
+    x = n ln2 - r, |r| <= ln2/2; Q(r) = expm1(r)/r, degree 12 by Estrin; exp(-x) = 2^-n (1 + r Q),
+    the power of two put into the exponent bits. For n = 0, 1 - exp(-x) = x Q(-x) keeps full
+    relative accuracy for tiny x. floor (not a magic-constant rounding) keeps it correct under
+    fastmath reassociation.
+    """
+    n = np.floor(x * _LOG2E + 0.5)
+    r = (n * _LN2_HI - x) + n * _LN2_LO
+    r2 = r * r
+    r4 = r2 * r2
+    q = (((_C0 + _C1 * r) + (_C2 + _C3 * r) * r2) + ((_C4 + _C5 * r) + (_C6 + _C7 * r) * r2) * r4
+         + (((_C8 + _C9 * r) + (_C10 + _C11 * r) * r2) + _C12 * r4) * (r4 * r4))
+    e = 1.0 + r * q
+    ni = np.int64(np.int32(n))
+    a = np.int64(np.float64(e).view(np.int64) - (ni << 52)).view(np.float64)
+    om = x * q if n == 0.0 else 1.0 - a
+    return a, om
+
+
+@njit(cache=True, fastmath=_FASTMATH, inline="always")
+def _rho_powers(rho):
+    """Coefficients of 1 - exp(-ρ/tau) = Σ_{m=1..6} c_m (1/tau)^m, c_m = -(-ρ)^m/m!."""
+    c1 = rho
+    c2 = -0.5 * rho * c1
+    c3 = -(1.0 / 3.0) * rho * c2
+    c4 = -0.25 * rho * c3
+    c5 = -0.2 * rho * c4
+    c6 = -(1.0 / 6.0) * rho * c5
+    return c1, c2, c3, c4, c5, c6
+
+
+@njit(cache=True, fastmath=_FASTMATH, inline="always")
+def _one_minus_exp_small(it, c1, c2, c3, c4, c5, c6):
+    """1 - exp(-z), z = ρ·it, by Horner in it with the step's coefficients (``_rho_powers``).
+
+    For a step Δ_L + ρ on a level, a = a_L (1 - u): with |z| <= 0.0025 x_L the absolute error
+    of a is below e^-x (0.0025 x)^7/7! < 1e-19 for every x (and |z| <= 0.2 for active modes).
+    """
+    return it * (c1 + it * (c2 + it * (c3 + it * (c4 + it * (c5 + it * c6)))))
+
+
+@njit(cache=True, fastmath=_FASTMATH, inline="always")
+def _flush(v):
     return v if abs(v) > TINY else 0.0
 
 
-@njit(cache=True, fastmath=_FASTMATH, inline="always")
-def _one_minus(a: float, x: float) -> float:
-    """1 - a with a = exp(-x), accurate also for tiny x (series)."""
-    if x > X_SERIES:
-        return 1.0 - a
-    return x * (1.0 - x * (0.5 - x * (1.0 / 6.0)))
+@njit(cache=True, fastmath=_FASTMATH)
+def _n_relaxed(shape, tau_max, d_min):
+    """Number of modes with d_min/tau_j > X_RELAXED (always relaxed in the phase)."""
+    j0 = 0
+    for j in range(shape.size):
+        if d_min > X_RELAXED * tau_max * shape[j]:
+            j0 = j + 1
+    return j0
 
 
 @njit(cache=True, fastmath=_FASTMATH)
-def integrate(dt, eps, h, n_tensile, p,
-              tau_t, j0_t, dtu_t, row_t, dec_t,
-              tau_r, j0_r, dtu_r, row_r, dec_r,
-              want_grad, out, grad_t, grad_r):
-    """Integrate all modes over the whole record; write ΣA, ΣB, ΣC per sample into ``out``.
+def _active_spectrum(p, shape, tau_max, j0):
+    """1/tau_k and p_k tau_k of the active modes, and Σ p_j tau_j over the relaxed ones."""
+    nk = p.size - j0
+    itau = np.empty(nk)
+    ptau = np.empty(nk)
+    for k in range(nk):
+        tau = tau_max * shape[j0 + k]
+        itau[k] = 1.0 / tau
+        ptau[k] = p[j0 + k] * tau
+    spt = 0.0
+    for j in range(j0):
+        spt += p[j] * tau_max * shape[j]
+    return itau, ptau, spt
 
-    dt (q-1,) steps; eps, h (q,) strain and ε_HT; the first ``n_tensile`` steps are tensile.
-    Per phase: tau (N,) relaxation times, j0 the number of always-relaxed fast modes, dtu the
-    distinct step lengths, row (steps of the phase,) the index of each step in dtu, and dec
-    (len(dtu), N - j0) the decays exp(-min(dtu/tau, X_RELAXED)) of the active modes.
-    out, grad_t, grad_r: (q, 3) arrays; the gradients (d/d ln tau_max, d/d ln tau_max_R) are
-    written only when ``want_grad``.
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _level_tables(lev, itau, ptau, kind):
+    """Decays of every level for the active modes, x = min(Δ_L/tau_k, X_RELAXED): three (levels,
+    modes) tables whose content depends on ``kind`` (_TAB_DECAY, _TAB_EXACT, _TAB_QUANT)."""
+    nl = lev.size
+    nk = itau.size
+    t1 = np.empty((nl, nk))
+    t2 = np.empty((nl, nk))
+    t3 = np.empty((nl if kind == _TAB_QUANT else 0, nk))
+    for m in range(nl):
+        d = lev[m]
+        for k in range(nk):
+            a, om = _decay(min(d * itau[k], X_RELAXED))
+            t1[m, k] = a
+            t2[m, k] = om
+        if kind == _TAB_EXACT:
+            idl = 1.0 / d
+            for k in range(nk):
+                t2[m, k] = ptau[k] * t2[m, k] * idl
+        elif kind == _TAB_QUANT:
+            for k in range(nk):
+                t3[m, k] = ptau[k] * t1[m, k]
+                t2[m, k] = ptau[k] * t2[m, k]
+    return t1, t2, t3
+
+
+_BLOCK = 32     # steps whose decays integrate computes in one call
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _block_decays(i0, i1, fg, ig, itau, ta, tom, a_out, om_out):
+    """(a, 1 - a) of steps i0..i1-1 (rows 0.. of a_out, om_out) for the active modes: from the
+    step's level m (tables a_L, 1 - a_L, with the ρ correction) or by a full exp (m < 0)."""
+    for i in range(i0, i1):
+        b = i - i0
+        m = ig[i]
+        if m >= 0 and fg[i, 5] == 0.0:
+            for k in range(itau.size):
+                a_out[b, k] = ta[m, k]
+                om_out[b, k] = tom[m, k]
+        elif m >= 0:
+            c1, c2, c3, c4, c5, c6 = _rho_powers(fg[i, 5])
+            for k in range(itau.size):
+                u = _one_minus_exp_small(itau[k], c1, c2, c3, c4, c5, c6)
+                a_l = ta[m, k]
+                a_out[b, k] = a_l - a_l * u
+                om_out[b, k] = tom[m, k] + a_l * u
+        else:
+            d = fg[i, 0]
+            for k in range(itau.size):
+                a, om = _decay(min(d * itau[k], X_RELAXED))
+                a_out[b, k] = a
+                om_out[b, k] = om
+
+
+# ---------------------------------------------------------------- one parameter set: the stress
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _stress_phase(i0, i1, fg, ig, exact, ta, tb, tc, itau, ptau, spt, e_mod, g_h, s_base, D,
+                  out):
+    """Advance the active states D over steps i0..i1-1 and write out[i+1]:
+    w = E Δε - g_h Δh, σ = g_h h1 + s_base + spt w/Δ + Σ D, with D <- a D + b w per mode.
+
+    Exact levels (ta = a_L, tb = p tau (1 - a_L)/Δ_L): blocks of four steps with D in a register
+    (the update is two flops per mode: its latency matters, not its arithmetic). Quantized levels
+    (ta = a_L, tb = p tau (1 - a_L), tc = p tau a_L): u = 1 - exp(-ρ/tau), a = a_L (1 - u),
+    p tau (1 - a) = tb + tc u. Steps without a level: a full exp per mode. States below TINY
+    are flushed to zero, once per block of four steps (four steps shrink a state by at most
+    e^-160: nothing becomes denormal in between).
+
+    The loops are written out here, not in helpers taking arrays: a helper inlined per step would
+    add reference counting on every call.
     """
-    n = p.shape[0]
-    q = eps.shape[0]
+    nk = D.size
+    i = i0
+    if exact:
+        while i + 4 <= i1:
+            w0 = e_mod * fg[i, 2] - g_h * fg[i, 3]
+            w1 = e_mod * fg[i + 1, 2] - g_h * fg[i + 1, 3]
+            w2 = e_mod * fg[i + 2, 2] - g_h * fg[i + 2, 3]
+            w3 = e_mod * fg[i + 3, 2] - g_h * fg[i + 3, 3]
+            m0 = ig[i]
+            m1 = ig[i + 1]
+            m2 = ig[i + 2]
+            m3 = ig[i + 3]
+            s0 = 0.0
+            s1 = 0.0
+            s2 = 0.0
+            s3 = 0.0
+            for k in range(nk):
+                v = ta[m0, k] * D[k] + tb[m0, k] * w0
+                s0 += v
+                v = ta[m1, k] * v + tb[m1, k] * w1
+                s1 += v
+                v = ta[m2, k] * v + tb[m2, k] * w2
+                s2 += v
+                v = ta[m3, k] * v + tb[m3, k] * w3
+                s3 += v
+                D[k] = _flush(v)
+            out[i + 1] = g_h * fg[i, 4] + s_base + spt * w0 * fg[i, 1] + s0
+            out[i + 2] = g_h * fg[i + 1, 4] + s_base + spt * w1 * fg[i + 1, 1] + s1
+            out[i + 3] = g_h * fg[i + 2, 4] + s_base + spt * w2 * fg[i + 2, 1] + s2
+            out[i + 4] = g_h * fg[i + 3, 4] + s_base + spt * w3 * fg[i + 3, 1] + s3
+            i += 4
+    for j in range(i, i1):
+        w = e_mod * fg[j, 2] - g_h * fg[j, 3]
+        wi = w * fg[j, 1]
+        m = ig[j]
+        s = 0.0
+        flush = (j & 3) == 0
+        if exact:
+            for k in range(nk):
+                v = _flush(ta[m, k] * D[k] + tb[m, k] * w)
+                D[k] = v
+                s += v
+        elif m >= 0:
+            c1, c2, c3, c4, c5, c6 = _rho_powers(fg[j, 5])
+            if flush:
+                for k in range(nk):
+                    u = _one_minus_exp_small(itau[k], c1, c2, c3, c4, c5, c6)
+                    a_l = ta[m, k]
+                    v = _flush((a_l - a_l * u) * D[k] + (tb[m, k] + tc[m, k] * u) * wi)
+                    D[k] = v
+                    s += v
+            else:
+                for k in range(nk):
+                    u = _one_minus_exp_small(itau[k], c1, c2, c3, c4, c5, c6)
+                    a_l = ta[m, k]
+                    v = (a_l - a_l * u) * D[k] + (tb[m, k] + tc[m, k] * u) * wi
+                    D[k] = v
+                    s += v
+        else:
+            d = fg[j, 0]
+            for k in range(nk):
+                a, om = _decay(min(d * itau[k], X_RELAXED))
+                v = _flush(a * D[k] + ptau[k] * om * wi)
+                D[k] = v
+                s += v
+        out[j + 1] = g_h * fg[j, 4] + s_base + spt * wi + s
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _phase_tables(grid, tau_max, relaxation, for_stress):
+    """Relaxed-mode count, active spectrum and level tables of one phase (relaxation: 0 tensile,
+    1 relaxation; for_stress: 0 gives the _TAB_DECAY tables of integrate, 1 those of the stress).
+
+    Callers pass int64 values made at run time (np.int64(...)): a literal constant would make
+    numba compile one more specialisation per value.
+    """
+    fg, ig, lev, spec, imeta, fmeta = grid
+    p = spec[0]
+    shape = spec[1]
+    j0 = _n_relaxed(shape, tau_max, fmeta[1 + relaxation])
+    itau, ptau, spt = _active_spectrum(p, shape, tau_max, j0)
+    first = imeta[1] * relaxation
+    nl = imeta[1 + relaxation]
+    kind = _TAB_DECAY
+    if for_stress != 0:
+        kind = _TAB_EXACT if imeta[3 + relaxation] != 0 else _TAB_QUANT
+    t1, t2, t3 = _level_tables(lev[first:first + nl], itau, ptau, kind)
+    return j0, itau, ptau, spt, t1, t2, t3
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def stress_into(E, G, sigma_inf, tau_max, tau_max_R, grid, out):
+    """True stress of one parameter set at every sample, written into ``out`` (q,). Returns True,
+    or False (``out`` filled with NaN) when tau_max, or tau_max_R with a relaxation phase, is not
+    a finite positive number. Callable from Python and from other njit code, also inside prange.
+
+    Calling convention: ``stress_into(E, G, sigma_inf, tau_max, tau_max_R, grid, out)`` with
+    five floats (MPa, MPa, MPa, s, s), ``grid = DNLR.kernel_args`` (the tuple described in the
+    module docstring; pass it through unchanged) and ``out`` a float64 C-contiguous array of
+    length q = DNLR.n_points. Without a relaxation phase sigma_inf and tau_max_R are ignored
+    (pass any float). Work memory is O(N·levels), independent of q; no reduction crosses calls,
+    so the result of one set never depends on others or on the thread count.
+    """
+    fg, ig, lev, spec, imeta, fmeta = grid
+    p = spec[0]
+    shape = spec[1]
+    n = p.size
+    n_steps = fg.shape[0]
+    nt = imeta[0]
+    relax = nt < n_steps
+    if not (tau_max > 0.0 and tau_max < np.inf) or (
+            relax and not (tau_max_R > 0.0 and tau_max_R < np.inf)):
+        out[:] = np.nan
+        return False
+    out[0] = G * fmeta[0]
+    D = np.zeros(n)
+    j0t = 0
+    if nt > 0:
+        j0t, itau, ptau, spt, t1, t2, t3 = _phase_tables(grid, tau_max, np.int64(0), np.int64(1))
+        _stress_phase(np.int64(0), nt, fg, ig, imeta[3] != 0, t1, t2, t3, itau, ptau, spt,
+                      E, G, 0.0, D[j0t:], out)
+    if not relax:
+        return True
+    # the switch (section 4.1): D_j = σ_j - p_j σ_inf; the always-relaxed tensile modes leave
+    # their quasi-static states p_j tau_j w/Δ of the last tensile step
+    if nt > 0:
+        h_sw = fg[nt - 1, 4]
+        w_last = (E * fg[nt - 1, 2] - G * fg[nt - 1, 3]) * fg[nt - 1, 1]
+        for j in range(j0t):
+            D[j] = p[j] * tau_max * shape[j] * w_last
+    else:
+        h_sw = fmeta[0]
+    for j in range(n):
+        D[j] += p[j] * (G * h_sw - sigma_inf)
+    j0r, itau, ptau, spt, t1, t2, t3 = _phase_tables(grid, tau_max_R, np.int64(1), np.int64(1))
+    _stress_phase(nt, n_steps, fg, ig, imeta[4] != 0, t1, t2, t3, itau, ptau, spt,
+                  E, 0.0, sigma_inf, D[j0r:], out)
+    return True
+
+
+@njit(cache=True, fastmath=_FASTMATH, parallel=True)
+def stress_batch_into(theta, grid, out):
+    """``stress_into`` for every row of theta (k, 5) = (E, G, sigma_inf, tau_max, tau_max_R),
+    rows of ``out`` (k, q), in parallel over rows (numba threads). Returns the number of rows
+    whose time constants were invalid (those rows hold NaN). Each row is computed on its own by
+    the same compiled code: the result is bit-identical whatever the thread count."""
+    bad = np.zeros(theta.shape[0], dtype=np.int64)
+    for r in prange(theta.shape[0]):
+        ok = stress_into(theta[r, 0], theta[r, 1], theta[r, 2], theta[r, 3], theta[r, 4],
+                         grid, out[r])
+        bad[r] = 0 if ok else 1
+    return bad.sum()
+
+
+# ------------------------------------------------ unit responses and their derivatives (basis)
+
+@njit(cache=True, fastmath=_FASTMATH)
+def integrate(tau_max, tau_max_R, grid, want_grad, out, grad_t, grad_r):
+    """Integrate all modes over the whole record; write ΣA, ΣB, ΣC per sample into ``out`` (q, 3).
+
+    grad_t, grad_r (q, 3): d/d ln tau_max and d/d ln tau_max_R of the same sums, written only when
+    ``want_grad``. Without a relaxation phase tau_max_R is ignored. Time constants must be finite
+    and positive (checked by the caller).
+    """
+    fg, ig, lev, spec, imeta, fmeta = grid
+    p = spec[0]
+    shape = spec[1]
+    n = p.size
+    n_steps = fg.shape[0]
+    q = n_steps + 1
+    n_tensile = imeta[0]
+    h_first = fmeta[0]
     A = np.zeros(n)
-    B = p * h[0]
+    B = p * h_first
     C = np.zeros(n)
     gA = np.zeros(n)      # d/d ln tau_max (tensile spectrum)
     gB = np.zeros(n)
     rA = np.zeros(n)      # d/d ln tau_max_R (relaxation spectrum)
     rB = np.zeros(n)
     rC = np.zeros(n)
+    av = np.empty((_BLOCK, n))      # decays of a block of steps (active modes)
+    omv = np.empty((_BLOCK, n))
     out[0, 0] = 0.0
-    out[0, 1] = h[0]
+    out[0, 1] = h_first
     out[0, 2] = 0.0
     if want_grad:
         for c in range(3):
             grad_t[0, c] = 0.0
             grad_r[0, c] = 0.0
 
-    # sums over the always-relaxed modes of each phase
-    sp_t = 0.0
-    spt_t = 0.0
-    for j in range(j0_t):
-        sp_t += p[j]
-        spt_t += p[j] * tau_t[j]
-    sp_r = 0.0
-    spt_r = 0.0
-    for j in range(j0_r):
-        sp_r += p[j]
-        spt_r += p[j] * tau_r[j]
-
     # ---- tensile phase (eq. 18)
+    j0_t = 0
     if n_tensile > 0:
+        j0_t, itau, ptau, spt_t, ta, tom, _ = _phase_tables(grid, tau_max, np.int64(0), np.int64(0))
+        sp_t = 0.0
+        for j in range(j0_t):
+            sp_t += p[j]
+        nk = n - j0_t
         pt = p[j0_t:]
-        ptau = p[j0_t:] * tau_t[j0_t:]
-        itau = 1.0 / tau_t[j0_t:]
         At = A[j0_t:]
         Bt = B[j0_t:]
         gAt = gA[j0_t:]
         gBt = gB[j0_t:]
-        nk = n - j0_t
-    for i in range(n_tensile):
-        d = dt[i]
-        u = row_t[i]
-        de = eps[i + 1] - eps[i]
-        h0 = h[i]
-        h1 = h[i + 1]
-        dh = h1 - h0
-        xs = dtu_t[u]
-        idt = 1.0 / xs
-        sa = spt_t * de * idt
-        sb = sp_t * h1 - spt_t * dh * idt
-        if want_grad:
-            ga = sa
-            gb = -spt_t * dh * idt
+        for i in range(n_tensile):
+            d = fg[i, 0]
+            idt = fg[i, 1]
+            de = fg[i, 2]
+            dh = fg[i, 3]
+            h1 = fg[i, 4]
+            h0 = h1 - dh
+            b = i % _BLOCK
+            if b == 0:
+                _block_decays(i, min(i + _BLOCK, n_tensile), fg, ig, itau, ta, tom, av, omv)
+            sa = spt_t * de * idt
+            sb = sp_t * h1 - spt_t * dh * idt
+            if want_grad:
+                ga = sa
+                gb = -spt_t * dh * idt
+                for k in range(nk):
+                    a = av[b, k]
+                    x_a = d * itau[k] * a
+                    pdphi = ptau[k] * omv[b, k] * idt - pt[k] * a
+                    gAt[k] = _flush(a * gAt[k] + x_a * At[k] + pdphi * de)
+                    gBt[k] = _flush(a * gBt[k] + x_a * (Bt[k] - pt[k] * h0) - pdphi * dh)
+                    ga += gAt[k]
+                    gb += gBt[k]
+                grad_t[i + 1, 0] = ga
+                grad_t[i + 1, 1] = gb
+                grad_t[i + 1, 2] = 0.0
+                grad_r[i + 1, 0] = 0.0
+                grad_r[i + 1, 1] = 0.0
+                grad_r[i + 1, 2] = 0.0
             for k in range(nk):
-                a = dec_t[u, k]
-                x = xs * itau[k]
-                x_a = x * a
-                pdphi = ptau[k] * _one_minus(a, x) * idt - pt[k] * a
-                gAt[k] = _flush(a * gAt[k] + x_a * At[k] + pdphi * de)
-                gBt[k] = _flush(a * gBt[k] + x_a * (Bt[k] - pt[k] * h0) - pdphi * dh)
-                ga += gAt[k]
-                gb += gBt[k]
-            grad_t[i + 1, 0] = ga
-            grad_t[i + 1, 1] = gb
-            grad_t[i + 1, 2] = 0.0
-            grad_r[i + 1, 0] = 0.0
-            grad_r[i + 1, 1] = 0.0
-            grad_r[i + 1, 2] = 0.0
-        for k in range(nk):
-            a = dec_t[u, k]
-            c = ptau[k] * _one_minus(a, xs * itau[k]) * idt
-            At[k] = _flush(a * At[k] + c * de)
-            Bt[k] = _flush(a * Bt[k] + pt[k] * (h1 - a * h0) - c * dh)
-            sa += At[k]
-            sb += Bt[k]
-        out[i + 1, 0] = sa
-        out[i + 1, 1] = sb
-        out[i + 1, 2] = 0.0
+                a = av[b, k]
+                c = ptau[k] * omv[b, k] * idt
+                At[k] = _flush(a * At[k] + c * de)
+                Bt[k] = _flush(a * Bt[k] + pt[k] * (h1 - a * h0) - c * dh)
+                sa += At[k]
+                sb += Bt[k]
+            out[i + 1, 0] = sa
+            out[i + 1, 1] = sb
+            out[i + 1, 2] = 0.0
 
-    if n_tensile >= q - 1:
+    if n_tensile >= n_steps:
         return
 
     # ---- switch to relaxation: the always-relaxed tensile modes take their quasi-static states
     if n_tensile > 0:
         i = n_tensile - 1
-        d = dt[i]
-        rate_e = (eps[i + 1] - eps[i]) / d
-        rate_h = (h[i + 1] - h[i]) / d
+        idt = fg[i, 1]
+        rate_e = fg[i, 2] * idt
+        rate_h = fg[i, 3] * idt
+        h1 = fg[i, 4]
         for j in range(j0_t):
-            A[j] = p[j] * tau_t[j] * rate_e
-            B[j] = p[j] * (h[i + 1] - tau_t[j] * rate_h)
+            tau = tau_max * shape[j]
+            A[j] = p[j] * tau * rate_e
+            B[j] = p[j] * (h1 - tau * rate_h)
             gA[j] = A[j]
-            gB[j] = -p[j] * tau_t[j] * rate_h
+            gB[j] = -p[j] * tau * rate_h
 
     # ---- relaxation phase (section 4.1): same E and weights, spectrum tau_max_R, σ^r = σ_inf
+    j0_r, itau, ptau, spt_r, ta, tom, _ = _phase_tables(grid, tau_max_R, np.int64(1), np.int64(0))
+    sp_r = 0.0
+    for j in range(j0_r):
+        sp_r += p[j]
+    nk = n - j0_r
     pr = p[j0_r:]
-    ptau = p[j0_r:] * tau_r[j0_r:]
-    itau = 1.0 / tau_r[j0_r:]
     Ar = A[j0_r:]
     Br = B[j0_r:]
     Cr = C[j0_r:]
@@ -173,13 +507,13 @@ def integrate(dt, eps, h, n_tensile, p,
     rAr = rA[j0_r:]
     rBr = rB[j0_r:]
     rCr = rC[j0_r:]
-    nk = n - j0_r
     for i in range(n_tensile, q - 1):
-        d = dt[i]
-        u = row_r[i - n_tensile]
-        de = eps[i + 1] - eps[i]
-        xs = dtu_r[u]
-        idt = 1.0 / xs
+        d = fg[i, 0]
+        idt = fg[i, 1]
+        de = fg[i, 2]
+        b = (i - n_tensile) % _BLOCK
+        if b == 0:
+            _block_decays(i, min(i + _BLOCK, q - 1), fg, ig, itau, ta, tom, av, omv)
         sa = spt_r * de * idt
         sb = 0.0
         sc = sp_r
@@ -190,10 +524,9 @@ def integrate(dt, eps, h, n_tensile, p,
             rb = 0.0
             rc = 0.0
             for k in range(nk):
-                a = dec_r[u, k]
-                x = xs * itau[k]
-                x_a = x * a
-                pdphi = ptau[k] * _one_minus(a, x) * idt - pr[k] * a
+                a = av[b, k]
+                x_a = d * itau[k] * a
+                pdphi = ptau[k] * omv[b, k] * idt - pr[k] * a
                 gAr[k] = _flush(a * gAr[k])
                 gBr[k] = _flush(a * gBr[k])
                 rAr[k] = _flush(a * rAr[k] + x_a * Ar[k] + pdphi * de)
@@ -211,8 +544,8 @@ def integrate(dt, eps, h, n_tensile, p,
             grad_r[i + 1, 1] = rb
             grad_r[i + 1, 2] = rc
         for k in range(nk):
-            a = dec_r[u, k]
-            oma = _one_minus(a, xs * itau[k])
+            a = av[b, k]
+            oma = omv[b, k]
             Ar[k] = _flush(a * Ar[k] + ptau[k] * oma * idt * de)
             Br[k] = _flush(a * Br[k])
             Cr[k] = _flush(a * Cr[k] + pr[k] * oma)
@@ -222,3 +555,55 @@ def integrate(dt, eps, h, n_tensile, p,
         out[i + 1, 0] = sa
         out[i + 1, 1] = sb
         out[i + 1, 2] = sc
+
+
+# ------------------------------------------------------------- grid preparation (plain numpy)
+
+def step_levels(steps: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+    """Group the step lengths of one phase into levels (see the module docstring).
+
+    Returns (levels, index of each step's level or -1, ρ = step - level, exact). Exact levels when
+    the distinct lengths are few: at most EXACT_LEVELS_MAX and at most max(16, steps/8).
+    """
+    steps = np.asarray(steps, dtype=float)
+    if steps.size == 0:
+        return np.empty(0), np.empty(0, dtype=np.int64), np.empty(0), True
+    distinct, inverse = np.unique(steps, return_inverse=True)
+    if distinct.size <= min(EXACT_LEVELS_MAX, max(16, steps.size // 8)):
+        return distinct, inverse.astype(np.int64), np.zeros(steps.size), True
+    bins = np.rint(np.log(steps / distinct[0]) / LEVEL_SPACING).astype(np.int64)
+    bins[steps > LEVEL_RANGE * distinct[0]] = -1          # long steps: a full exp
+    used, which, counts = np.unique(bins, return_inverse=True, return_counts=True)
+    keep = (counts >= MIN_LEVEL_COUNT) & (used >= 0)
+    new_index = np.cumsum(keep) - 1
+    levels = distinct[0] * np.exp(used[keep] * LEVEL_SPACING)
+    index = np.where(keep[which], new_index[which], -1).astype(np.int64)
+    rho = np.zeros(steps.size)
+    on_level = index >= 0
+    rho[on_level] = steps[on_level] - levels[index[on_level]]
+    return levels, index, rho, False
+
+
+def grid_arrays(time: np.ndarray, strain: np.ndarray, h: np.ndarray, n_tensile: int,
+                p: np.ndarray, shape: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The parameter-free grid tuple of ``stress_into`` and ``integrate`` (module docstring)."""
+    dt = np.diff(time)
+    n_steps = dt.size
+    fg = np.empty((n_steps, 6))
+    fg[:, 0] = dt
+    fg[:, 1] = 1.0 / dt
+    fg[:, 2] = np.diff(strain)
+    fg[:, 3] = np.diff(h)
+    fg[:, 4] = h[1:]
+    lev_t, idx_t, rho_t, exact_t = step_levels(dt[:n_tensile])
+    lev_r, idx_r, rho_r, exact_r = step_levels(dt[n_tensile:])
+    fg[:, 5] = np.concatenate([rho_t, rho_r])
+    ig = np.concatenate([idx_t, idx_r]).astype(np.int64)
+    lev = np.concatenate([lev_t, lev_r])
+    spec = np.ascontiguousarray(np.vstack([p, shape]))
+    imeta = np.array([n_tensile, lev_t.size, lev_r.size, int(exact_t), int(exact_r)],
+                     dtype=np.int64)
+    d_min_t = float(dt[:n_tensile].min()) if n_tensile > 0 else 1.0
+    d_min_r = float(dt[n_tensile:].min()) if n_tensile < n_steps else 1.0
+    fmeta = np.array([h[0], d_min_t, d_min_r])
+    return fg, ig, lev, spec, imeta, fmeta
