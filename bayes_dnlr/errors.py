@@ -7,3 +7,12 @@ class BayesDnlrError(Exception):
 
 class RunError(BayesDnlrError):
     """A run directory is in a state that forbids the action (e.g. a result would be overwritten)."""
+
+
+class StorageError(BayesDnlrError):
+    """A file could not be written (I/O error, read-only or full file system); nothing committed
+    before was lost."""
+
+
+class DiskFullError(StorageError):
+    """The file system holding an output is full (ENOSPC) or the user's quota is used up (EDQUOT)."""

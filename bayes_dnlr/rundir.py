@@ -19,6 +19,7 @@ import numpy as np
 import yaml
 
 from bayes_dnlr.config import Config
+from bayes_dnlr.diskio import storage_error, sweep_stale_temps, temp_path
 
 RESOLVED_CONFIG = "config.yaml"
 RESOLVED_CONFIG_BESIDE_SOURCE = "config.resolved.yaml"
@@ -73,8 +74,11 @@ def resolved_config_text(cfg: Config) -> str:
 def prepare_run_dir(cfg: Config) -> Path:
     """Create the run directory and write the config as resolved (defaults filled in)."""
     run_dir = cfg.run_dir
-    run_dir.mkdir(parents=True, exist_ok=True)
-    resolved_config_path(cfg).write_text(resolved_config_text(cfg))
+    try:
+        run_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise (storage_error(err, run_dir) or err) from None
+    write_atomic(resolved_config_path(cfg), resolved_config_text(cfg))
     return run_dir
 
 
@@ -104,11 +108,30 @@ def jsonable(obj: Any) -> Any:
     return obj
 
 
-def write_atomic(path: Path, text: str) -> None:
-    """Replace ``path`` by ``text`` in one step: a reader never sees half a file."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
+def write_atomic(path: Path, content: str | bytes | memoryview) -> None:
+    """Replace ``path`` by ``content`` (text is written as UTF-8) in one step: a reader never sees
+    half a file, and a failed write (disk full, ...) leaves the old file as it was.
+
+    The bytes go to ``.<name>.<pid>.tmp`` beside ``path``, are fsynced, then renamed onto it. On any
+    failure the temporary is removed and a write error of the environment becomes a one-line
+    StorageError (DiskFullError when the disk is full); temporaries of killed writers of the same
+    file are swept first, so retries do not pile them up."""
+    path = Path(path)
+    data = content.encode("utf-8") if isinstance(content, str) else content
+    sweep_stale_temps(path)
+    tmp = temp_path(path)
+    try:
+        with open(tmp, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException as err:
+        tmp.unlink(missing_ok=True)
+        clean = storage_error(err, path, "the previous version of the file, if any, is unchanged")
+        if clean is not None:
+            raise clean from None
+        raise
 
 
 def write_json(path: Path, content: Any) -> None:

@@ -43,3 +43,12 @@ def make_config(tmp_path: Path) -> Callable[..., Config]:
         return parse_config(raw, source=tmp_path / "config.yaml")
 
     return make
+
+
+@pytest.fixture(scope="session")
+def zygote():
+    """Forks `sample` processes at the cost of a fork (crash_support.py)."""
+    from crash_support import Zygote
+
+    with Zygote() as z:
+        yield z

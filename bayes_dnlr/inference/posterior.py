@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -25,7 +24,7 @@ import numpy as np
 
 from bayes_dnlr.config import UNITS
 from bayes_dnlr.numbers import fmt, fmt_at
-from bayes_dnlr.rundir import jsonable, write_json
+from bayes_dnlr.rundir import jsonable, write_atomic, write_json
 
 POSTERIOR_FILE = "posterior.nc"
 SUMMARY_FILE = "summary.json"
@@ -139,12 +138,13 @@ def summarize(names: list[str], draws: np.ndarray, *, fit: dict[str, Any], tau: 
 
 
 def write_outputs(run_dir: Path, datatree, summary: dict[str, Any]) -> None:
-    """posterior.nc and summary.json, each replaced atomically."""
+    """posterior.nc and summary.json, each replaced atomically (rundir.write_atomic).
+
+    posterior.nc is serialised in memory first: HDF5 never writes to the disk itself, so a full disk
+    is met by a plain file write (a one-line DiskFullError, the temporary removed) and never inside
+    HDF5 (whose failed writes can crash the process when it exits)."""
     run_dir = Path(run_dir)
-    nc = run_dir / POSTERIOR_FILE
-    tmp = run_dir / f".{POSTERIOR_FILE}.{os.getpid()}.tmp"
-    datatree.to_netcdf(tmp, engine="h5netcdf")
-    os.replace(tmp, nc)
+    write_atomic(run_dir / POSTERIOR_FILE, datatree.to_netcdf(engine="h5netcdf"))
     write_json(run_dir / SUMMARY_FILE, summary)
 
 

@@ -1,4 +1,5 @@
-"""chains.h5: the chain, written in checkpoints, readable while it grows, resumable bit-exactly.
+"""chains.h5: the chain, written in checkpoints, readable while it grows, resumable bit-exactly, and
+readable after a SIGKILL or a full disk at any instant.
 
 Plain h5py in SWMR mode (single writer, multiple readers; HDF5 ``libver='latest'``). Layout:
 
@@ -11,23 +12,36 @@ Plain h5py in SWMR mode (single writer, multiple readers; HDF5 ``libver='latest'
                                                        the numpy RandomState emcee draws from
     /checkpoints/elapsed, store_time, n_evals          cumulative sampling wall time, time spent
                                                        writing, model evaluations
+    /finish            (0 or 1,) JSON bytes            the finish record (status finished,
+                                                       stop_reason, steps, ...): written last
     attrs: names, log_space, walkers, config (resolved YAML), fingerprint, data_sha256, version,
-           modes, decades, moves, seed, status (running | finished), stop_reason, ...
+           modes, decades, moves, seed, status (running), stop_reason, ...
 
 Chain rows are appended in blocks (chunked, gzip + shuffle), then the checkpoint row, whose
 ``step`` entry is written last, then the file is flushed: a reader, or a resume after Ctrl-C or
 SIGKILL, trusts only steps covered by a complete checkpoint. Checkpoint 0 is the starting state.
 
-A file left by a killed writer cannot be reopened for writing (HDF5 keeps its "open for SWMR
-write" flag); ``ChainWriter.resume`` therefore reads the committed part with a SWMR reader,
-writes it to a fresh file and atomically replaces the old one.
+Safe at every instant (docs/sampling.md, "Storage"): HDF5 marks a file opened for writing in its
+superblock, and a file whose writer died before switching to SWMR mode opens in no mode at all.
+So chains.h5 itself is never opened for writing. Each session (create, resume) writes a new
+*generation* into ``chains.h5.tmp``, switches it to SWMR mode, flushes and fsyncs it, and only then
+renames it onto chains.h5; it appends to that open file, in SWMR mode, until it finishes. Finishing
+appends the finish record (no reopening, attributes are never modified after the rename). So the
+file named chains.h5 is at every instant either cleanly closed or in SWMR mode, and both open with
+a SWMR reader (``read_run``); a kill before the rename leaves the previous generation untouched.
+A write that fails (disk full) abandons the writer as a kill would: HDF5's later flushes are sent
+to an anonymous in-memory copy, and a DiskFullError (one line) is raised.
+
+``KILL_POINTS`` name the instants tests/test_store_crash.py kills the writer at.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -35,8 +49,36 @@ from typing import Any
 import h5py
 import numpy as np
 
-FORMAT = "bayes_dnlr-chains/1"
+from bayes_dnlr.diskio import ensure_free, fsync_dir, kill_point, storage_error
+
+FORMAT = "bayes_dnlr-chains/2"
+READABLE_FORMATS = ("bayes_dnlr-chains/1", FORMAT)   # /1: finished state in attrs, no /finish
 _CK = "checkpoints"
+_FINISH = "finish"
+_FINISH_BYTES = 4096
+_MARGIN = 1 << 20        # bytes of HDF5 metadata a commit may add, beyond the raw data
+# attributes that describe a finished generation (format /1 kept them in attrs)
+_FINISH_ATTRS = ("status", "stop_reason", "steps", "finished")
+
+# every instant at which tests/test_store_crash.py kills the writer (diskio.kill_point)
+KILL_POINTS = (
+    "create.open",         # chains.h5.tmp just opened for writing (no SWMR yet)
+    "create.checkpoint",   # checkpoint 0 written but for its step (the commit mark)
+    "create.written",      # checkpoint 0 complete, file not yet in SWMR mode
+    "resume.open",         # chains.h5.tmp just opened for writing (no SWMR yet)
+    "resume.chain",        # committed steps copied, checkpoints not yet
+    "resume.written",      # copy complete, file not yet in SWMR mode
+    "publish.swmr",        # new generation in SWMR mode, not flushed
+    "publish.synced",      # flushed and fsynced, not yet renamed onto chains.h5
+    "publish.renamed",     # renamed onto chains.h5 (the directory not yet fsynced)
+    "append.data",         # a block's rows in the file, no checkpoint for them yet
+    "append.checkpoint",   # its checkpoint written but for the step (the commit mark)
+    "append.step",         # commit mark written, not flushed
+    "append.flushed",      # the commit flushed
+    "finish.record",       # finish record written, not flushed
+    "finish.flushed",      # finish record flushed, file not closed
+    "finish.closed",       # file closed
+)
 
 
 @dataclass
@@ -80,6 +122,8 @@ class StoredRun:
         return self.attrs.get("status") == "finished"
 
 
+# ---------------------------------------------------------------- reading
+
 def _attr(v: Any) -> Any:
     if isinstance(v, bytes):
         return v.decode()
@@ -114,14 +158,38 @@ def _committed(f: h5py.File) -> int:
     return last
 
 
+def _finish_record(f: h5py.File, steps: int) -> dict[str, Any] | None:
+    """The finish record, when complete and written at ``steps`` committed steps."""
+    if _FINISH not in f or f[_FINISH].shape[0] == 0:
+        return None
+    try:
+        record = json.loads(bytes(f[_FINISH][-1]).decode())
+    except (UnicodeDecodeError, ValueError):
+        return None          # written but not flushed: the fill value
+    if not isinstance(record, dict) or record.get("step") != steps:
+        return None
+    record.pop("step")
+    return record
+
+
+def _read_attrs(f: h5py.File, path: Path) -> tuple[dict[str, Any], int]:
+    """The file's attributes with the finish record applied, and its last complete checkpoint."""
+    attrs = {k: _attr(v) for k, v in f.attrs.items()}
+    if attrs.get("format") not in READABLE_FORMATS:
+        raise OSError(f"{path}: not a bayes_dnlr chain file (format {attrs.get('format')!r})")
+    k = _committed(f)
+    record = _finish_record(f, int(f[_CK]["step"][k]))
+    if record is not None:
+        attrs.update(record)
+    return attrs, k
+
+
 def read_run(path: Path | str) -> StoredRun:
-    """Read the committed chain and the last checkpoint's state (works while a writer appends)."""
+    """Read the committed chain and the last checkpoint's state (works while a writer appends, and
+    after a writer was killed at any instant)."""
     path = Path(path)
     with _open_reader(path) as f:
-        attrs = {k: _attr(v) for k, v in f.attrs.items()}
-        if attrs.get("format") != FORMAT:
-            raise OSError(f"{path}: not a bayes_dnlr chain file (format {attrs.get('format')!r})")
-        k = _committed(f)
+        attrs, k = _read_attrs(f, path)
         ck = f[_CK]
         n = int(ck["step"][k])
         state = SamplerState(
@@ -137,74 +205,92 @@ def read_run(path: Path | str) -> StoredRun:
 
 def read_attrs(path: Path | str) -> dict[str, Any]:
     """The file's metadata only (cheap)."""
-    with _open_reader(Path(path)) as f:
-        return {k: _attr(v) for k, v in f.attrs.items()}
+    path = Path(path)
+    with _open_reader(path) as f:
+        return _read_attrs(f, path)[0]
 
+
+# ---------------------------------------------------------------- failed writes
+
+def _anonymous_file() -> int:
+    if hasattr(os, "memfd_create"):
+        return os.memfd_create("bayes_dnlr-abandoned")
+    return os.dup(tempfile.TemporaryFile().fileno())
+
+
+def _abandon(f: h5py.File) -> None:
+    """Leave the disk file as it is, as a SIGKILL at this instant would, and close ``f``.
+
+    After a failed write (disk full) HDF5 holds dirty data it cannot write; closing the file, or
+    the interpreter's exit, retries and fails, and can crash the process. So the file descriptor
+    is pointed at an anonymous in-memory copy of the file first: HDF5 completes its flushes and
+    closes there, and the disk file stays what the design makes safe at every instant."""
+    if not f.id.valid:
+        return
+    try:
+        fd = f.id.get_vfd_handle()
+        mem = _anonymous_file()
+    except (OSError, ValueError, RuntimeError):
+        fd = None
+    if fd is not None:
+        try:
+            size, done = os.fstat(fd).st_size, 0
+            while done < size:           # the copy HDF5 may read from while closing
+                sent = os.sendfile(mem, fd, done, size - done)
+                if sent <= 0:
+                    break
+                done += sent
+        except OSError:
+            pass
+        os.dup2(mem, fd)
+        os.close(mem)
+    try:
+        f.close()
+    except Exception:  # noqa: BLE001 - whatever HDF5 still fails at, the disk file is left alone
+        pass
+
+
+# ---------------------------------------------------------------- writing
 
 class ChainWriter:
     """Appends blocks of steps and checkpoints to chains.h5 (the only writer of the file)."""
 
-    def __init__(self, f: h5py.File, to_physical) -> None:
+    def __init__(self, f: h5py.File, to_physical, path: Path | None = None) -> None:
         self._f = f
+        self._path = Path(path if path is not None else f.filename)   # f may be a renamed .tmp
         self._to_physical = to_physical
-        self.store_time = float(f[_CK]["store_time"][-1]) if f[_CK]["step"].shape[0] else 0.0
+        ck = f[_CK]
+        k = ck["step"].shape[0]
+        self.store_time = float(ck["store_time"][-1]) if k else 0.0
+        self._steps = int(ck["step"][-1]) if k else 0
+        walkers, ndim = f["chain"].shape[1:]
+        self._row_bytes = walkers * (8 * ndim + 8 + 1)
+        self._chunk_rows = f["chain"].chunks[0]
 
     # ---- creation
     @classmethod
     def create(cls, path: Path, attrs: dict[str, Any], walkers: int, ndim: int, state: SamplerState,
                to_physical, chunk_steps: int = 100, n_evals: int = 0) -> ChainWriter:
         """A new file holding checkpoint 0 (the starting state); sampling appends from there."""
+        t0 = time.perf_counter()
+
+        def fill(f: h5py.File) -> None:
+            _layout(f, attrs, walkers, ndim, chunk_steps)
+            _append_checkpoint(f, 0, state, elapsed=0.0, n_evals=n_evals,
+                               commit_point="create.checkpoint")
+            kill_point("create.written")
+
         path = Path(path)
-        tmp = path.with_name(path.name + ".tmp")
-        f = cls._new_file(tmp, attrs, walkers, ndim, chunk_steps)
-        cls(f, to_physical)._append_checkpoint(0, state, elapsed=0.0, n_evals=n_evals)
-        f.close()
-        os.replace(tmp, path)
-        return cls._open_for_append(path, to_physical)
-
-    @staticmethod
-    def _new_file(path: Path, attrs: dict[str, Any], walkers: int, ndim: int,
-                  chunk_steps: int) -> h5py.File:
-        f = h5py.File(path, "w", libver="latest")
-        rows = int(min(max(chunk_steps, 16), 1024))
-        comp = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
-        f.create_dataset("chain", shape=(0, walkers, ndim), maxshape=(None, walkers, ndim),
-                         chunks=(rows, walkers, ndim), dtype="f8", fillvalue=np.nan, **comp)
-        f.create_dataset("log_prob", shape=(0, walkers), maxshape=(None, walkers),
-                         chunks=(rows, walkers), dtype="f8", fillvalue=np.nan, **comp)
-        f.create_dataset("accepted", shape=(0, walkers), maxshape=(None, walkers),
-                         chunks=(rows, walkers), dtype="u1", **comp)
-        ck = f.create_group(_CK)
-        specs = {"step": ((), "i8", -1), "coords": ((walkers, ndim), "f8", np.nan),
-                 "log_prob": ((walkers,), "f8", np.nan), "rng_key": ((624,), "u4", 0),
-                 "rng_pos": ((), "i8", 0), "rng_has_gauss": ((), "i8", 0), "rng_gauss": ((), "f8", 0.0),
-                 "elapsed": ((), "f8", 0.0), "store_time": ((), "f8", 0.0), "n_evals": ((), "i8", 0)}
-        for name, (shape, dtype, fill) in specs.items():
-            ck.create_dataset(name, shape=(0, *shape), maxshape=(None, *shape), chunks=(16, *shape),
-                              dtype=dtype, fillvalue=fill)
-        f.attrs["format"] = FORMAT
-        f.attrs["status"] = "running"
-        f.attrs["stop_reason"] = ""
-        for k, v in attrs.items():
-            f.attrs[k] = json.dumps(v) if isinstance(v, dict) else v
-        return f
-
-    @classmethod
-    def _open_for_append(cls, path: Path, to_physical) -> ChainWriter:
-        f = h5py.File(path, "r+", libver="latest")
-        if f.attrs.get("status") != "running":
-            f.attrs["status"] = "running"
-            f.attrs["stop_reason"] = ""
-        f.swmr_mode = True   # from here on readers may open the file while we append
-        return cls(f, to_physical)
+        f = _publish(path, fill, "create", need=_MARGIN)
+        writer = cls(f, to_physical, path)
+        writer.store_time += time.perf_counter() - t0
+        return writer
 
     @classmethod
     def resume(cls, path: Path, to_physical) -> ChainWriter:
-        """Reopen an existing file for appending, keeping only its committed steps.
-
-        The committed content is copied into a fresh file that replaces the old one atomically:
-        this also recovers a file whose writer was killed (still flagged open for SWMR write).
-        """
+        """Continue an existing file: its committed steps become a new generation that appending
+        continues (whatever the old file's state: finished, or left by a killed writer)."""
+        t0 = time.perf_counter()
         path = Path(path)
         run = read_run(path)
         k = run.checkpoint_steps.size
@@ -213,23 +299,27 @@ class ChainWriter:
             walkers, ndim = src["chain"].shape[1:]
             chunk_rows = src["chain"].chunks[0]
             ck = {name: src[_CK][name][:k] for name in src[_CK]}
-        tmp = path.with_name(path.name + ".tmp")
-        g = cls._new_file(tmp, {}, walkers, ndim, chunk_rows)
-        try:
-            for key, v in raw_attrs.items():
+        attrs = {key: v for key, v in raw_attrs.items() if key not in (*_FINISH_ATTRS, "format")}
+
+        def fill(g: h5py.File) -> None:
+            _layout(g, {}, walkers, ndim, chunk_rows)
+            for key, v in attrs.items():
                 g.attrs[key] = v
             n = run.steps
             for name, data in (("chain", run.chain), ("log_prob", run.log_prob),
                                ("accepted", run.accepted.astype(np.uint8))):
                 g[name].resize(n, axis=0)
                 g[name][:] = data
+            kill_point("resume.chain")
             for name, data in ck.items():
                 g[_CK][name].resize(data.shape[0], axis=0)
                 g[_CK][name][:] = data
-        finally:
-            g.close()
-        os.replace(tmp, path)
-        return cls._open_for_append(path, to_physical)
+            kill_point("resume.written")
+
+        f = _publish(path, fill, "resume", need=1.25 * path.stat().st_size + _MARGIN)
+        writer = cls(f, to_physical, path)
+        writer.store_time += time.perf_counter() - t0
+        return writer
 
     # ---- appending
     def append(self, coords: np.ndarray, log_prob: np.ndarray, accepted: np.ndarray,
@@ -237,59 +327,166 @@ class ChainWriter:
         """Append a block of steps (coords (m, walkers, ndim) in sampling coordinates) and commit it
         with a checkpoint holding ``state`` (the state after the block's last step).
 
-        Returns the seconds this write took (also accumulated in ``store_time``)."""
+        Returns the seconds this write took (also accumulated in ``store_time``). A full disk
+        raises DiskFullError and leaves the committed steps as they were."""
         t0 = time.perf_counter()
         f = self._f
         m = coords.shape[0]
-        n = f["chain"].shape[0]
-        if m:
-            for name, data in (("chain", self._to_physical(coords)), ("log_prob", log_prob),
-                               ("accepted", np.asarray(accepted, dtype=np.uint8))):
-                ds = f[name]
-                ds.resize(n + m, axis=0)
-                ds[n:] = data
-                if f.swmr_mode:
-                    ds.flush()    # the steps reach the file before the checkpoint that commits them
-        self._append_checkpoint(n + m, state, elapsed, n_evals,
-                                self.store_time + time.perf_counter() - t0)
-        f.flush()
+        n = self._steps
+        # at most two chunks of raw data per dataset (a shared chunk rewritten, gzip's worst case)
+        ensure_free(self._path, 2 * max(m, self._chunk_rows) * self._row_bytes + _MARGIN,
+                    self._kept())
+        try:
+            if m:
+                for name, data in (("chain", self._to_physical(coords)), ("log_prob", log_prob),
+                                   ("accepted", np.asarray(accepted, dtype=np.uint8))):
+                    ds = f[name]
+                    ds.resize(n + m, axis=0)
+                    ds[n:] = data
+                    ds.flush()     # the steps reach the file before the checkpoint that commits them
+            kill_point("append.data")
+            _append_checkpoint(f, n + m, state, elapsed, n_evals,
+                               self.store_time + time.perf_counter() - t0, "append.checkpoint")
+            kill_point("append.step")
+            f.flush()
+        except Exception as err:       # a failed write (h5py: OSError or RuntimeError)
+            raise self._failed(err) from None
+        self._steps = n + m
+        kill_point("append.flushed")
         dt = time.perf_counter() - t0
         self.store_time += dt
         return dt
 
-    def _append_checkpoint(self, step: int, state: SamplerState, elapsed: float, n_evals: int,
-                           store_time: float = 0.0) -> None:
-        ck = self._f[_CK]
-        k = ck["step"].shape[0]
-        for ds in ck.values():
-            ds.resize(k + 1, axis=0)
-        name, key, pos, has_gauss, gauss = state.rng[:5]
-        if name != "MT19937":
-            raise ValueError(f"unsupported random state {name!r}")
-        ck["coords"][k] = state.coords
-        ck["log_prob"][k] = state.log_prob
-        ck["rng_key"][k] = key
-        ck["rng_pos"][k] = pos
-        ck["rng_has_gauss"][k] = has_gauss
-        ck["rng_gauss"][k] = gauss
-        ck["elapsed"][k] = elapsed
-        ck["n_evals"][k] = n_evals
-        ck["store_time"][k] = store_time
-        ck["step"][k] = step          # the commit mark, written last
-
     @property
     def steps(self) -> int:
-        return int(self._f["chain"].shape[0])
+        """Committed steps."""
+        return self._steps
 
     def close(self) -> None:
         if self._f.id.valid:
-            self._f.close()
+            try:
+                self._f.close()
+            except Exception:    # a flush that cannot be written: leave the file as committed
+                _abandon(self._f)
 
     def finish(self, attrs: dict[str, Any]) -> None:
-        """Close the SWMR session and mark the run finished (status, stop_reason, ...)."""
-        path = Path(self._f.filename)
-        self.close()
-        with h5py.File(path, "r+", libver="latest") as f:
-            f.attrs["status"] = "finished"
-            for k, v in attrs.items():
-                f.attrs[k] = json.dumps(v) if isinstance(v, dict) else v
+        """Mark the run finished (status, stop_reason, ...) and close the file.
+
+        The finish record is appended within the SWMR session; the file is never reopened."""
+        record = {"status": "finished",
+                  **{k: (json.dumps(v) if isinstance(v, dict) else v) for k, v in attrs.items()},
+                  "step": self._steps}
+        blob = json.dumps(record).encode()
+        if len(blob) > _FINISH_BYTES:
+            raise ValueError(f"finish record of {len(blob)} bytes > {_FINISH_BYTES}")
+        try:
+            ensure_free(self._path, _MARGIN, self._kept())
+        except BaseException:
+            self.close()
+            raise
+        try:
+            ds = self._f[_FINISH]
+            ds.resize(ds.shape[0] + 1, axis=0)
+            ds[-1] = blob
+            kill_point("finish.record")
+            self._f.flush()
+            kill_point("finish.flushed")
+            self._f.close()
+        except Exception as err:
+            raise self._failed(err) from None
+        kill_point("finish.closed")
+
+    def _kept(self) -> str:
+        return (f"the committed chain ({self._steps} steps) is kept in {self._path}: free some space "
+                "and run `sample` again to continue it")
+
+    def _failed(self, err: Exception) -> Exception:
+        """After a failed write: abandon the file as a kill would, and the error to raise."""
+        _abandon(self._f)
+        return storage_error(err, self._path, self._kept()) or err
+
+
+def _layout(f: h5py.File, attrs: dict[str, Any], walkers: int, ndim: int, chunk_steps: int) -> None:
+    """The datasets and attributes of an empty chain file."""
+    rows = int(min(max(chunk_steps, 16), 1024))
+    comp = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
+    f.create_dataset("chain", shape=(0, walkers, ndim), maxshape=(None, walkers, ndim),
+                     chunks=(rows, walkers, ndim), dtype="f8", fillvalue=np.nan, **comp)
+    f.create_dataset("log_prob", shape=(0, walkers), maxshape=(None, walkers),
+                     chunks=(rows, walkers), dtype="f8", fillvalue=np.nan, **comp)
+    f.create_dataset("accepted", shape=(0, walkers), maxshape=(None, walkers),
+                     chunks=(rows, walkers), dtype="u1", **comp)
+    ck = f.create_group(_CK)
+    specs = {"step": ((), "i8", -1), "coords": ((walkers, ndim), "f8", np.nan),
+             "log_prob": ((walkers,), "f8", np.nan), "rng_key": ((624,), "u4", 0),
+             "rng_pos": ((), "i8", 0), "rng_has_gauss": ((), "i8", 0), "rng_gauss": ((), "f8", 0.0),
+             "elapsed": ((), "f8", 0.0), "store_time": ((), "f8", 0.0), "n_evals": ((), "i8", 0)}
+    for name, (shape, dtype, fill) in specs.items():
+        ck.create_dataset(name, shape=(0, *shape), maxshape=(None, *shape), chunks=(16, *shape),
+                          dtype=dtype, fillvalue=fill)
+    f.create_dataset(_FINISH, shape=(0,), maxshape=(None,), chunks=(1,), dtype=f"S{_FINISH_BYTES}")
+    f.attrs["format"] = FORMAT
+    f.attrs["status"] = "running"
+    f.attrs["stop_reason"] = ""
+    for k, v in attrs.items():
+        f.attrs[k] = json.dumps(v) if isinstance(v, dict) else v
+
+
+def _append_checkpoint(f: h5py.File, step: int, state: SamplerState, elapsed: float, n_evals: int,
+                       store_time: float = 0.0, commit_point: str = "") -> None:
+    ck = f[_CK]
+    k = ck["step"].shape[0]
+    for ds in ck.values():
+        ds.resize(k + 1, axis=0)
+    name, key, pos, has_gauss, gauss = state.rng[:5]
+    if name != "MT19937":
+        raise ValueError(f"unsupported random state {name!r}")
+    ck["coords"][k] = state.coords
+    ck["log_prob"][k] = state.log_prob
+    ck["rng_key"][k] = key
+    ck["rng_pos"][k] = pos
+    ck["rng_has_gauss"][k] = has_gauss
+    ck["rng_gauss"][k] = gauss
+    ck["elapsed"][k] = elapsed
+    ck["n_evals"][k] = n_evals
+    ck["store_time"][k] = store_time
+    kill_point(commit_point)
+    ck["step"][k] = step          # the commit mark, written last
+
+
+def _publish(path: Path, fill: Callable[[h5py.File], None], kind: str, need: float) -> h5py.File:
+    """Write a new generation of ``path`` and make it the file: ``fill`` it in ``path``.tmp, switch
+    it to SWMR mode, flush and fsync it, rename it onto ``path``. Returns the open SWMR writer.
+
+    ``path`` is never opened for writing: a kill before the rename leaves it as it was, one after
+    leaves a file in SWMR mode that readers open. On a failure the temporary is removed."""
+    tmp = path.with_name(path.name + ".tmp")
+    keep = ("the chain in it is unchanged: free some space and run `sample` again" if path.exists()
+            else "nothing was sampled yet: free some space and run `sample` again")
+    ensure_free(path, need, keep)
+    tmp.unlink(missing_ok=True)        # left by a writer killed before its rename
+    f = None
+    renamed = False
+    try:
+        f = h5py.File(tmp, "w", libver="latest")
+        kill_point(f"{kind}.open")
+        fill(f)
+        f.swmr_mode = True             # from here on readers may open the file while we append
+        kill_point("publish.swmr")
+        f.flush()
+        os.fsync(f.id.get_vfd_handle())
+        kill_point("publish.synced")
+        os.replace(tmp, path)
+        renamed = True
+        kill_point("publish.renamed")
+        fsync_dir(path.parent)
+        return f
+    except BaseException as err:
+        if f is not None:
+            _abandon(f) if isinstance(err, Exception) else f.close()
+        if not renamed:
+            tmp.unlink(missing_ok=True)
+        clean = storage_error(err, tmp if not renamed else path, keep)
+        if clean is not None:
+            raise clean from None
+        raise
