@@ -51,3 +51,39 @@ def detect_relaxation_start(time: np.ndarray, strain: np.ndarray, min_points: in
                          f"{hold_slope:.3g} 1/s after the best split at t = {time[best]:g} s")
     t_cross = (level - intercept) / slope
     return int(np.argmin(np.abs(t - t_cross)))
+
+
+def _slope(t: np.ndarray, e: np.ndarray) -> float:
+    if t.size < 2:
+        return float("nan")
+    tc = t - t.mean()
+    den = np.dot(tc, tc)
+    return float(np.dot(tc, e - e.mean()) / den) if den > 0 else float("nan")
+
+
+def window_strain_rate(time: np.ndarray, strain: np.ndarray, window: np.ndarray,
+                       relaxation_start: float | None, first: int = 0) -> tuple[float, str]:
+    """The strain rate of the loading the fit sees (issue 9, item 6), and how it was found.
+
+    The least-squares slope of ε(t) over the window's samples of the ramp (up to relaxation_start).
+    When the window holds fewer than 3 ramp samples, or the slope there is not positive (a window
+    in a hold), the slope of the loading before: from the first model sample (``first``) to the
+    largest strain up to the window's end, within the ramp. NaN when the strain never rises.
+    """
+    ramp = np.ones(time.size, bool) if relaxation_start is None else time <= relaxation_start
+    ramp[:first] = False
+    sel = window & ramp
+    if sel.sum() >= 3:
+        rate = _slope(time[sel], strain[sel])
+        if rate > 0:
+            return rate, (f"over the window's ramp, t = {time[sel][0]:g} to {time[sel][-1]:g} s")
+    end = int(np.flatnonzero(window)[-1]) + 1
+    top = first + int(np.argmax(np.where(ramp[first:end], strain[first:end], -np.inf)))
+    load = np.zeros(time.size, bool)
+    load[first:top + 1] = True
+    load &= ramp
+    rate = _slope(time[load], strain[load])
+    if rate > 0:
+        return rate, (f"over the loading before the window's hold, t = {time[load][0]:g} to "
+                      f"{time[load][-1]:g} s")
+    return float("nan"), "the strain does not rise before or in the window"

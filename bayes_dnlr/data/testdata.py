@@ -1,10 +1,11 @@
 """The test the model sees: ``load_test(cfg)`` reads, converts, smooths and windows one test.
 
-``load_test(cfg)`` reads the CSV that ``cfg.data`` describes and returns a ``TestData``: every row of
-the file, in file order, with the observable stress (σ* eq. 6, σ eq. 2 or a true-stress column), the
-measured Hencky strain (eq. 1) and the strain that drives the model (a GCV smoothing spline of the
-measured strain, fitted per segment, or the raw strain). Every error is a ``DataError`` whose message
-names the file, the line (header = line 1) and the column.
+``load_test(cfg)`` reads the export that ``cfg.data`` describes and returns a ``TestData``: every
+data row of the file, in file order (trailing padding, rows outside ``data.rows`` and a compensated
+toe left out with a note), with the observable stress (σ* eq. 6, σ eq. 2 or a true-stress column),
+the measured Hencky strain (eq. 1) and the strain that drives the model (a GCV smoothing spline of
+the measured strain, fitted per segment, or the raw strain). Every error is a ``DataError`` whose
+message names the file, the line and the column.
 """
 
 from __future__ import annotations
@@ -16,7 +17,13 @@ from pathlib import Path
 import numpy as np
 
 from bayes_dnlr.config import Config
-from bayes_dnlr.data.checks import _axial_strain, _check_increasing, _to_hencky
+from bayes_dnlr.data.checks import (
+    check_increasing,
+    first_sample_warning,
+    implausible_strain,
+    percent_warning,
+    to_hencky,
+)
 from bayes_dnlr.data.conversions import (
     nominal_from_hencky,
     nominal_from_true_stress,
@@ -25,21 +32,21 @@ from bayes_dnlr.data.conversions import (
     true_stress,
 )
 from bayes_dnlr.data.errors import DataError
-from bayes_dnlr.data.ramp import detect_relaxation_start, ramp_strain_rate
+from bayes_dnlr.data.ramp import detect_relaxation_start, window_strain_rate
 from bayes_dnlr.data.reading import _Table, read_table
-from bayes_dnlr.data.smoothing import segment_edges, smooth_strain
+from bayes_dnlr.data.smoothing import sampling_breaks, segment_edges, smooth_strain
+from bayes_dnlr.data.start import plan_start
 from bayes_dnlr.data.windows import window_mask
-
-STRAIN_ROLES = ("eps11", "eps22", "strain")
 
 
 @dataclass(frozen=True)
 class TestData:
     """One tensile (then relaxation) test, ready for the model.
 
-    All arrays hold every row of the file, in file order (nothing dropped or reordered).
-    The model runs from the first sample (history matters) to ``model_end``; the comparison
-    with data uses the samples where ``window`` is True.
+    The arrays hold the data rows read, in file order (see ``notes`` for any left out), after
+    ``virtual_start`` model-only samples (an unloaded start, see data/start.py). The model runs from
+    the first sample (history matters) to ``model_end``; the comparison with data uses the samples
+    where ``window`` is True.
     """
 
     __test__ = False  # not a pytest test class despite its name
@@ -60,6 +67,8 @@ class TestData:
     force: np.ndarray | None = None              # N, when the file has a force column
     transverse_strain: np.ndarray | None = None  # measured ε22 (Hencky), when the file has one
     area0: float | None = None                   # S0, mm²
+    virtual_start: int = 0        # leading model-only samples (an unloaded start), never in the window
+    lines: np.ndarray | None = None  # the file line of each sample (0 for a model-only sample)
 
     @property
     def model_end(self) -> int:
@@ -72,35 +81,57 @@ class TestData:
         return int(self.window.sum())
 
 
-def _observable(cfg: Config, table: _Table, strain: np.ndarray, eps22: np.ndarray | None) -> np.ndarray:
+def _observable(cfg: Config, values: dict[str, np.ndarray], strain: np.ndarray,
+                eps22: np.ndarray | None, path: Path) -> np.ndarray:
     d = cfg.data
     area0 = d.area0
     if d.observable == "stress":
-        return table.values["stress"]
+        return values["stress"]
     if area0 is None or not area0 > 0:
-        raise DataError(f"{table.path}: data.area0 must be a positive cross-section in mm² to turn the "
+        raise DataError(f"{path}: data.area0 must be a positive cross-section in mm² to turn the "
                         f"force into a stress, got {area0}")
     if d.observable == "sigma":
-        return true_stress(table.values["force"], area0, eps22)
-    return sigma_star(table.values["force"], area0, strain)
+        return true_stress(values["force"], area0, eps22)
+    return sigma_star(values["force"], area0, strain)
 
 
-def _nominal_stress(cfg: Config, table: _Table, strain: np.ndarray) -> np.ndarray | None:
-    if "force" in table.values and cfg.data.area0:
-        return nominal_stress(table.values["force"], cfg.data.area0)
-    if "stress" in table.values:
-        return nominal_from_true_stress(table.values["stress"], strain)
+def _nominal_stress(cfg: Config, values: dict[str, np.ndarray], strain: np.ndarray) -> np.ndarray | None:
+    if "force" in values and cfg.data.area0:
+        return nominal_stress(values["force"], cfg.data.area0)
+    if "stress" in values:
+        return nominal_from_true_stress(values["stress"], strain)
     return None
+
+
+def _axial(cfg: Config, table: _Table) -> tuple[np.ndarray, np.ndarray, str, list[str]]:
+    """Measured axial Hencky strain (eq. 1), the nominal strain, the role it came from, notes."""
+    d = cfg.data
+    if "extension" in table.values:
+        nominal = table.values["extension"] / d.gauge_length
+        strain = to_hencky(table, nominal, "extension", "nominal")
+        notes = [f"strain: extension / gauge_length ({d.gauge_length:g} mm), nominal -> Hencky, "
+                 f"ε = ln(1 + e) (eq. 1)"]
+        role = "extension"
+    else:
+        role = "eps11" if "eps11" in table.values else "strain"
+        raw = table.values[role]
+        strain = to_hencky(table, raw, role, d.strain_measure)
+        nominal = raw if d.strain_measure == "nominal" else nominal_from_hencky(strain)
+        notes = ["strain: nominal -> Hencky, ε = ln(1 + e) (eq. 1)"] if d.strain_measure == "nominal" else []
+        unit_known = d.strain_unit is not None or role in d.units or bool(
+            table.layout and table.layout.units[table.columns[role]])
+        implausible_strain(table, role, raw, strain, d.strain_measure, unit_known)
+    return strain, nominal, role, notes
 
 
 def _time(cfg: Config, table: _Table, strain: np.ndarray, strain_role: str) -> tuple[np.ndarray, list[str]]:
     if "time" in table.values:
-        _check_increasing(table, table.values["time"], "time", "time must increase strictly")
+        check_increasing(table, table.values["time"], "time", "time must increase strictly")
         return table.values["time"], []
     rate = cfg.data.strain_rate
-    _check_increasing(table, strain, strain_role,
-                      f"no time column, so time = strain / data.strain_rate ({rate:g} 1/s) needs a "
-                      f"strictly increasing strain")
+    check_increasing(table, strain, strain_role,
+                     f"no time column, so time = strain / data.strain_rate ({rate:g} 1/s) needs a "
+                     f"strictly increasing strain")
     return strain / rate, [f"time: from strain / strain_rate ({rate:g} 1/s), no time column"]
 
 
@@ -122,17 +153,36 @@ def _relaxation_start(cfg: Config, time: np.ndarray, strain: np.ndarray, path: P
     return float(rs), []
 
 
-def _smoothing_note(time: np.ndarray, breaks: list[int], lams: list[float]) -> str:
-    """λ per segment; 'at the bound' when GCV ran to the end of the search range (0, n)."""
+def _smoothing_note(time: np.ndarray, breaks: list[int], lams: list[float], sampling: list[int]) -> str:
+    """λ per segment (in units of the segment's median time step, cubed)."""
     edges = segment_edges(time.size, breaks)
     parts = []
     for a, b, lam in zip(edges[:-1], edges[1:], lams, strict=True):
-        n = b + 1 - a
-        text = "raw (< 5 samples)" if math.isnan(lam) else f"λ = {lam:.4g}"
-        if lam > 0.999 * n:
-            text += " (the search bound n: the measured strain is nearly straight)"
+        text = "raw (< 5 samples)" if math.isnan(lam) else (
+            "a straight line (GCV)" if math.isinf(lam) else f"λ = {lam:.4g}")
         parts.append(f"{time[a]:g}-{time[b]:g} s: {text}")
-    return "strain_input: smoothed (GCV smoothing spline per segment; " + "; ".join(parts) + ")"
+    extra = (f"; split where the sampling interval changes, at t = "
+             f"{', '.join(f'{time[i]:g}' for i in sampling)} s" if sampling else "")
+    return ("strain_input: smoothed (GCV smoothing spline per segment" + extra + "; " + "; ".join(parts)
+            + ")")
+
+
+def _check_file(cfg: Config) -> Path:
+    path = cfg.data_path
+    d = cfg.data
+    if path.is_dir():
+        raise DataError(f"{path}: is a directory, not a data file (config key data.file: {d.file!r}, "
+                        f"resolved against {cfg.base_dir})")
+    if not path.exists():
+        raise DataError(f"{path}: data file not found (config key data.file: {d.file!r}, resolved "
+                        f"against {cfg.base_dir})")
+    return path
+
+
+def _prepend(x: np.ndarray | None, value: float, count: int) -> np.ndarray | None:
+    if x is None or count == 0:
+        return x
+    return np.concatenate((np.full(count, value), x))
 
 
 def load_test(cfg: Config) -> TestData:
@@ -140,37 +190,77 @@ def load_test(cfg: Config) -> TestData:
     from bayes_dnlr.rundir import file_sha256
 
     d = cfg.data
-    path = cfg.data_path
-    if not path.is_file():
-        raise DataError(f"{path}: data file not found (config key data.file: {d.file!r}, resolved "
-                        f"against {cfg.base_dir})")
-    table = read_table(path, d.columns, d.delimiter, d.header)
-    if d.strain_unit == "percent":
-        for role in STRAIN_ROLES:
-            if role in table.values:
-                table.values[role] = table.values[role] / 100.0
-    strain, strain_role = _axial_strain(table, d.strain_measure)
+    path = _check_file(cfg)
+    table = read_table(path, d)
+    notes = list(table.notes)
+    strain, nominal, strain_role, more = _axial(cfg, table)
+    notes += more
     eps22 = None
     if "eps22" in table.values:
-        eps22 = _to_hencky(table, table.values["eps22"], "eps22", d.strain_measure)
-    time, notes = _time(cfg, table, strain, strain_role)
-    if d.strain_measure == "nominal":
-        notes.append("strain: nominal -> Hencky, ε = ln(1 + e) (eq. 1)")
-    rs, rs_notes = _relaxation_start(cfg, time, strain, path)
-    notes += rs_notes
+        eps22 = to_hencky(table, table.values["eps22"], "eps22", d.strain_measure)
+    time, more = _time(cfg, table, strain, strain_role)
+    notes += more
+    values = dict(table.values)
+    lines = np.asarray(table.lines)
+
+    # the state before the first sample (toe compensation, an unloaded start)
+    nom_stress = _nominal_stress(cfg, values, strain)
+    start = plan_start(time, strain, nominal, nom_stress, d.toe, d.initial_state, lines)
+    notes += start.notes
+    if start.cut or start.shift:
+        k = start.cut
+        time, strain, lines = time[k:], strain[k:] - start.shift, lines[k:]
+        values = {r: v[k:] for r, v in values.items()}
+        eps22 = None if eps22 is None else eps22[k:]
+        nominal = np.expm1(strain)
+    virtual = 0
+    if start.origin_time is not None:
+        virtual = 1
+        time = np.concatenate(([start.origin_time], time))
+        strain = np.concatenate(([0.0], strain))
+        nominal = np.concatenate(([0.0], nominal))
+        lines = np.concatenate(([0], lines))
+        values = {r: _prepend(v, 0.0, 1) for r, v in values.items()}
+        eps22 = _prepend(eps22, 0.0, 1)
+    if "time" in values and virtual:
+        values["time"] = time
+
+    rs, more = _relaxation_start(cfg, time, strain, path)
+    notes += more
     if d.strain_input == "smoothed":
         breaks = [] if rs is None else [int(np.searchsorted(time, rs))]
-        strain_input, lams = smooth_strain(time, strain, breaks)
-        notes.append(_smoothing_note(time, breaks, lams))
+        sampling = sampling_breaks(time, breaks)
+        strain_input, lams = smooth_strain(time, strain, sorted({*breaks, *sampling}))
+        notes.append(_smoothing_note(time, sorted({*breaks, *sampling}), lams, sampling))
     else:
         strain_input = strain
-    stress = _observable(cfg, table, strain, eps22)
-    window = window_mask(time, strain_input, d.window, path=path, key="data.window")
-    return TestData(
+    stress = _observable(cfg, values, strain, eps22, path)
+    nom_stress = _nominal_stress(cfg, values, strain)
+    window = window_mask(time[virtual:], strain_input[virtual:], d.window, path=path, key="data.window")
+    window = np.concatenate((np.zeros(virtual, bool), window))
+    rate, how = window_strain_rate(time, strain, window, rs, first=virtual)
+    notes.append(f"strain_rate: {rate:.4g} 1/s ({how})")
+    if virtual == 0 and d.toe == "none" and d.initial_state is None:
+        warn = first_sample_warning(stress, strain, int(lines[0]))
+        if warn:
+            notes.append(warn)
+    if d.strain_unit is None and strain_role != "extension" and not notes_have_units(table, strain_role, d):
+        warn = percent_warning(nominal[virtual:], None if nom_stress is None else nom_stress[virtual:],
+                               table.names[strain_role])
+        if warn:
+            notes.append(warn)
+    test = TestData(
         path=path, sha256=file_sha256(path), time=time, strain=strain, strain_input=strain_input,
-        stress=stress,
-        nominal_strain=table.values[strain_role] if d.strain_measure == "nominal" else
-        nominal_from_hencky(strain),
-        nominal_stress=_nominal_stress(cfg, table, strain), window=window, relaxation_start=rs,
-        strain_rate=ramp_strain_rate(time, strain, rs), observable=d.observable, notes=tuple(notes),
-        force=table.values.get("force"), transverse_strain=eps22, area0=d.area0)
+        stress=stress, nominal_strain=nominal, nominal_stress=nom_stress, window=window,
+        relaxation_start=rs, strain_rate=rate, observable=d.observable, notes=tuple(notes),
+        force=values.get("force"), transverse_strain=eps22, area0=d.area0, virtual_start=virtual,
+        lines=lines)
+    return test
+
+
+def notes_have_units(table: _Table, role: str, d) -> bool:
+    """True when the strain's unit is known from the file or the config (no guessing needed)."""
+    if role in d.units:
+        return True
+    layout = table.layout
+    return bool(layout is not None and layout.units and layout.units[table.columns[role]])
