@@ -504,7 +504,8 @@ def test_baseline_sd_detrends_and_estimates_the_noise(write_csv, make_config):
     rng = np.random.default_rng(2)
     t = np.linspace(0, 10, 1001)
     e = np.where(t < 4, 0.0, 5e-3 * (t - 4))
-    F = 24 * (0.5 + 0.2 * t + rng.normal(0, 0.3, t.size)) * np.exp(-e)   # σ* = drift + noise 0.3
+    # σ* = drift + noise 0.3, then the load (1000 MPa × strain, to 30 MPa)
+    F = 24 * (0.5 + 0.2 * t + 1000 * e + rng.normal(0, 0.3, t.size)) * np.exp(-e)
     write_csv(csv_text({"t_s": t, "F_N": F, "eps11": e}))
     test = load_test(make_config(strain_input="measured"))
     assert baseline_sd(test, Window(time_max=4.0)) == pytest.approx(0.3, rel=0.12)
@@ -527,3 +528,20 @@ def test_smoothing_segments_follow_relaxation_start(write_csv, make_config, rs, 
     note = next(n for n in test.notes if n.startswith("strain_input: smoothed"))
     assert note.count(" s: ") == segments
     assert test.relaxation_start == rs
+
+
+@pytest.mark.parametrize(("window", "words"), [
+    ({"time_max": 2.0}, "the specimen is loaded there: the strain rises by 5e-05 across the window "
+                        "(from 0 to 5e-05); the test loads from its first sample"),
+    ({"time_min": 500.0, "time_max": 600.0}, "the stress there is not an unloaded baseline: it sits at 15."),
+])
+def test_baseline_over_a_loaded_specimen_is_refused(write_csv, make_config, window, words):
+    """Issue 9 item 7: {baseline: {time_max: 2.0}} on a test loading from t = 0 gave 0.087 MPa,
+    100 times the noise; a baseline in the hold of a relaxation test measures the relaxation."""
+    t, e, _, _ = ramp_hold(rate=2.5e-5, hold=600.0, hz=20.0, sd=0.0)
+    stress = 2000 * e * (1 - 0.3 * (t > 400) * (1 - np.exp(-(t - 400) / 100)))
+    write_csv(csv_text({"t_s": t, "F_N": 24 * stress * np.exp(-e), "eps11": e}))
+    test = load_test(make_config(strain_input="measured"))
+    with pytest.raises(DataError) as err:
+        baseline_sd(test, Window(**window))
+    assert "noise.sigma0.baseline {" in str(err.value) and words in str(err.value), str(err.value)

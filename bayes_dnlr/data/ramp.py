@@ -65,18 +65,25 @@ def window_strain_rate(time: np.ndarray, strain: np.ndarray, window: np.ndarray,
                        relaxation_start: float | None, first: int = 0) -> tuple[float, str]:
     """The strain rate of the loading the fit sees (issue 9, item 6), and how it was found.
 
-    The least-squares slope of ε(t) over the window's samples of the ramp (up to relaxation_start).
-    When the window holds fewer than 3 ramp samples, or the slope there is not positive (a window
-    in a hold), the slope of the loading before: from the first model sample (``first``) to the
-    largest strain up to the window's end, within the ramp. NaN when the strain never rises.
+    The least-squares slope of ε(t) over the window's loading: its samples of the ramp (up to
+    relaxation_start) from the first one until the strain has made 98 % of its rise in the window
+    (so a hold or an unloading inside the window does not count). When that leaves fewer than 3
+    samples, or no rise (a window in a hold), the slope of the loading before: from the first model
+    sample (``first``) to the largest strain up to the window's end, within the ramp. NaN when the
+    strain never rises.
     """
     ramp = np.ones(time.size, bool) if relaxation_start is None else time <= relaxation_start
     ramp[:first] = False
-    sel = window & ramp
-    if sel.sum() >= 3:
-        rate = _slope(time[sel], strain[sel])
-        if rate > 0:
-            return rate, (f"over the window's ramp, t = {time[sel][0]:g} to {time[sel][-1]:g} s")
+    sel = np.flatnonzero(window & ramp)
+    if sel.size >= 3:
+        e = strain[sel]
+        rise = float(e.max() - e[0])
+        if rise > 0:
+            stop = int(np.argmax(e >= e[0] + 0.98 * rise))
+            load = sel[:max(stop, 1) + 1]
+            rate = _slope(time[load], strain[load])
+            if load.size >= 3 and rate > 0:
+                return rate, (f"over the window's loading, t = {time[load[0]]:g} to {time[load[-1]]:g} s")
     end = int(np.flatnonzero(window)[-1]) + 1
     top = first + int(np.argmax(np.where(ramp[first:end], strain[first:end], -np.inf)))
     load = np.zeros(time.size, bool)

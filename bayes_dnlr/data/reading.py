@@ -120,24 +120,47 @@ def _bytes(path: Path, encoding: str) -> tuple[bytes, list[str]]:
         enc, raw = "utf-8", raw[len(codecs.BOM_UTF8):]
     else:
         enc = encoding
-    try:
-        text = raw.decode(enc)
-    except UnicodeDecodeError as err:
-        line = raw.count(b"\n", 0, err.start) + 1
-        raise DataError(f"{path}, line {line}: not a {enc} text file (byte {raw[err.start]:#04x} at "
-                        f"offset {err.start}: {err.reason}); if it is text in another encoding, set "
-                        f"data.encoding (e.g. cp1252 or latin-1)") from None
-    if enc != "utf-8":
+    if codecs.lookup(enc).name == "utf-8":
+        _check_utf8(raw, path)          # in chunks: no second copy of a large file
+    else:
+        try:
+            raw = raw.decode(enc).encode("utf-8")
+        except UnicodeDecodeError as err:
+            _not_text(raw, err, enc, path)
         notes.append(f"encoding {enc}")
-    if "\x00" in text:
-        line = text.count("\n", 0, text.index("\x00")) + 1
+    nul = raw.find(b"\x00")
+    if nul >= 0:
+        line = raw.count(b"\n", 0, nul) + 1
         raise DataError(f"{path}, line {line}: a NUL byte: this is not a text (CSV) file")
-    crlf, cr = text.count("\r\n"), text.count("\r")
+    cr = raw.count(b"\r")
     if cr:
-        text = text.replace("\r\n", "\n").replace("\r", "\n")
+        crlf = raw.count(b"\r\n")
+        raw = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
         notes.append("line ends CRLF (Windows)" if crlf == cr else "line ends CR (old Mac)" if not crlf
                      else "line ends mixed CR/CRLF")
-    return text.encode("utf-8"), notes
+    return raw, notes
+
+
+def _not_text(raw: bytes, err: UnicodeDecodeError, enc: str, path: Path) -> None:
+    start = err.start
+    line = raw.count(b"\n", 0, start) + 1
+    raise DataError(f"{path}, line {line}: not a {enc} text file (byte {raw[start]:#04x} at offset {start}: "
+                    f"{err.reason}); if it is text in another encoding, set data.encoding (e.g. cp1252 or "
+                    f"latin-1)") from None
+
+
+def _check_utf8(raw: bytes, path: Path) -> None:
+    decoder = codecs.getincrementaldecoder("utf-8")()
+    view = memoryview(raw)
+    step = 1 << 22
+    for i in range(0, len(raw), step):
+        try:
+            decoder.decode(view[i:i + step], final=i + step >= len(raw))
+        except UnicodeDecodeError:
+            try:                # the rare bad file: decode it whole to locate the byte exactly
+                raw.decode("utf-8")
+            except UnicodeDecodeError as err:
+                _not_text(raw, err, "utf-8", path)
 
 
 # --------------------------------------------------------------------------- columns
@@ -246,27 +269,23 @@ def _field_counts(src: _Source, first: int, last: int, layout: Layout) -> np.nda
     """Number of fields of lines first..last (1-based, inclusive); 0 for a blank line."""
     d = layout.delimiter
     a, b = int(src.starts[first - 1]), int(src.ends[last - 1])
-    body = src.buf[a:b]
     n = last - first + 1
-    if d != "whitespace" and b'"' not in body and len(d.encode()) == 1:
+    if d != "whitespace" and src.buf.find(b'"', a, b) < 0 and len(d.encode()) == 1:
         code = d.encode()[0]
         counts = np.empty(n, np.int64)
-        blank = np.empty(n, bool)
-        done = 0
         starts, ends = src.starts[first - 1:last], src.ends[first - 1:last]
-        while done < n:
-            stop = min(n, done + 1_000_000)
+        step = 200_000
+        for done in range(0, n, step):
+            stop = min(n, done + step)
             s0, e0 = int(starts[done]), int(ends[stop - 1])
             chunk = np.frombuffer(src.buf, np.uint8, count=e0 - s0, offset=s0)
-            cum = np.concatenate(([0], np.cumsum(chunk == code, dtype=np.int64)))
-            ls, le = starts[done:stop] - s0, ends[done:stop] - s0
-            counts[done:stop] = cum[le] - cum[ls] + 1
-            blank[done:stop] = le == ls
-            done = stop
-        counts[blank] = 0
+            where = np.flatnonzero(chunk == code)
+            line = np.searchsorted(ends[done:stop] - s0, where)
+            counts[done:stop] = np.bincount(line, minlength=stop - done) + 1
+        counts[ends == starts] = 0
         return counts
     out = np.empty(n, np.int64)
-    text = body.decode("utf-8").split("\n")
+    text = src.buf[a:b].decode("utf-8").split("\n")
     if d == "whitespace":
         for i, line in enumerate(text):
             out[i] = len(line.split())
@@ -284,13 +303,14 @@ def _parse(src: _Source, layout: Layout, first: int, last: int, cols: list[int]
     (grouped thousands, or to find the bad cells). Also returns a mask of the bad cells (rows, cols)."""
     import pandas as pd
 
-    a, b = int(src.starts[first - 1]), int(src.ends[last - 1])
+    stream = io.BytesIO(src.buf)            # shares the bytes (no copy); read from line ``first``
+    stream.seek(int(src.starts[first - 1]))
+    n = last - first + 1
     sep = r"\s+" if layout.delimiter == "whitespace" else layout.delimiter
-    df = pd.read_csv(io.BytesIO(src.buf[a:b]), sep=sep, header=None, names=range(layout.n_fields),
+    df = pd.read_csv(stream, nrows=n, sep=sep, header=None, names=range(layout.n_fields),
                      usecols=cols, decimal=layout.decimal, quotechar='"', skip_blank_lines=False,
                      keep_default_na=False, na_values=sorted(MISSING), skipinitialspace=True,
                      low_memory=False, engine="c", encoding="utf-8")
-    n = last - first + 1
     if len(df) != n:
         raise DataError(f"{src.path}: lines {first}-{last}: {len(df)} rows read from {n} lines "
                         f"(a quoted cell spans several lines?)")
@@ -304,7 +324,7 @@ def _parse(src: _Source, layout: Layout, first: int, last: int, cols: list[int]
         vals = np.empty(n)
         for i, v in enumerate(s.tolist()):
             if not isinstance(v, str):
-                vals[i] = math.nan
+                vals[i] = math.nan if v is None else float(v)
                 continue
             x = parse_cell(v, layout.decimal)
             if x is None:
