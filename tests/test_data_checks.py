@@ -159,3 +159,19 @@ def test_a_time_column_taken_for_strain_gets_the_right_hint(write_csv, make_conf
     msg = str(err.value)
     assert "like a time or index column: is data.columns.eps11 the right column" in msg
     assert "percent?" not in msg
+
+
+def test_a_spike_is_named_by_its_line(write_csv, make_config):
+    """Issue 10: one force cell x1000 made the fit fail with 'singular matrix' and no cause."""
+    rng = np.random.default_rng(5)
+    t = np.arange(0, 40.0, 0.1)
+    e, s = elastic_plastic(t)
+    F = 24 * (s + rng.normal(0, 0.05, t.size))
+    F[150] *= 1000
+    write_csv(csv_text({"t_s": t, "F_N": F, "e": e}))
+    cfg = dict(columns={"time": "t_s", "force": "F_N", "strain": "e"}, strain_measure="nominal")
+    notes = load_test(make_config(**cfg)).notes
+    assert any(n.startswith("warning: a spike at line 152: the stress there is 3") for n in notes), notes
+    F[150] /= 1000
+    write_csv(csv_text({"t_s": t, "F_N": F, "e": e}))
+    assert not any("spike" in n for n in load_test(make_config(**cfg)).notes)

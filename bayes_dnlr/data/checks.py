@@ -127,3 +127,22 @@ def first_sample_warning(stress: np.ndarray, strain: np.ndarray, line: int) -> s
             f"there, so the toe looks cropped or preloaded and E will be biased; set data.toe: compensate "
             f"(ASTM D638 X1, ISO 527-1 zero point) or data.initial_state: ramp-from-zero "
             f"(docs/data-input.md, 'The first sample')")
+
+
+def spike_warning(stress: np.ndarray, lines: np.ndarray, start: int = 0) -> str | None:
+    """A note on the largest isolated spike of the stress: a sample far from both neighbours (more
+    than 50 noise sd and 5 % of the stress range away from their mean), such as one force cell
+    written ×1000; it would dominate a least-squares fit."""
+    s = stress[start:]
+    if s.size < 5:
+        return None
+    dev = np.abs(s[1:-1] - 0.5 * (s[:-2] + s[2:]))
+    sd = noise_sd(s)
+    spread = float(np.max(s) - np.min(s))
+    i = int(np.argmax(dev))
+    if not (dev[i] > 50 * max(sd, 1e-12) and dev[i] > 0.05 * spread):
+        return None
+    k = start + i + 1
+    return (f"warning: a spike at line {lines[k]}: the stress there is {stress[k]:.6g} MPa, its neighbours "
+            f"{stress[k - 1]:.6g} and {stress[k + 1]:.6g} MPa (stress noise sd about {sd:.2g} MPa): a "
+            f"corrupt cell? It would dominate the fit")

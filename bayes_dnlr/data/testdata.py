@@ -22,6 +22,7 @@ from bayes_dnlr.data.checks import (
     first_sample_warning,
     implausible_strain,
     percent_warning,
+    spike_warning,
     to_hencky,
 )
 from bayes_dnlr.data.conversions import (
@@ -244,6 +245,9 @@ def load_test(cfg: Config) -> TestData:
         warn = first_sample_warning(stress, strain, int(lines[0]))
         if warn:
             notes.append(warn)
+    spike = spike_warning(stress, lines, virtual)
+    if spike:
+        notes.append(spike)
     if d.strain_unit is None and strain_role != "extension" and not notes_have_units(table, strain_role, d):
         warn = percent_warning(nominal[virtual:], None if nom_stress is None else nom_stress[virtual:],
                                table.names[strain_role])
