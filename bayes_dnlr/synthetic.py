@@ -21,8 +21,22 @@ import numpy as np
 
 from bayes_dnlr.config import Config, ConfigError, TruthConfig
 from bayes_dnlr.data import DataError, nominal_from_hencky
+from bayes_dnlr.data.numbers import parse_cell
+from bayes_dnlr.data.units import factor
 
 FORMAT = "%.10g"
+# per layout: delimiter, decimal mark, quote every cell, thousands separator, default unit per role kind
+LAYOUTS = {
+    "plain": {"delimiter": ",", "decimal": ".", "quote": False, "thousands": None, "units": None},
+    "bluehill": {"delimiter": ",", "decimal": ".", "quote": True, "thousands": ",",
+                 "units": {"time": "s", "force": "N", "stress": "MPa", "strain": "%", "length": "mm"},
+                 "unit_text": "({})"},
+    "zwick": {"delimiter": ";", "decimal": ",", "quote": False, "thousands": None,
+              "units": {"time": "s", "force": "N", "stress": "MPa", "strain": "%", "length": "mm"},
+              "unit_text": "{}"},
+}
+_KIND = {"time": "time", "force": "force", "stress": "stress", "eps11": "strain", "eps22": "strain",
+         "strain": "strain", "extension": "length"}
 
 
 @dataclass(frozen=True)
@@ -152,12 +166,26 @@ def _check(cfg: Config) -> TruthConfig:
                           f"a noise-free ramp (truth.noise.strain_sd 0, no hold) at data.strain_rate")
     if c.force is not None and cfg.data.area0 is None:
         raise ConfigError(f"{where}: data.area0: needed to write the force column")
+    spec = LAYOUTS[truth.layout]
+    d = cfg.data
+    if truth.layout != "plain":
+        clash = [k for k, v in (("delimiter", d.delimiter), ("decimal", d.decimal)) if v is not None
+                 and v != spec[k]] + (["header: false"] if d.header is False else []) + (
+                     ["format: plain"] if d.format == "plain" else [])
+        if clash:
+            raise ConfigError(f"{where}: truth.layout: {truth.layout} writes its own format; remove "
+                              f"data.{', data.'.join(clash)}")
+    if d.header is False or any(isinstance(getattr(c, r), int) for r in type(c).model_fields
+                                if getattr(c, r) is not None):
+        raise ConfigError(f"{where}: data.columns: simulate writes a header row and needs the columns "
+                          f"by name")
     return truth
 
 
 def _columns(cfg: Config, truth: TruthConfig, p: Protocol, stress: np.ndarray,
-             rng: np.random.Generator) -> dict[str, np.ndarray]:
-    """header -> values, in the order time, axial strain, eps22, force, stress."""
+             rng: np.random.Generator) -> list[tuple[str, str, np.ndarray]]:
+    """(role, header, values in the package's units), in the order time, axial strain, eps22,
+    force, stress."""
     noise, c, d = truth.noise, cfg.data.columns, cfg.data
     n = p.time.size
     eps11 = p.strain + rng.normal(0.0, noise.strain_sd, n) if noise.strain_sd > 0 else p.strain.copy()
@@ -166,56 +194,134 @@ def _columns(cfg: Config, truth: TruthConfig, p: Protocol, stress: np.ndarray,
     eps22 = -0.5 * p.strain
     if c.eps22 is not None and noise.strain_sd > 0:
         eps22 = eps22 + rng.normal(0.0, noise.strain_sd, n)
-    out: dict[str, np.ndarray] = {}
+    out: list[tuple[str, str, np.ndarray]] = []
     as_written = nominal_from_hencky if d.strain_measure == "nominal" else np.asarray
     if c.time is not None:
-        out[c.time] = p.time
-    out[c.eps11 or c.strain] = as_written(eps11)
+        out.append(("time", c.time, p.time))
+    if c.extension is not None:
+        out.append(("extension", c.extension, nominal_from_hencky(eps11) * d.gauge_length))
+    else:
+        role = "eps11" if c.eps11 is not None else "strain"
+        out.append((role, c.eps11 or c.strain, as_written(eps11)))
     if c.eps22 is not None:
-        out[c.eps22] = as_written(eps22)
+        out.append(("eps22", c.eps22, as_written(eps22)))
     if c.force is not None:
         # σ* = F/S0·exp(ε11) (eq. 6) or σ = F/S0·exp(-2ε22) (eq. 2) gives back the observed stress
         shrink = np.exp(2.0 * eps22) if d.observable == "sigma" else np.exp(-eps11)
-        out[c.force] = observed * d.area0 * shrink + force_noise
+        out.append(("force", c.force, observed * d.area0 * shrink + force_noise))
     if c.stress is not None:
-        out[c.stress] = observed
+        out.append(("stress", c.stress, observed))
     return out
 
 
-def _csv_bytes(columns: dict[str, np.ndarray], delimiter: str) -> bytes:
+def _unit(cfg: Config, layout: str, role: str) -> str | None:
+    """The unit a column is written in: data.units, data.strain_unit, else the layout's."""
+    d = cfg.data
+    if role in d.units:
+        return d.units[role]
+    if role in ("eps11", "eps22", "strain") and d.strain_unit is not None:
+        return "%" if d.strain_unit == "percent" else "fraction"
+    spec = LAYOUTS[layout]["units"]
+    return None if spec is None else spec[_KIND[role]]
+
+
+def _number(v: float, decimal: str, thousands: str | None) -> str:
+    text = FORMAT % v
+    if thousands and "e" not in text and abs(v) >= 1000:
+        whole, _, frac = text.partition(".")
+        sign = "-" if whole.startswith("-") else ""
+        whole = whole.lstrip("-")
+        groups = []
+        while len(whole) > 3:
+            groups.insert(0, whole[-3:])
+            whole = whole[:-3]
+        text = sign + thousands.join([whole, *groups]) + ("." + frac if frac else "")
+    return text.replace(".", decimal) if decimal != "." else text
+
+
+def _metadata(cfg: Config, layout: str) -> list[list[str]]:
+    """A deterministic metadata block, as machine software writes one above the data."""
+    truth = cfg.truth
+    area = cfg.data.area0
+    if layout == "bluehill":
+        rows = [["Sample", cfg.name], ["Method", "bayes_dnlr simulate (synthetic test)"],
+                ["Specimen label", "1"]]
+        if area:
+            rows.append(["Area", _number(area, ".", ","), "mm^2"])
+        rows.append(["Rate", _number(truth.strain_rate, ".", ","), "1/s (true strain rate)"])
+        return rows
+    rows = [["Prüfvorschrift", "bayes_dnlr simulate (synthetischer Versuch)"], ["Probe", cfg.name]]
+    if area:
+        rows.append(["Querschnitt", _number(area, ",", None), "mm²"])
+    return rows
+
+
+def _csv_bytes(cfg: Config, columns: list[tuple[str, str, np.ndarray]], layout: str) -> bytes:
+    spec = LAYOUTS[layout]
+    delimiter = cfg.data.delimiter or spec["delimiter"]
     buf = io.StringIO()
-    w = csv.writer(buf, delimiter=delimiter, lineterminator="\n")
-    w.writerow(list(columns))
-    rows = np.column_stack(list(columns.values()))
-    w.writerows([[FORMAT % v for v in row] for row in rows])
+    quoting = csv.QUOTE_ALL if spec["quote"] else csv.QUOTE_MINIMAL
+    w = csv.writer(buf, delimiter=delimiter, lineterminator="\n", quoting=quoting)
+    scaled = []
+    units = []
+    for role, _, values in columns:
+        unit = _unit(cfg, layout, role)
+        f = 1.0 if unit is None else factor(role, unit)
+        scaled.append(values / f)
+        units.append(unit)
+    if layout != "plain":
+        w.writerows(_metadata(cfg, layout))
+        buf.write("\n")
+    w.writerow([h for _, h, _ in columns])
+    if layout != "plain":
+        w.writerow([spec["unit_text"].format(u if u != "fraction" else "-") for u in units])
+    rows = np.column_stack(scaled)
+    w.writerows([[_number(v, spec["decimal"], spec["thousands"]) for v in row] for row in rows])
     return buf.getvalue().encode()
 
 
-def _same_numbers(old: bytes, new: bytes, delimiter: str = ",") -> bool:
-    """Same header and the same numbers up to the last printed digit (another CPU's rounding)."""
+def _numbers(data: bytes, layout: str, delimiter: str) -> tuple[list[str], np.ndarray] | None:
+    """(the text lines before the data, the data as an array), or None when it does not parse."""
+    spec = LAYOUTS[layout]
     try:
-        a, b = old.decode().splitlines(), new.decode().splitlines()
+        lines = data.decode().splitlines()
     except UnicodeDecodeError:
-        return False
-    if len(a) != len(b) or not a or a[0] != b[0]:
-        return False
+        return None
+    if layout == "plain":
+        skip = 1
+    elif "" in lines:
+        skip = lines.index("") + 3          # metadata, the blank line, header and units rows
+    else:
+        return None
+    rows = list(csv.reader(lines[skip:], delimiter=delimiter))
+    values = [[parse_cell(c, spec["decimal"]) for c in r] for r in rows]
+    if any(v is None for r in values for v in r):
+        return None
     try:
-        x = np.array([r.split(delimiter) for r in a[1:]], dtype=float)
-        y = np.array([r.split(delimiter) for r in b[1:]], dtype=float)
+        return lines[:skip], np.array(values, dtype=float)
     except ValueError:
+        return None
+
+
+def _same_numbers(old: bytes, new: bytes, layout: str = "plain", delimiter: str = ",") -> bool:
+    """Same text around the data and the same numbers up to the last printed digit (another CPU's
+    rounding)."""
+    a, b = _numbers(old, layout, delimiter), _numbers(new, layout, delimiter)
+    if a is None or b is None or a[0] != b[0]:
         return False
+    x, y = a[1], b[1]
     return x.shape == y.shape and bool(np.allclose(x, y, rtol=1e-8, atol=1e-12))
 
 
-def _write(path: Path, data: bytes, overwrite: bool, source: object, delimiter: str = ","
-           ) -> tuple[str, list[str]]:
+def _write(path: Path, data: bytes, overwrite: bool, source: object, layout: str = "plain",
+           delimiter: str = ",") -> tuple[str, list[str]]:
     """Write unless identical; never replace a different file without ``overwrite``."""
     if path.is_file():
         old = path.read_bytes()
         if old == data:
             return "up to date", []
         if not overwrite:
-            if _same_numbers(old, data, delimiter):
+            if _same_numbers(old, data, layout, delimiter):
                 return "up to date", ["the file differs from this machine's output only in the last "
                                       "printed digit (floating-point rounding); kept"]
             raise DataError(f"{path}: exists and differs from what simulate makes from {source} "
@@ -239,8 +345,9 @@ def simulate_test(cfg: Config, overwrite: bool = False) -> SimulationResult:
                       decades=cfg.model.decades, relaxation_start=p.relaxation_start)
     columns = _columns(cfg, truth, p, stress, rng)
     source = cfg.source if cfg.source is not None else "the config"
-    data = _csv_bytes(columns, cfg.data.delimiter)
-    status, notes = _write(cfg.data_path, data, overwrite, source, cfg.data.delimiter)
+    data = _csv_bytes(cfg, columns, truth.layout)
+    delimiter = cfg.data.delimiter or LAYOUTS[truth.layout]["delimiter"]
+    status, notes = _write(cfg.data_path, data, overwrite, source, truth.layout, delimiter)
     rs = cfg.data.relaxation_start
     if isinstance(rs, float) and p.relaxation_start is not None and not np.isclose(rs, p.relaxation_start):
         notes.append(f"data.relaxation_start is {rs:g} s but the hold starts at {p.relaxation_start:g} s")

@@ -23,6 +23,7 @@ from bayes_dnlr.data import (
     nominal_stress,
     ramp_strain_rate,
     sigma_star,
+    smooth_segment,
     smooth_strain,
     true_stress,
     window_mask,
@@ -168,7 +169,7 @@ def test_column_not_in_header_lists_the_headers(write_csv, make_config):
 
 def test_headerless_file_gets_a_hint(write_csv, make_config):
     write_csv("0,0,0\n1,1,0.1\n2,2,0.2\n")
-    with pytest.raises(DataError, match="give the columns by number with data.header: false"):
+    with pytest.raises(DataError, match="the file has no header row .*: give the columns by number"):
         load_test(make_config())
 
 
@@ -188,15 +189,37 @@ def test_headerless_file_with_column_numbers_and_percent_strain(write_csv, make_
 
 
 @pytest.mark.parametrize(("data", "words"), [
-    ({"columns": {"time": 1, "force": 2, "eps11": 3}}, "columns ['time', 'force', 'eps11'] are given by "
-                                                       "number: set header: false"),
     ({"header": False}, "header: false needs every column as a number counted from 1"),
     ({"header": False, "columns": {"time": 0, "force": 2, "eps11": 3}}, "greater than or equal to 1"),
     ({"strain_unit": "permille"}, "'fraction' or 'percent'"),
+    ({"delimiter": ";;"}, "must be one character, 'tab' or 'whitespace'"),
+    ({"delimiter": "1"}, "'1' cannot separate numbers"),
+    ({"decimal": ";"}, "'.' or ','"),
+    ({"encoding": "klingon"}, "unknown text encoding 'klingon'"),
+    ({"units": {"force": "kg"}}, "force: unit 'kg' is not a unit of force"),
+    ({"units": {"eps11": "mm"}}, "eps11: unit 'mm' is not a unit of strain"),
+    ({"units": {"speed": "mm/s"}}, "unknown role 'speed'"),
+    ({"rows": {"first": 5, "last": 2}}, "last (2) must not be smaller than first (5)"),
+    ({"rows": {"first": 0}}, "greater than or equal to 1"),
+    ({"specimen_columns": 5}, "specimen_columns needs specimen"),
+    ({"specimen": 0}, "greater than or equal to 1"),
+    ({"toe": "compensate", "initial_state": "first-sample"}, "initial_state: first-sample contradicts it"),
+    ({"toe": {"stress_min": 5, "stress_max": 2}}, "stress_min (5.0) must be smaller than stress_max"),
+    ({"columns": {"time": "t", "force": "F", "extension": "x"}}, "an extension column needs gauge_length"),
+    ({"columns": {"time": "t", "force": "F", "eps11": "e", "extension": "x"}, "gauge_length": 50},
+     "give the axial strain once"),
 ])
-def test_column_numbers_and_units_are_checked_in_the_config(make_config, data, words):
+def test_data_keys_are_checked_in_the_config(make_config, data, words):
     with pytest.raises(ConfigError, match=re.escape(words)):
         make_config(**data)
+
+
+def test_columns_by_number_in_a_file_with_a_header(write_csv, make_config):
+    # a header row no longer forbids numbered columns: the header is recognised and skipped
+    write_csv(GOOD)
+    test = load_test(make_config(columns={"time": 1, "force": 2, "eps11": 3}, strain_input="measured"))
+    np.testing.assert_array_equal(test.time, [0, 1, 2, 3])
+    assert any("header line 1" in n for n in test.notes)
 
 
 def test_duplicate_header(write_csv, make_config):
@@ -370,15 +393,70 @@ def test_ramp_strain_rate_ignores_the_hold():
 # ------------------------------------------------------------------ smoothing the strain input
 
 
-def test_gcv_lambda_is_scipy_make_smoothing_spline_choice():
+def test_state_space_spline_is_scipys_smoothing_spline_and_gcv_is_exact():
+    """The Kalman/RTS spline equals make_smoothing_spline at the same λ; its GCV λ minimises the
+    exact GCV criterion (dense hat matrix) and is within 1 % of scipy's own GCV choice."""
     from scipy.interpolate import make_smoothing_spline
+
+    from bayes_dnlr.data.smoothing import PRIOR_VAR, _kernel
 
     rng = np.random.default_rng(3)
     x = np.sort(rng.uniform(0, 50, 300))
     y = 3e-3 * x + 0.02 * np.sin(x / 5) + rng.normal(0, 1e-4, x.size)
-    lam = gcv_lambda(x, y)
+    fit, lam = smooth_segment(x, y)
+    np.testing.assert_allclose(fit, make_smoothing_spline(x, y, lam=lam)(x), rtol=0, atol=1e-9)
+    assert gcv_lambda(x, y) == pytest.approx(lam, rel=1e-12)
+
+    def exact_gcv(lam_):
+        n = x.size
+        H = np.column_stack([make_smoothing_spline(x, e, lam=lam_)(x) for e in np.eye(n)])
+        r = y - H @ y
+        return n * (r @ r) / (n - np.trace(H)) ** 2
+
+    assert exact_gcv(lam) <= min(exact_gcv(lam * 0.97), exact_gcv(lam * 1.03))
+    h = np.median(np.diff(x))
+    u = (x - x[0]) / h
+    tr = _kernel()(u, np.zeros_like(u), h**3 / lam, PRIOR_VAR, np.empty_like(u))
+    H = np.column_stack([make_smoothing_spline(x, e, lam=lam)(x) for e in np.eye(x.size)])
+    assert tr == pytest.approx(np.trace(H), rel=1e-8)
     ref = make_smoothing_spline(x, y)(x)
-    np.testing.assert_allclose(make_smoothing_spline(x, y, lam=lam)(x), ref, rtol=0, atol=1e-7)
+    assert np.abs(fit - ref).max() < 1e-6          # scipy's choice: the same spline to 1 % of the noise
+
+
+def test_smoothing_a_million_samples_is_linear_and_does_not_fail():
+    """Issue 10: make_smoothing_spline's GCV fails on 1e6 samples ('ill-posed'); the state-space
+    spline smooths a straight ramp to a straight line, to a small fraction of the noise."""
+    rng = np.random.default_rng(0)
+    t = np.arange(1_000_000) * 1e-3
+    e = 8e-3 * t + rng.normal(0, 1e-4, t.size)
+    fit, lams = smooth_strain(t, e)
+    assert np.sqrt(np.mean((fit - 8e-3 * t) ** 2)) < 5e-6
+    assert lams == [np.inf]
+
+
+def test_sparse_hold_is_not_fitted_to_its_noise():
+    """Issue 9 item 9: a hold sampled every 0.2 s, then every 180 s. One spline over both follows
+    the noise of the sparse samples (the model stress then jumps between them); split where the
+    sampling changes, each part gets its own λ and the sparse part is smoothed."""
+    rng = np.random.default_rng(4)
+    ramp = np.arange(0, 400.0, 0.2)
+    dense = 400.0 + np.arange(1, 1501) * 0.2
+    sparse = dense[-1] + np.arange(1, 41) * 180.0
+    t = np.concatenate([ramp, dense, sparse])
+    # the crosshead settles after the ramp: a small decaying overshoot, which a spline must follow
+    truth = 5e-3 * np.minimum(t, 400.0) + 5e-4 * np.where(t > 400, np.exp(-(t - 400) / 10.0), 0.0)
+    e = truth + rng.normal(0, 1e-4, t.size)
+    k = ramp.size
+    from bayes_dnlr.data.smoothing import sampling_breaks
+
+    breaks = sampling_breaks(t, [k])
+    assert breaks == [k + dense.size - 1]        # the last sample 0.2 s after its neighbour
+    smooth, _ = smooth_strain(t, e, [k, *breaks])
+    tail = slice(k + dense.size, None)
+    rms = np.sqrt(np.mean((smooth[tail] - truth[tail]) ** 2))
+    assert rms < 0.35e-4                                       # the sparse hold: well below the noise 1e-4
+    one, _ = smooth_strain(t, e, [k])
+    assert np.sqrt(np.mean((one[tail] - truth[tail]) ** 2)) > 0.7e-4   # before: it followed the noise
 
 
 def test_smoothed_strain_is_much_closer_to_the_truth_and_keeps_the_kink():
@@ -423,7 +501,8 @@ def test_baseline_sd_detrends_and_estimates_the_noise(write_csv, make_config):
     rng = np.random.default_rng(2)
     t = np.linspace(0, 10, 1001)
     e = np.where(t < 4, 0.0, 5e-3 * (t - 4))
-    F = 24 * (0.5 + 0.2 * t + rng.normal(0, 0.3, t.size)) * np.exp(-e)   # σ* = drift + noise 0.3
+    # σ* = drift + noise 0.3, then the load (1000 MPa × strain, to 30 MPa)
+    F = 24 * (0.5 + 0.2 * t + 1000 * e + rng.normal(0, 0.3, t.size)) * np.exp(-e)
     write_csv(csv_text({"t_s": t, "F_N": F, "eps11": e}))
     test = load_test(make_config(strain_input="measured"))
     assert baseline_sd(test, Window(time_max=4.0)) == pytest.approx(0.3, rel=0.12)
@@ -446,3 +525,20 @@ def test_smoothing_segments_follow_relaxation_start(write_csv, make_config, rs, 
     note = next(n for n in test.notes if n.startswith("strain_input: smoothed"))
     assert note.count(" s: ") == segments
     assert test.relaxation_start == rs
+
+
+@pytest.mark.parametrize(("window", "words"), [
+    ({"time_max": 2.0}, "the specimen is loaded there: the strain rises by 5e-05 across the window "
+                        "(from 0 to 5e-05); the test loads from its first sample"),
+    ({"time_min": 500.0, "time_max": 600.0}, "the stress there is not an unloaded baseline: it sits at 15."),
+])
+def test_baseline_over_a_loaded_specimen_is_refused(write_csv, make_config, window, words):
+    """Issue 9 item 7: {baseline: {time_max: 2.0}} on a test loading from t = 0 gave 0.087 MPa,
+    100 times the noise; a baseline in the hold of a relaxation test measures the relaxation."""
+    t, e, _, _ = ramp_hold(rate=2.5e-5, hold=600.0, hz=20.0, sd=0.0)
+    stress = 2000 * e * (1 - 0.3 * (t > 400) * (1 - np.exp(-(t - 400) / 100)))
+    write_csv(csv_text({"t_s": t, "F_N": 24 * stress * np.exp(-e), "eps11": e}))
+    test = load_test(make_config(strain_input="measured"))
+    with pytest.raises(DataError) as err:
+        baseline_sd(test, Window(**window))
+    assert "noise.sigma0.baseline {" in str(err.value) and words in str(err.value), str(err.value)

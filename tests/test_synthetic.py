@@ -192,3 +192,51 @@ def test_shipped_relaxation_example_auto_finds_the_hold():
     test = load_test(cfg)
     assert test.relaxation_start == 400.0
     assert "relaxation_start: auto -> 400 s (detected)" in test.notes
+
+
+# ------------------------------------------------------------------ machine-export layouts (issue 9)
+
+LAYOUT_EXAMPLES = {"bluehill-like": ("delimiter ',' (detected)", "metadata lines 1-5 (not read)",
+                                     "header line 7", "units row line 8"),
+                   "zwick-like": ("delimiter ';' (detected)", "decimal comma (detected)",
+                                  "metadata lines 1-3 (not read)", "header line 5", "units row line 6")}
+
+
+@pytest.mark.parametrize("name", sorted(LAYOUT_EXAMPLES))
+def test_shipped_export_layout_reads_with_no_format_keys(name, tmp_path):
+    """runs/bluehill-like and runs/zwick-like: what simulate makes with truth.layout, read back by
+    data.format: auto with no delimiter, decimal, header or unit key in the config."""
+    src = RUNS / name / "config.yaml"
+    raw = yaml.safe_load(src.read_text())
+    assert not {"format", "delimiter", "decimal", "header", "strain_unit", "units"} & set(raw["data"])
+    cfg = load_config(src)
+    copy = parse_config(raw, source=tmp_path / "config.yaml")
+    made = simulate_test(copy)
+    assert copy.data_path.read_bytes() == cfg.data_path.read_bytes() or made.notes
+    assert simulate_test(copy).status == "up to date"
+    test = load_test(cfg)
+    for words in LAYOUT_EXAMPLES[name]:
+        assert words in test.notes[0], test.notes[0]
+    assert any("in % -> fraction (×0.01, units row" in n for n in test.notes)
+    # the arrays are the truth plus the noise simulate added, whatever the layout
+    np.testing.assert_allclose(test.time, made.time, rtol=0, atol=1e-9)
+    assert np.std(test.strain - made.strain) == pytest.approx(1e-4, rel=0.15)
+    assert np.std(test.stress - made.stress) == pytest.approx(0.3, rel=0.15)
+
+
+def test_bluehill_layout_writes_quoted_thousands_and_a_units_row(make_config):
+    cfg = make_config(truth=truth(layout="bluehill", strain_max=0.3, n_points=300), area0=60.0,
+                      columns={"time": "Time", "force": "Load", "strain": "Tensile strain"},
+                      strain_measure="nominal")
+    simulate_test(cfg)
+    lines = cfg.data_path.read_text().splitlines()
+    i = lines.index("")
+    assert lines[i + 1] == '"Time","Tensile strain","Load"' and lines[i + 2] == '"(s)","(%)","(N)"'
+    assert any('","1,' in line for line in lines[i + 3:])           # "1,234.5": quoted thousands
+    test = load_test(cfg)
+    assert test.nominal_strain.max() == pytest.approx(np.expm1(0.3), abs=1e-3)   # % read back as %
+
+
+def test_layout_refuses_format_keys_that_contradict_it(make_config):
+    with pytest.raises(ConfigError, match="truth.layout: zwick writes its own format; remove data.delimiter"):
+        simulate_test(make_config(truth=truth(layout="zwick"), delimiter=","))

@@ -1,0 +1,148 @@
+"""Checks of the read columns: increasing time, plausible strains (eq. 1), units that look wrong,
+and the state of the specimen at the first sample."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bayes_dnlr.data.conversions import hencky_from_nominal
+from bayes_dnlr.data.errors import DataError
+from bayes_dnlr.data.reading import _Table
+
+MAX_HENCKY = 5.0          # λ = e^5 ≈ 148: larger axial strains are taken for a unit mistake (percent)
+MIN_POLYMER_MODULUS = 100.0   # MPa: an initial slope below this, in a semicrystalline polymer, is a unit slip
+FIRST_SAMPLE_NOISE = 10.0     # a first stress this many noise sd away from zero is a loaded start
+
+
+def check_increasing(table: _Table, x: np.ndarray, role: str, what: str) -> None:
+    """x must increase strictly; the error gives both lines and both cells."""
+    bad = np.flatnonzero(np.diff(x) <= 0)
+    if bad.size:
+        i = int(bad[0])
+        a, b = table.cell(i, role), table.cell(i + 1, role)
+        raise DataError(f"{table.path}, column '{table.names[role]}': {what}: line {table.lines[i]} "
+                        f"has {a} and line {table.lines[i + 1]} has {b}")
+
+
+def _looks_like_time(x: np.ndarray) -> bool:
+    """Increasing in nearly even steps, from about zero: what a time or index column looks like."""
+    d = np.diff(x)
+    return bool(x.size >= 5 and np.all(d > 0) and np.std(d) < 0.05 * np.mean(d) and x[0] >= 0)
+
+
+def implausible_strain(table: _Table, role: str, raw: np.ndarray, strain: np.ndarray,
+                       measure: str, percent_known: bool) -> None:
+    """Refuse an axial Hencky strain above MAX_HENCKY, with a hint that fits the column."""
+    big = np.flatnonzero(np.abs(strain) > MAX_HENCKY)
+    if not big.size:
+        return
+    i = int(big[0])
+    head = (f"{table.where(i, role)}: strain {table.cell(i, role)} is not a plausible strain "
+            f"(Hencky {strain[i]:.3g})")
+    as_percent = raw / 100.0
+    percent_ok = bool(np.all(np.abs(hencky_from_nominal(as_percent) if measure == "nominal" else as_percent)
+                             <= MAX_HENCKY)) and not percent_known
+    if _looks_like_time(raw):
+        raise DataError(f"{head}: the column rises in even steps from {raw[0]:g} to {raw[-1]:g}, like a time "
+                        f"or index column: is data.columns.{role} the right column (a header that does not "
+                        f"line up with the data, or a wrong column number)?")
+    if percent_ok:
+        raise DataError(f"{head}: percent? set data.strain_unit: percent")
+    raise DataError(f"{head}: even read as percent it is too large: is data.columns.{role} the right "
+                    f"column?")
+
+
+def to_hencky(table: _Table, raw: np.ndarray, role: str, measure: str) -> np.ndarray:
+    """Hencky strain from a strain column given as ``measure`` (eq. 1)."""
+    if measure == "hencky":
+        return raw
+    bad = np.flatnonzero(raw <= -1.0)
+    if bad.size:
+        i = int(bad[0])
+        raise DataError(f"{table.where(i, role)}: nominal strain {table.cell(i, role)} <= -1 "
+                        f"has no Hencky strain (eq. 1: ε = ln(1 + e))")
+    return hencky_from_nominal(raw)
+
+
+def noise_sd(x: np.ndarray) -> float:
+    """Robust sd of white noise on a smooth signal: MAD of second differences (trend-free)."""
+    if x.size < 5:
+        return float("nan")
+    d2 = np.diff(x, 2)
+    mad = np.median(np.abs(d2 - np.median(d2)))
+    return float(1.4826 * mad / np.sqrt(6.0))
+
+
+def initial_slope(strain: np.ndarray, stress: np.ndarray) -> tuple[float, int, int]:
+    """Steepest least-squares slope dσ/dε over a sliding window on the rising part below half the
+    stress maximum (the tangent at maximum slope of ASTM D638 X1.3); (slope, first, last index)."""
+    n = strain.size
+    top = int(np.argmax(stress))
+    rise = np.flatnonzero(stress[:top + 1] <= stress[0] + 0.5 * (stress[top] - stress[0]))
+    end = int(rise[-1]) + 1 if rise.size else min(n, 10)
+    end = max(end, min(n, 10))
+    w = max(5, end // 10)
+    if end < w:
+        return float("nan"), 0, end
+    x, y = strain[:end], stress[:end]
+    c = np.concatenate(([0.0], np.cumsum(x)))
+    cy = np.concatenate(([0.0], np.cumsum(y)))
+    cxx = np.concatenate(([0.0], np.cumsum(x * x)))
+    cxy = np.concatenate(([0.0], np.cumsum(x * y)))
+    k = np.arange(end - w + 1)
+    sx, sy = c[k + w] - c[k], cy[k + w] - cy[k]
+    sxx, sxy = cxx[k + w] - cxx[k], cxy[k + w] - cxy[k]
+    den = sxx - sx * sx / w
+    slope = np.where(den > 0, (sxy - sx * sy / w) / np.where(den > 0, den, 1.0), -np.inf)
+    j = int(np.argmax(slope))
+    return float(slope[j]), j, j + w
+
+
+def percent_warning(nominal_strain: np.ndarray, nominal_stress: np.ndarray | None, name: str) -> str | None:
+    """A note when the strain's magnitude does not fit the stress: an initial slope below any
+    semicrystalline polymer's modulus suggests a percent column read as a fraction (issue 9, item 8)."""
+    if nominal_stress is None or nominal_strain.size < 10:
+        return None
+    slope, a, b = initial_slope(nominal_strain, nominal_stress)
+    top = float(np.max(nominal_strain))
+    if not np.isfinite(slope) or slope <= 0 or slope >= MIN_POLYMER_MODULUS or top < 0.05:
+        return None
+    return (f"warning: the initial slope of the nominal stress-strain curve is {slope:.3g} MPa (strain "
+            f"up to {top:.3g}), below the modulus of any semicrystalline polymer (>= "
+            f"{MIN_POLYMER_MODULUS:g} MPa): if the strain column '{name}' is in percent, set "
+            f"data.strain_unit: percent (x100 gives {100 * slope:.4g} MPa); if it is a fraction, "
+            f"set data.strain_unit: fraction to silence this")
+
+
+def first_sample_warning(stress: np.ndarray, strain: np.ndarray, line: int) -> str | None:
+    """A note when the first sample carries a stress well above the noise: the model assumes the
+    specimen unloaded and at rest there (issue 9, item 5)."""
+    sd = noise_sd(stress[:200])
+    scale = float(np.max(np.abs(stress)))
+    limit = max(FIRST_SAMPLE_NOISE * sd, 0.01 * scale)
+    if not abs(stress[0]) > limit:
+        return None
+    return (f"warning: the first sample (line {line}) carries {stress[0]:.4g} MPa at strain {strain[0]:.4g} "
+            f"(stress noise sd about {sd:.2g} MPa): the model assumes the specimen unloaded and at rest "
+            f"there, so the toe looks cropped or preloaded and E will be biased; set data.toe: compensate "
+            f"(ASTM D638 X1, ISO 527-1 zero point) or data.initial_state: ramp-from-zero "
+            f"(docs/data-input.md, 'The first sample')")
+
+
+def spike_warning(stress: np.ndarray, lines: np.ndarray, start: int = 0) -> str | None:
+    """A note on the largest isolated spike of the stress: a sample far from both neighbours (more
+    than 50 noise sd and 5 % of the stress range away from their mean), such as one force cell
+    written ×1000; it would dominate a least-squares fit."""
+    s = stress[start:]
+    if s.size < 5:
+        return None
+    dev = np.abs(s[1:-1] - 0.5 * (s[:-2] + s[2:]))
+    sd = noise_sd(s)
+    spread = float(np.max(s) - np.min(s))
+    i = int(np.argmax(dev))
+    if not (dev[i] > 50 * max(sd, 1e-12) and dev[i] > 0.05 * spread):
+        return None
+    k = start + i + 1
+    return (f"warning: a spike at line {lines[k]}: the stress there is {stress[k]:.6g} MPa, its neighbours "
+            f"{stress[k - 1]:.6g} and {stress[k + 1]:.6g} MPa (stress noise sd about {sd:.2g} MPa): a "
+            f"corrupt cell? It would dominate the fit")

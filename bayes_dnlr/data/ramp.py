@@ -1,0 +1,96 @@
+"""The loading history: the ramp's strain rate and the start of a relaxation hold."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def ramp_strain_rate(time: np.ndarray, strain: np.ndarray, relaxation_start: float | None) -> float:
+    """Mean Hencky strain rate of the loading ramp: least-squares slope of ε(t) up to relaxation_start."""
+    ramp = np.ones(time.size, bool) if relaxation_start is None else time <= relaxation_start
+    t, e = time[ramp], strain[ramp]
+    if t.size < 2:
+        return float("nan")
+    tc = t - t.mean()
+    return float(np.dot(tc, e - e.mean()) / np.dot(tc, tc))
+
+
+def _prefix(x: np.ndarray) -> np.ndarray:
+    return np.concatenate(([0.0], np.cumsum(x)))
+
+
+def detect_relaxation_start(time: np.ndarray, strain: np.ndarray, min_points: int = 5) -> int:
+    """Index of the sample where the hold starts (the strain stops increasing).
+
+    Every split k is scored by the residual sum of squares of a straight line fitted to the ramp
+    (samples < k) plus a constant fitted to the hold (samples >= k), both from prefix sums (O(n)).
+    The start is the sample nearest to the intersection of the best line and constant, which is
+    robust to strain noise (the paper's sd 1e-4). Raises ValueError when there is no hold.
+    """
+    n = time.size
+    if n < 2 * min_points:
+        raise ValueError(f"only {n} samples: too few to find a ramp and a hold")
+    t = time - time.mean()
+    e = strain - strain.mean()
+    c1, ct, ctt, ce, cte, cee = (_prefix(v) for v in (np.ones(n), t, t * t, e, t * e, e * e))
+    k = np.arange(min_points, n - min_points + 1)
+    sxx = ctt[k] - ct[k] ** 2 / k
+    sxy = cte[k] - ct[k] * ce[k] / k
+    syy = cee[k] - ce[k] ** 2 / k
+    line = syy - np.divide(sxy**2, sxx, out=np.zeros_like(sxx), where=sxx > 0)
+    m = n - k
+    hold_e = ce[n] - ce[k]
+    const = (cee[n] - cee[k]) - hold_e**2 / m
+    best = int(k[np.argmin(line + const)])
+    slope = float(sxy[best - min_points] / sxx[best - min_points])
+    intercept = ce[best] / best - slope * ct[best] / best
+    level = hold_e[best - min_points] / (n - best)
+    hold_slope = ramp_strain_rate(t[best:], e[best:], None)
+    if not slope > 0 or abs(hold_slope) > 0.1 * slope:
+        raise ValueError(f"no hold found: the strain rate is {slope:.3g} 1/s on the ramp and "
+                         f"{hold_slope:.3g} 1/s after the best split at t = {time[best]:g} s")
+    t_cross = (level - intercept) / slope
+    return int(np.argmin(np.abs(t - t_cross)))
+
+
+def _slope(t: np.ndarray, e: np.ndarray) -> float:
+    if t.size < 2:
+        return float("nan")
+    tc = t - t.mean()
+    den = np.dot(tc, tc)
+    return float(np.dot(tc, e - e.mean()) / den) if den > 0 else float("nan")
+
+
+def window_strain_rate(time: np.ndarray, strain: np.ndarray, window: np.ndarray,
+                       relaxation_start: float | None, first: int = 0) -> tuple[float, str]:
+    """The strain rate of the loading the fit sees (issue 9, item 6), and how it was found.
+
+    The least-squares slope of ε(t) over the window's loading: its samples of the ramp (up to
+    relaxation_start) from the first one until the strain has made 98 % of its rise in the window
+    (so a hold or an unloading inside the window does not count). When that leaves fewer than 3
+    samples, or no rise (a window in a hold), the slope of the loading before: from the first model
+    sample (``first``) to the largest strain up to the window's end, within the ramp. NaN when the
+    strain never rises.
+    """
+    ramp = np.ones(time.size, bool) if relaxation_start is None else time <= relaxation_start
+    ramp[:first] = False
+    sel = np.flatnonzero(window & ramp)
+    if sel.size >= 3:
+        e = strain[sel]
+        rise = float(e.max() - e[0])
+        if rise > 0:
+            stop = int(np.argmax(e >= e[0] + 0.98 * rise))
+            load = sel[:max(stop, 1) + 1]
+            rate = _slope(time[load], strain[load])
+            if load.size >= 3 and rate > 0:
+                return rate, (f"over the window's loading, t = {time[load[0]]:g} to {time[load[-1]]:g} s")
+    end = int(np.flatnonzero(window)[-1]) + 1
+    top = first + int(np.argmax(np.where(ramp[first:end], strain[first:end], -np.inf)))
+    load = np.zeros(time.size, bool)
+    load[first:top + 1] = True
+    load &= ramp
+    rate = _slope(time[load], strain[load])
+    if rate > 0:
+        return rate, (f"over the loading before the window's hold, t = {time[load][0]:g} to "
+                      f"{time[load][-1]:g} s")
+    return float("nan"), "the strain does not rise before or in the window"

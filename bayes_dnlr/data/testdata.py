@@ -1,0 +1,270 @@
+"""The test the model sees: ``load_test(cfg)`` reads, converts, smooths and windows one test.
+
+``load_test(cfg)`` reads the export that ``cfg.data`` describes and returns a ``TestData``: every
+data row of the file, in file order (trailing padding, rows outside ``data.rows`` and a compensated
+toe left out with a note), with the observable stress (σ* eq. 6, σ eq. 2 or a true-stress column),
+the measured Hencky strain (eq. 1) and the strain that drives the model (a GCV smoothing spline of
+the measured strain, fitted per segment, or the raw strain). Every error is a ``DataError`` whose
+message names the file, the line and the column.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from bayes_dnlr.config import Config
+from bayes_dnlr.data.checks import (
+    check_increasing,
+    first_sample_warning,
+    implausible_strain,
+    percent_warning,
+    spike_warning,
+    to_hencky,
+)
+from bayes_dnlr.data.conversions import (
+    nominal_from_hencky,
+    nominal_from_true_stress,
+    nominal_stress,
+    sigma_star,
+    true_stress,
+)
+from bayes_dnlr.data.errors import DataError
+from bayes_dnlr.data.ramp import detect_relaxation_start, window_strain_rate
+from bayes_dnlr.data.reading import _Table, read_table
+from bayes_dnlr.data.smoothing import sampling_breaks, segment_edges, smooth_strain
+from bayes_dnlr.data.start import plan_start
+from bayes_dnlr.data.windows import window_mask
+
+
+@dataclass(frozen=True)
+class TestData:
+    """One tensile (then relaxation) test, ready for the model.
+
+    The arrays hold the data rows read, in file order (see ``notes`` for any left out), after
+    ``virtual_start`` model-only samples (an unloaded start, see data/start.py). The model runs from
+    the first sample (history matters) to ``model_end``; the comparison with data uses the samples
+    where ``window`` is True.
+    """
+
+    __test__ = False  # not a pytest test class despite its name
+
+    path: Path
+    sha256: str
+    time: np.ndarray              # s
+    strain: np.ndarray            # measured axial Hencky strain ε11 (eq. 1)
+    strain_input: np.ndarray      # the strain that drives the model (smoothed or measured)
+    stress: np.ndarray            # the observable, MPa: σ* (eq. 6), σ (eq. 2) or a stress column
+    nominal_strain: np.ndarray    # e = exp(ε) - 1
+    nominal_stress: np.ndarray | None  # F/S0, MPa (None when it cannot be derived)
+    window: np.ndarray            # bool, the identification interval
+    relaxation_start: float | None  # s (resolved: 'auto' -> the detected time)
+    strain_rate: float            # mean Hencky strain rate of the loading ramp, 1/s
+    observable: str               # sigma_star | sigma | stress
+    notes: tuple[str, ...] = ()   # what was derived or detected (e.g. the auto relaxation start)
+    force: np.ndarray | None = None              # N, when the file has a force column
+    transverse_strain: np.ndarray | None = None  # measured ε22 (Hencky), when the file has one
+    area0: float | None = None                   # S0, mm²
+    virtual_start: int = 0        # leading model-only samples (an unloaded start), never in the window
+    lines: np.ndarray | None = None  # the file line of each sample (0 for a model-only sample)
+
+    @property
+    def model_end(self) -> int:
+        """One past the last sample the model must reach (the last window sample)."""
+        return int(np.flatnonzero(self.window)[-1]) + 1
+
+    @property
+    def n_points(self) -> int:
+        """Number of samples compared with the model (q in the paper)."""
+        return int(self.window.sum())
+
+
+def _observable(cfg: Config, values: dict[str, np.ndarray], strain: np.ndarray,
+                eps22: np.ndarray | None, path: Path) -> np.ndarray:
+    d = cfg.data
+    area0 = d.area0
+    if d.observable == "stress":
+        return values["stress"]
+    if area0 is None or not area0 > 0:
+        raise DataError(f"{path}: data.area0 must be a positive cross-section in mm² to turn the "
+                        f"force into a stress, got {area0}")
+    if d.observable == "sigma":
+        return true_stress(values["force"], area0, eps22)
+    return sigma_star(values["force"], area0, strain)
+
+
+def _nominal_stress(cfg: Config, values: dict[str, np.ndarray], strain: np.ndarray) -> np.ndarray | None:
+    if "force" in values and cfg.data.area0:
+        return nominal_stress(values["force"], cfg.data.area0)
+    if "stress" in values:
+        return nominal_from_true_stress(values["stress"], strain)
+    return None
+
+
+def _axial(cfg: Config, table: _Table) -> tuple[np.ndarray, np.ndarray, str, list[str]]:
+    """Measured axial Hencky strain (eq. 1), the nominal strain, the role it came from, notes."""
+    d = cfg.data
+    if "extension" in table.values:
+        nominal = table.values["extension"] / d.gauge_length
+        strain = to_hencky(table, nominal, "extension", "nominal")
+        notes = [f"strain: extension / gauge_length ({d.gauge_length:g} mm), nominal -> Hencky, "
+                 f"ε = ln(1 + e) (eq. 1)"]
+        role = "extension"
+    else:
+        role = "eps11" if "eps11" in table.values else "strain"
+        raw = table.values[role]
+        strain = to_hencky(table, raw, role, d.strain_measure)
+        nominal = raw if d.strain_measure == "nominal" else nominal_from_hencky(strain)
+        notes = ["strain: nominal -> Hencky, ε = ln(1 + e) (eq. 1)"] if d.strain_measure == "nominal" else []
+        unit_known = d.strain_unit is not None or role in d.units or bool(
+            table.layout and table.layout.units[table.columns[role]])
+        implausible_strain(table, role, raw, strain, d.strain_measure, unit_known)
+    return strain, nominal, role, notes
+
+
+def _time(cfg: Config, table: _Table, strain: np.ndarray, strain_role: str) -> tuple[np.ndarray, list[str]]:
+    if "time" in table.values:
+        check_increasing(table, table.values["time"], "time", "time must increase strictly")
+        return table.values["time"], []
+    rate = cfg.data.strain_rate
+    check_increasing(table, strain, strain_role,
+                     f"no time column, so time = strain / data.strain_rate ({rate:g} 1/s) needs a "
+                     f"strictly increasing strain")
+    return strain / rate, [f"time: from strain / strain_rate ({rate:g} 1/s), no time column"]
+
+
+def _relaxation_start(cfg: Config, time: np.ndarray, strain: np.ndarray, path: Path
+                      ) -> tuple[float | None, list[str]]:
+    rs = cfg.data.relaxation_start
+    if rs is None:
+        return None, []
+    if rs == "auto":
+        try:
+            i = detect_relaxation_start(time, strain)
+        except ValueError as err:
+            raise DataError(f"{path}: data.relaxation_start: auto: {err}; set the time of the hold "
+                            f"start (s) or null for a tensile test") from None
+        return float(time[i]), [f"relaxation_start: auto -> {time[i]:g} s (detected)"]
+    if not time[0] < rs < time[-1]:
+        raise DataError(f"{path}: data.relaxation_start {rs:g} s lies outside the test "
+                        f"(time spans {time[0]:g} to {time[-1]:g} s)")
+    return float(rs), []
+
+
+def _smoothing_note(time: np.ndarray, breaks: list[int], lams: list[float], sampling: list[int]) -> str:
+    """λ per segment (in units of the segment's median time step, cubed)."""
+    edges = segment_edges(time.size, breaks)
+    parts = []
+    for a, b, lam in zip(edges[:-1], edges[1:], lams, strict=True):
+        text = "raw (< 5 samples)" if math.isnan(lam) else (
+            "a straight line (GCV)" if math.isinf(lam) else f"λ = {lam:.4g}")
+        parts.append(f"{time[a]:g}-{time[b]:g} s: {text}")
+    extra = (f"; split where the sampling interval changes, at t = "
+             f"{', '.join(f'{time[i]:g}' for i in sampling)} s" if sampling else "")
+    return ("strain_input: smoothed (GCV smoothing spline per segment" + extra + "; " + "; ".join(parts)
+            + ")")
+
+
+def _check_file(cfg: Config) -> Path:
+    path = cfg.data_path
+    d = cfg.data
+    if path.is_dir():
+        raise DataError(f"{path}: is a directory, not a data file (config key data.file: {d.file!r}, "
+                        f"resolved against {cfg.base_dir})")
+    if not path.exists():
+        raise DataError(f"{path}: data file not found (config key data.file: {d.file!r}, resolved "
+                        f"against {cfg.base_dir})")
+    return path
+
+
+def _prepend(x: np.ndarray | None, value: float, count: int) -> np.ndarray | None:
+    if x is None or count == 0:
+        return x
+    return np.concatenate((np.full(count, value), x))
+
+
+def load_test(cfg: Config) -> TestData:
+    """Read the test that ``cfg.data`` describes (see docs/data-input.md)."""
+    from bayes_dnlr.rundir import file_sha256
+
+    d = cfg.data
+    path = _check_file(cfg)
+    table = read_table(path, d)
+    notes = list(table.notes)
+    strain, nominal, strain_role, more = _axial(cfg, table)
+    notes += more
+    eps22 = None
+    if "eps22" in table.values:
+        eps22 = to_hencky(table, table.values["eps22"], "eps22", d.strain_measure)
+    time, more = _time(cfg, table, strain, strain_role)
+    notes += more
+    values = dict(table.values)
+    lines = np.asarray(table.lines)
+
+    # the state before the first sample (toe compensation, an unloaded start)
+    nom_stress = _nominal_stress(cfg, values, strain)
+    start = plan_start(time, strain, nominal, nom_stress, d.toe, d.initial_state, lines)
+    notes += start.notes
+    if start.cut or start.shift:
+        k = start.cut
+        time, strain, lines = time[k:], strain[k:] - start.shift, lines[k:]
+        values = {r: v[k:] for r, v in values.items()}
+        eps22 = None if eps22 is None else eps22[k:]
+        nominal = np.expm1(strain)
+    virtual = 0
+    if start.origin_time is not None:
+        virtual = 1
+        time = np.concatenate(([start.origin_time], time))
+        strain = np.concatenate(([0.0], strain))
+        nominal = np.concatenate(([0.0], nominal))
+        lines = np.concatenate(([0], lines))
+        values = {r: _prepend(v, 0.0, 1) for r, v in values.items()}
+        eps22 = _prepend(eps22, 0.0, 1)
+    if "time" in values and virtual:
+        values["time"] = time
+
+    rs, more = _relaxation_start(cfg, time, strain, path)
+    notes += more
+    if d.strain_input == "smoothed":
+        breaks = [] if rs is None else [int(np.searchsorted(time, rs))]
+        sampling = sampling_breaks(time, breaks)
+        strain_input, lams = smooth_strain(time, strain, sorted({*breaks, *sampling}))
+        notes.append(_smoothing_note(time, sorted({*breaks, *sampling}), lams, sampling))
+    else:
+        strain_input = strain
+    stress = _observable(cfg, values, strain, eps22, path)
+    nom_stress = _nominal_stress(cfg, values, strain)
+    window = window_mask(time[virtual:], strain_input[virtual:], d.window, path=path, key="data.window")
+    window = np.concatenate((np.zeros(virtual, bool), window))
+    rate, how = window_strain_rate(time, strain, window, rs, first=virtual)
+    notes.append(f"strain_rate: {rate:.4g} 1/s ({how})")
+    if virtual == 0 and d.toe == "none" and d.initial_state is None:
+        warn = first_sample_warning(stress, strain, int(lines[0]))
+        if warn:
+            notes.append(warn)
+    spike = spike_warning(stress, lines, virtual)
+    if spike:
+        notes.append(spike)
+    if d.strain_unit is None and strain_role != "extension" and not notes_have_units(table, strain_role, d):
+        warn = percent_warning(nominal[virtual:], None if nom_stress is None else nom_stress[virtual:],
+                               table.names[strain_role])
+        if warn:
+            notes.append(warn)
+    test = TestData(
+        path=path, sha256=file_sha256(path), time=time, strain=strain, strain_input=strain_input,
+        stress=stress, nominal_strain=nominal, nominal_stress=nom_stress, window=window,
+        relaxation_start=rs, strain_rate=rate, observable=d.observable, notes=tuple(notes),
+        force=values.get("force"), transverse_strain=eps22, area0=d.area0, virtual_start=virtual,
+        lines=lines)
+    return test
+
+
+def notes_have_units(table: _Table, role: str, d) -> bool:
+    """True when the strain's unit is known from the file or the config (no guessing needed)."""
+    if role in d.units:
+        return True
+    layout = table.layout
+    return bool(layout is not None and layout.units and layout.units[table.columns[role]])
