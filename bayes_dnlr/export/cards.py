@@ -145,20 +145,29 @@ class Poisson:
     source: str
 
 
-NU_STRAIN_MAX = 0.01     # the transverse-strain slope is taken over 0 < ε11 <= this
+NU_STRAIN_MAX = 0.02     # the transverse-strain slope is taken over 0 < ε11 <= this ...
+NU_STRAIN_CAP = 0.05     # ... or over the first NU_MIN_SAMPLES samples when they stay below this
+NU_MIN_SAMPLES = 5
 
 
-def poisson_from_strains(axial: np.ndarray, transverse: np.ndarray,
-                         strain_max: float = NU_STRAIN_MAX) -> tuple[float, int]:
-    """ν = -dε22/dε11 by least squares through the origin over 0 < ε11 <= strain_max."""
+def poisson_from_strains(axial: np.ndarray, transverse: np.ndarray) -> tuple[float, int, float]:
+    """ν = -dε22/dε11 by least squares through the origin over the small strains: the samples with
+    0 < ε11 <= NU_STRAIN_MAX, or the first NU_MIN_SAMPLES samples if fewer (and they stay below
+    NU_STRAIN_CAP). Returns (ν, samples used, largest ε11 used)."""
     axial = np.asarray(axial, dtype=float)
     transverse = np.asarray(transverse, dtype=float)
-    m = (axial > 0) & (axial <= strain_max) & np.isfinite(transverse)
-    if m.sum() < 5:
-        raise BayesDnlrError(f"only {int(m.sum())} samples with 0 < ε11 <= {strain_max:g}: too few to "
-                             "take Poisson's ratio from the transverse strain; give --nu")
+    ok = (axial > 0) & np.isfinite(transverse)
+    m = ok & (axial <= NU_STRAIN_MAX)
+    if m.sum() < NU_MIN_SAMPLES:
+        first = np.flatnonzero(ok)[:NU_MIN_SAMPLES]
+        if first.size < NU_MIN_SAMPLES or axial[first].max() > NU_STRAIN_CAP:
+            raise BayesDnlrError(
+                f"only {int(m.sum())} samples with 0 < ε11 <= {NU_STRAIN_MAX:g}: too few to take Poisson's "
+                "ratio from the transverse strain; give --nu")
+        m = np.zeros(axial.size, bool)
+        m[first] = True
     a, tr = axial[m], transverse[m]
-    return float(-(a @ tr) / (a @ a)), int(m.sum())
+    return float(-(a @ tr) / (a @ a)), int(m.sum()), float(a.max())
 
 
 def check_poisson(nu: Poisson, solver: str | None) -> None:

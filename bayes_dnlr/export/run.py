@@ -21,7 +21,6 @@ import numpy as np
 from bayes_dnlr.errors import BayesDnlrError, RunError
 from bayes_dnlr.export import FORMAT_NAMES, abaqus, ansys, lsdyna, table
 from bayes_dnlr.export.cards import (
-    NU_STRAIN_MAX,
     RAMP_CHECK_STRAIN,
     SMALL_STRAIN_TOLERANCE,
     STRAIN_FLOOR,
@@ -150,9 +149,9 @@ def resolve_poisson(nu: float | None, cfg) -> Poisson:
         end = test.strain.size
         if test.relaxation_start is not None:
             end = int(np.searchsorted(test.time, test.relaxation_start, "right"))
-        value, n = poisson_from_strains(test.strain[:end], test.transverse_strain[:end])
+        value, n, top = poisson_from_strains(test.strain[:end], test.transverse_strain[:end])
         return Poisson(value, f"from the data's transverse strain: slope of -ε22 against ε11 over "
-                              f"0 < ε11 <= {NU_STRAIN_MAX:g}, {n} samples")
+                              f"0 < ε11 <= {top:.3g}, {n} samples")
     return Poisson(None, "the data have no transverse strain (data.columns.eps22) and --nu was not given")
 
 
