@@ -62,6 +62,13 @@ def cmd_compare(args: argparse.Namespace) -> None:
     print(table.markdown())
 
 
+def cmd_design(args: argparse.Namespace) -> None:
+    from bayes_dnlr.design.config import load_design
+    from bayes_dnlr.report.design import design_with_figure
+
+    print(design_with_figure(load_design(args.design), overwrite=args.force).table(top=args.top))
+
+
 def cmd_export(args: argparse.Namespace) -> None:
     from bayes_dnlr.export.run import export
 
@@ -108,6 +115,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, default=None,
                    help="folder for compare.md and compare.csv (default: the folder that holds the runs)")
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("design", help="experiment design: predicted sd, Err and correlations of planned "
+                                      "tests, and the recommended one")
+    p.add_argument("design", help="design.yaml (docs/design.md)")
+    p.add_argument("--force", action="store_true", help="replace a design.json made from another design")
+    p.add_argument("--top", type=int, default=10, help="candidates shown on the console (default 10)")
+    p.set_defaults(func=cmd_design)
 
     from bayes_dnlr.export import FORMAT_NAMES
 
