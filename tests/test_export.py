@@ -8,9 +8,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from finished_run import make_finished_run
 
 from bayes_dnlr.cli import main
-from bayes_dnlr.config import load_config
 from bayes_dnlr.errors import BayesDnlrError, RunError
 from bayes_dnlr.export import abaqus, ansys, lsdyna
 from bayes_dnlr.export.cards import poisson_from_strains, ramp
@@ -19,37 +19,12 @@ from bayes_dnlr.export.run import export
 from bayes_dnlr.model import simulate
 
 PARAMS = {"E": 2854.0, "G": 2.32, "tau_max": 5.79}
-CONFIG = """name: tiny
-data:
-  file: tiny.csv
-  columns: {time: t_s, strain: eps, stress: s, eps22: e22}
-  observable: stress
-noise: {sigma0: 0.3, discrepancy: none}
-sampler: {walkers: 12, max_steps: 300, target_ess: 100, seed: 1, checkpoint_every: 100}
-"""
 
 
 @pytest.fixture(scope="module")
 def finished_run(tmp_path_factory) -> Path:
     """A 300-point synthetic test at 1e-2 1/s with a transverse strain of ν = 0.45, fitted and sampled."""
-    from bayes_dnlr.pipeline.fit import fit
-    from bayes_dnlr.pipeline.sample import sample
-
-    d = tmp_path_factory.mktemp("runs") / "tiny"
-    d.mkdir()
-    rate, n = 1e-2, 300
-    t = np.linspace(0.0, 1.0 / rate, n)
-    eps = rate * t
-    s = simulate(t, eps, {"E": 2854.0, "G": 2.32, "tau_max": 3.15})
-    rng = np.random.default_rng(0)
-    data = np.column_stack([t, eps, s + rng.normal(0, 0.3, n), -0.45 * eps + rng.normal(0, 1e-5, n),
-                            -0.5 * eps])
-    np.savetxt(d / "tiny.csv", data, delimiter=",", header="t_s,eps,s,e22,e22_half", comments="")
-    (d / "config.yaml").write_text(CONFIG)
-    cfg = load_config(d / "config.yaml")
-    fit(cfg)
-    sample(cfg, progress=False)
-    return d
+    return make_finished_run(tmp_path_factory.mktemp("runs"))
 
 
 def _abaqus_prony(text: str) -> tuple[Prony, dict]:

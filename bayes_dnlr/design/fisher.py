@@ -24,7 +24,7 @@ from bayes_dnlr.config import RELAXATION_PARAMETERS
 from bayes_dnlr.design.candidates import Candidate, planned_protocol, window_mask
 from bayes_dnlr.inference import gp
 from bayes_dnlr.inference.discrepancy import make_axis
-from bayes_dnlr.inference.sensitivity import analyse, sensitivity_matrix
+from bayes_dnlr.inference.sensitivity import correlation, covariance, sensitivity_matrix
 from bayes_dnlr.model import DNLR
 
 
@@ -130,25 +130,23 @@ def predict(candidate: Candidate, draws: Draws, free: Sequence[str], modes: int,
             if noise.amplitude > 0:
                 Xw, _ = gp.whiten(axis.values, axis.sort(X), noise.sigma0, noise.amplitude, noise.length,
                                   draws.kernel)
-                a = analyse(Xw, names, values, 1.0)
+                delta = covariance(Xw, 1.0, values)            # eq. 32 with K: (XᵀK⁻¹X)⁻¹
             else:
-                a = analyse(X, names, values, noise.sigma0)
+                delta = covariance(X, noise.sigma0, values)    # eq. 32
         except np.linalg.LinAlgError as err:
             pred.note = "; ".join(filter(None, [pred.note, f"not identifiable ({err})"]))
             return pred
-        rel = a.covariance / np.outer(values, values)
-        cov_sum += a.covariance
+        rel = delta / np.outer(values, values)
+        cov_sum += delta
         rel_sum += rel
         sign, ld = np.linalg.slogdet(rel)
         logdet.append(ld if sign > 0 else math.inf)
     n = draws.n
     cov, rel = cov_sum / n, rel_sum / n
     sd, err = np.sqrt(np.diag(cov)), np.sqrt(np.diag(rel))
-    corr = rel / np.outer(err, err)
-    np.fill_diagonal(corr, 1.0)
-    corr = np.clip(corr, -1.0, 1.0)
+    corr = correlation(rel)                               # eq. 34 (of the mean relative covariance)
     dt = corr.copy()
-    np.fill_diagonal(dt, err)
+    np.fill_diagonal(dt, err)                             # eq. 35
     pred.sd = dict(zip(names, map(float, sd), strict=True))
     pred.err = dict(zip(names, map(float, err), strict=True))
     pred.correlation, pred.delta_tilde = corr, dt
