@@ -31,6 +31,10 @@ DESIGNS = {
         "noise": {"sigma0": 0.3, "discrepancy": {"kernel": "matern32", "axis": "strain",
                                                  "amplitude": 1.0, "length": 0.05}},
         "conditions": {"strain_rate": 2e-2, "strain_max": 1.9, "sample_rate": 20}},
+    "E: exp discrepancy pinned at the start": {
+        "noise": {"sigma0": 0.3, "discrepancy": {"kernel": "exp", "axis": "strain", "start": "pinned",
+                                                 "amplitude": 1.0, "length": 0.05}},
+        "conditions": {"strain_rate": 5e-3, "strain_max": 1.9, "n_points": 2000}},
 }
 
 

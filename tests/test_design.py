@@ -84,17 +84,20 @@ def test_prediction_is_the_papers_analysis_of_the_planned_test():
 
 def test_discrepancy_prediction_is_the_dense_gls_covariance():
     """(XᵀK⁻¹X)⁻¹ with K = k(x, x) + σ0² I formed densely equals the O(n) whitened prediction."""
-    for kernel, axis, length in (("matern32", "time", 8.0), ("exp", "strain", 0.05)):
+    for kernel, axis, length, start in (("matern32", "time", 8.0, "stationary"),
+                                        ("exp", "strain", 0.05, "stationary"),
+                                        ("matern32", "strain", 0.05, "pinned")):
         cfg = parse_design(design(strain_rate=1e-2, strain_max=1.0, sample_rate=None, n_points=400,
                                   noise={"sigma0": 0.3, "discrepancy": {"kernel": kernel, "axis": axis,
-                                                                       "amplitude": 0.7, "length": length}}))
+                                                                       "amplitude": 0.7, "length": length,
+                                                                       "start": start}}))
         draws, free = _draws(cfg)
         c = expand(cfg)[0]
         pred = predict(c, draws, free, 50, 6.0)
         prot = planned_protocol(c, GUESS)
         X = sensitivity_matrix(DNLR(prot.time, prot.strain).basis(GUESS["tau_max"], grad=True), GUESS, free)
         x = prot.time if axis == "time" else prot.strain
-        K = gp.covariance(x, 0.7, length, kernel, 0.3)
+        K = gp.covariance(x, 0.7, length, kernel, 0.3, start=0.0 if start == "pinned" else None)
         cov = np.linalg.inv(X.T @ np.linalg.solve(K, X))
         np.testing.assert_allclose([pred.sd[k] for k in free], np.sqrt(np.diag(cov)), rtol=1e-6)
         white = predict(c, Draws(draws.params, [NoiseDraw(0.3)]), free, 50, 6.0)
@@ -119,9 +122,10 @@ def test_posterior_average_over_draws():
 def test_discrepancy_draws_have_the_kernels_covariance():
     x = np.array([0.0, 0.3, 1.0, 2.5, 2.6])
     rng = np.random.default_rng(1)
-    for kind in ("exp", "matern32"):
-        d = discrepancy_draws(x[::-1].copy(), 1.5, 1.0, kind, 40000, rng)[:, ::-1]
-        np.testing.assert_allclose(np.cov(d, rowvar=False), gp.covariance(x, 1.5, 1.0, kind), atol=0.06)
+    for kind, start in (("exp", None), ("matern32", None), ("matern32", -0.2)):
+        d = discrepancy_draws(x[::-1].copy(), 1.5, 1.0, kind, 40000, rng, start)[:, ::-1]
+        np.testing.assert_allclose(np.cov(d, rowvar=False), gp.covariance(x, 1.5, 1.0, kind, start=start),
+                                   atol=0.06)
 
 
 # ------------------------------------------------------------------ the command

@@ -138,6 +138,8 @@ class FixedDiscrepancy(_Strict):
 
     kernel: Literal["exp", "matern32"] = "exp"
     axis: Literal["time", "strain"] = "time"
+    start: Literal["stationary", "pinned"] = Field(
+        default="stationary", description="pinned: δ = 0 at the test's first sample (as the run config)")
     amplitude: float = Field(ge=0, description="MPa")
     length: float = Field(gt=0, description="s on the time axis, strain units on the strain axis")
 

@@ -46,6 +46,7 @@ class Draws:
     kernel: str = "exp"
     axis: str = "time"
     source: str = ""
+    start: str = "stationary"          # stationary | pinned (δ = 0 at the test's first sample)
 
     @property
     def n(self) -> int:
@@ -119,7 +120,12 @@ def predict(candidate: Candidate, draws: Draws, free: Sequence[str], modes: int,
         few = f"{pred.n_points} samples for {len(names)} parameters"
         pred.note = "; ".join(filter(None, [pred.note, few]))
         return pred
-    axis = None if draws.white else make_axis(draws.axis, prot.time[:end][mask], prot.strain[:end][mask])
+    axis = None
+    if not draws.white:
+        origin = None
+        if draws.start == "pinned":
+            origin = float(prot.time[0] if draws.axis == "time" else prot.strain[0])
+        axis = make_axis(draws.axis, prot.time[:end][mask], prot.strain[:end][mask], origin)
     p = len(names)
     cov_sum, rel_sum, logdet = np.zeros((p, p)), np.zeros((p, p)), []
     for theta, noise in zip(draws.params, draws.noise, strict=True):
@@ -129,7 +135,7 @@ def predict(candidate: Candidate, draws: Draws, free: Sequence[str], modes: int,
         try:
             if noise.amplitude > 0:
                 Xw, _ = gp.whiten(axis.values, axis.sort(X), noise.sigma0, noise.amplitude, noise.length,
-                                  draws.kernel)
+                                  draws.kernel, axis.origin)
                 delta = covariance(Xw, 1.0, values)            # eq. 32 with K: (XᵀK⁻¹X)⁻¹
             else:
                 delta = covariance(X, noise.sigma0, values)    # eq. 32

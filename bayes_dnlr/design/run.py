@@ -74,7 +74,8 @@ def resolve_draws(cfg: DesignConfig) -> tuple[Draws, list[str], dict[str, Any]]:
         d = noise.discrepancy
         nd = (NoiseDraw(noise.sigma0) if d == "none" else NoiseDraw(noise.sigma0, d.amplitude, d.length))
         draws = Draws(params, [nd], kernel="exp" if d == "none" else d.kernel,
-                      axis="time" if d == "none" else d.axis, source="the parameter guess")
+                      axis="time" if d == "none" else d.axis, source="the parameter guess",
+                      start="stationary" if d == "none" else d.start)
         default_free = [k for k in PARAMETER_NAMES if k in cfg.parameters]
         return draws, cfg.free or default_free, {"parameters": "guess"}
     from bayes_dnlr.config import load_config
@@ -104,15 +105,17 @@ def resolve_draws(cfg: DesignConfig) -> tuple[Draws, list[str], dict[str, Any]]:
               for i in keep]
     if cfg.noise == "from_run":
         noise, kernel, axis, what = _run_noise(run, keep)
+        start = run_cfg.noise.discrepancy.start if run_cfg.noise.has_discrepancy else "stationary"
     else:
         d = cfg.noise.discrepancy
         nd = (NoiseDraw(cfg.noise.sigma0) if d == "none"
               else NoiseDraw(cfg.noise.sigma0, d.amplitude, d.length))
         noise, kernel, axis = [nd] * keep.size, ("exp" if d == "none" else d.kernel), \
             ("time" if d == "none" else d.axis)
+        start = "stationary" if d == "none" else d.start
         what = "the design's noise"
     draws = Draws(params, noise, kernel, axis,
-                  source=f"{keep.size} posterior draws of {cfg.run_path}; noise: {what}")
+                  source=f"{keep.size} posterior draws of {cfg.run_path}; noise: {what}", start=start)
     free = cfg.free or [k for k in run.parameters if k in PARAMETER_NAMES]
     nc = Path(cfg.run_path) / "posterior.nc"
     facts = {"run": str(cfg.run_path), "posterior_sha256": file_sha256(nc), "draws": int(keep.size)}
@@ -146,9 +149,10 @@ class DesignResult:
             per = " (per draw)" if self.draws.n > 1 else ""
             return f"white noise, sigma0 {fmt(nz.sigma0, 3)} MPa{per}"
         unit = "s" if self.draws.axis == "time" else "strain"
+        pinned = ", pinned at the start" if self.draws.start == "pinned" else ""
         return (f"sigma0 {fmt(nz.sigma0, 3)} MPa + model discrepancy ({self.draws.kernel} on the "
-                f"{self.draws.axis} axis, amplitude {fmt(nz.amplitude, 3)} MPa, length {fmt(nz.length, 3)} "
-                f"{unit})" + (" (first draw shown)" if self.draws.n > 1 else ""))
+                f"{self.draws.axis} axis{pinned}, amplitude {fmt(nz.amplitude, 3)} MPa, length "
+                f"{fmt(nz.length, 3)} {unit})" + (" (first draw shown)" if self.draws.n > 1 else ""))
 
     def rows(self) -> list[dict[str, Any]]:
         """One flat row per candidate (design.csv)."""

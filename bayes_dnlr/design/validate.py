@@ -17,7 +17,6 @@ from bayes_dnlr.data import TestData
 from bayes_dnlr.design.candidates import Candidate, planned_protocol, window_mask
 from bayes_dnlr.design.fisher import Draws, Prediction, predict
 from bayes_dnlr.inference import gp
-from bayes_dnlr.inference.discrepancy import make_axis
 from bayes_dnlr.model import simulate
 
 
@@ -52,12 +51,13 @@ class Replicates:
 
 
 def discrepancy_draws(x: np.ndarray, amplitude: float, length: float, kind: str, size: int,
-                      rng: np.random.Generator) -> np.ndarray:
+                      rng: np.random.Generator, start: float | None = None) -> np.ndarray:
     """``size`` draws (size, n) of the zero-mean process with kernel ``kind`` on the points ``x``
-    (any order), by the Cholesky factor of the exact covariance (gp.covariance)."""
+    (any order), by the Cholesky factor of the exact covariance (gp.covariance; conditioned on
+    δ(start) = 0 when ``start`` is given)."""
     order = np.argsort(x, kind="stable")
     xs = x[order]
-    K = gp.covariance(xs, amplitude, length, kind)
+    K = gp.covariance(xs, amplitude, length, kind, start=start)
     K[np.diag_indices_from(K)] += 1e-10 * amplitude**2
     L = np.linalg.cholesky(K)
     draws = (L @ rng.standard_normal((xs.size, size))).T
@@ -73,8 +73,8 @@ def _config(candidate: Candidate, names: list[str], params: dict[str, float], dr
     parameters = {k: ({"value": float(params[k])} if k not in names else DEFAULT_PRIORS[k])
                   for k in params}
     disc = ("none" if nz.amplitude == 0 else
-            {"kernel": draws.kernel, "axis": draws.axis, "amplitude": {"value": nz.amplitude},
-             "length": {"value": nz.length}})
+            {"kernel": draws.kernel, "axis": draws.axis, "start": draws.start,
+             "amplitude": {"value": nz.amplitude}, "length": {"value": nz.length}})
     raw = {"name": "design-validation",
            "data": {"file": "memory.csv", "columns": {"time": "t", "strain": "e", "stress": "s"},
                     "observable": "stress", "window": w,
@@ -105,12 +105,12 @@ def replicate(candidate: Candidate, draws: Draws, free: list[str], n_tests: int,
     noise = rng.normal(0.0, nz.sigma0, (n_tests, prot.time.size))
     if nz.amplitude > 0:
         mask = window_mask(candidate.window_spec, prot.time, prot.strain)
-        axis = make_axis(draws.axis, prot.time[mask], prot.strain[mask])
+        along = prot.time if draws.axis == "time" else prot.strain
+        origin = float(along[0]) if draws.start == "pinned" else None
         delta = np.zeros_like(noise)
-        x = prot.time[mask] if draws.axis == "time" else prot.strain[mask]
-        delta[:, mask] = discrepancy_draws(x, nz.amplitude, nz.length, draws.kernel, n_tests, rng)
+        delta[:, mask] = discrepancy_draws(along[mask], nz.amplitude, nz.length, draws.kernel, n_tests,
+                                           rng, origin)
         noise += delta
-        del axis
     raw = _config(candidate, pred.names, params, draws, modes, decades)
     raw["data"]["relaxation_start"] = switch
     cfg = parse_config(raw, source=Path("design-validation.yaml"))
