@@ -203,15 +203,17 @@ def export(run_dir: str | Path, fmt_name: str, *, terms: int | None = None, draw
     check_poisson(poisson, form.solver)
     if poisson.value is not None and not -1.0 < poisson.value <= 0.5:
         raise BayesDnlrError(f"--nu {poisson.value:g}: Poisson's ratio lies in (-1, 0.5]")
-    missing = [k for k in ("E", "G", "tau_max") if k not in run.values]
+    values = {k: (run.values[k] if k in run.values
+                  else np.full(run.n_draws, float(cfg.fixed_values[k])) if k in cfg.fixed_values else None)
+              for k in ("E", "G", "tau_max")}
+    missing = [k for k, v in values.items() if v is None]
     if missing:
-        raise RunError(f"{run_dir}: the posterior has no draws of {missing} (fixed in the config?); "
-                       "export needs E, G and tau_max")
+        raise RunError(f"{run_dir}: the posterior has no draws of {missing} and the config does not fix "
+                       "them; export needs E, G and tau_max")
     if not run.fit:
         raise RunError(f"{run_dir}: no fit.json (the test's time range comes from it); run `fit`")
     rng = _time_range(run.fit, run_dir)
-    cards = make_cards({k: run.values[k] for k in ("E", "G", "tau_max")}, modes, decades, rng,
-                       terms=terms, draws=draws, seed=seed)
+    cards = make_cards(values, modes, decades, rng, terms=terms, draws=draws, seed=seed)
     cards.checks = bracket_checks(cards.cards, rng)
     if terms is not None:
         errs = [(c.refit.max_error,
@@ -225,7 +227,7 @@ def export(run_dir: str | Path, fmt_name: str, *, terms: int | None = None, draw
     ctx = Context(material=mat, run=str(run_dir), poisson=poisson, density=density, modes=modes,
                   decades=decades, strain_rate=rng.strain_rate,
                   small_strain_limit=small_strain_limit(median, rng.strain_rate, modes, decades),
-                  t_range=(rng.t_lo, rng.t_hi))
+                  t_range=(rng.t_lo, rng.t_hi), notes=_notes(cfg))
     files = {f"{mat}_{c.label}.{form.extension}": form.render(c, ctx) for c in cards.cards}
     files[INDEX_FILE] = index_csv(cards, ctx)
     out_dir = Path(out) if out is not None else run_dir / "export" / fmt_name
@@ -237,6 +239,17 @@ def export(run_dir: str | Path, fmt_name: str, *, terms: int | None = None, draw
         for name, text in files.items():
             write_atomic(out_dir / name, text)
     return ExportResult(out_dir, fmt_name, [out_dir / n for n in files], cards, ctx, status, stale)
+
+
+def _notes(cfg) -> list[str]:
+    notes = []
+    fixed = [k for k in ("E", "G", "tau_max") if k in cfg.fixed_values]
+    if fixed:
+        notes.append(f"{', '.join(fixed)} fixed in the run's config (no uncertainty from them).")
+    if cfg.has_relaxation:
+        notes.append("The run's relaxation phase (sigma_inf, tau_max_R: a shifted spectrum during the "
+                     "hold, section 4.1) is not in the card: it is the tensile phase's response.")
+    return notes
 
 
 def index_csv(cards: CardSet, ctx: Context) -> str:
