@@ -5,6 +5,8 @@
     python -m bayes_dnlr sample   runs/hdpe-a-5e-3/config.yaml
     python -m bayes_dnlr report   runs/hdpe-a-5e-3
     python -m bayes_dnlr compare  runs/hdpe-a-*
+    python -m bayes_dnlr design   design.yaml
+    python -m bayes_dnlr export   runs/hdpe-a-5e-3 --format abaqus --nu 0.45
 
 Heavy modules are imported inside each command so that ``--help`` stays instant.
 """
@@ -60,6 +62,22 @@ def cmd_compare(args: argparse.Namespace) -> None:
     print(table.markdown())
 
 
+def cmd_design(args: argparse.Namespace) -> None:
+    from bayes_dnlr.design.config import load_design
+    from bayes_dnlr.report.design import design_with_figure
+
+    print(design_with_figure(load_design(args.design), overwrite=args.force).table(top=args.top))
+
+
+def cmd_export(args: argparse.Namespace) -> None:
+    from bayes_dnlr.export.run import export
+
+    result = export(args.run_dir, args.format, terms=args.terms, draws=args.draws, nu=args.nu,
+                    density=args.density, out=args.out, material=args.material, seed=args.seed,
+                    force=args.force)
+    print(result.table())
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m bayes_dnlr",
@@ -97,6 +115,32 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, default=None,
                    help="folder for compare.md and compare.csv (default: the folder that holds the runs)")
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("design", help="experiment design: predicted sd, Err and correlations of planned "
+                                      "tests, and the recommended one")
+    p.add_argument("design", help="design.yaml (docs/design.md)")
+    p.add_argument("--force", action="store_true", help="replace a design.json made from another design")
+    p.add_argument("--top", type=int, default=10, help="candidates shown on the console (default 10)")
+    p.set_defaults(func=cmd_design)
+
+    from bayes_dnlr.export import FORMAT_NAMES
+
+    p = sub.add_parser("export", help="FE material cards (the small-strain Prony series) at the posterior "
+                                      "median and 5 %%/95 %% quantiles of E, from a finished run")
+    p.add_argument("run_dir", help="a finished run directory (summary.json and posterior.nc)")
+    p.add_argument("--format", required=True, choices=FORMAT_NAMES)
+    p.add_argument("--terms", type=int, default=None,
+                   help="refit a shorter series over the test's time range (default: the model's "
+                        "N modes; LS-DYNA takes at most 17 plus the long-term term)")
+    p.add_argument("--draws", type=int, default=0, help="also K cards from posterior draws (FE ensemble)")
+    p.add_argument("--nu", type=float, default=None,
+                   help="Poisson's ratio (default: from the data's transverse strain when there is one)")
+    p.add_argument("--density", type=float, default=None, help="mass density, kg/m³ (needed by LS-DYNA)")
+    p.add_argument("--out", type=Path, default=None, help="folder (default: RUN_DIR/export/FORMAT)")
+    p.add_argument("--material", default=None, help="material name in the cards (default: the run's)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the --draws choice")
+    p.add_argument("--force", action="store_true", help="replace existing, different card files")
+    p.set_defaults(func=cmd_export)
     return parser
 
 
