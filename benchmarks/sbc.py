@@ -189,7 +189,8 @@ def main() -> None:
     ok = result.rows and all(r.get("status") == "ok" for r in result.rows)
     conv = sum(bool(r.get("converged")) for r in result.rows)
     sampling = [r.get("sampling_time_s") or 0.0 for r in result.rows if r.get("status") == "ok"]
-    elapsed = [r.get("elapsed_s") or 0.0 for r in result.rows if r.get("status") == "ok" and not r.get("reused")]
+    elapsed = [r.get("elapsed_s") or 0.0 for r in result.rows
+               if r.get("status") == "ok" and not r.get("reused")]
     cores = os.cpu_count()
     print(f"\nSBC, {args.likelihood} likelihood: {n} simulations ({args.points} points, target ESS "
           f"{args.target_ess:g}); converged {conv}/{len(result.rows)}")

@@ -53,11 +53,12 @@ def simultaneous_band(n: int, prob: float = 0.95, k: int | None = None, sims: in
     k = n if k is None else k
     z = np.arange(1, k) / k
     gammas = np.empty(sims)
-    for s in range(sims):
-        counts = np.searchsorted(np.sort(rng.uniform(size=n)), z, side="right")
-        lower_tail = binom.cdf(counts, n, z)
-        upper_tail = binom.sf(counts - 1, n, z)
-        gammas[s] = 2.0 * min(lower_tail.min(), upper_tail.min())
+    chunk = max(1, 2_000_000 // max(n, 1))
+    for a in range(0, sims, chunk):
+        u = np.sort(rng.uniform(size=(min(chunk, sims - a), n)), axis=1)
+        counts = np.stack([np.searchsorted(row, z, side="right") for row in u])
+        tails = np.minimum(binom.cdf(counts, n, z), binom.sf(counts - 1, n, z))
+        gammas[a:a + len(u)] = 2.0 * tails.min(axis=1)
     gamma = float(np.quantile(gammas, 1.0 - prob))
     lower = binom.ppf(gamma / 2.0, n, z) / n
     upper = binom.ppf(1.0 - gamma / 2.0, n, z) / n

@@ -250,29 +250,28 @@ def _dask_client(scheduler: str):
             if not address:
                 raise BatchError("--scheduler config: the Dask config has no scheduler-address (set "
                                  "DASK_SCHEDULER_ADDRESS or scheduler-address in ~/.config/dask/)")
-            return Client(address, timeout="30s", set_as_default=False)
+            return Client(address, set_as_default=False)
         if Path(scheduler).is_file():
-            return Client(scheduler_file=scheduler, timeout="30s", set_as_default=False)
-        return Client(scheduler, timeout="30s", set_as_default=False)
+            return Client(scheduler_file=scheduler, set_as_default=False)
+        # waits distributed.comm.timeouts.connect (Dask config, 30 s by default) for the scheduler
+        return Client(scheduler, set_as_default=False)
     except (OSError, TimeoutError, ValueError) as err:
         raise BatchError(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({err})") from None
 
 
-def _results(stack: ExitStack, todo: list[Job], n_jobs: int, scheduler: str | None,
+def _results(stack: ExitStack, todo: list[Job], n_jobs: int, client,
              report: Reporter | None) -> tuple[Iterator[dict[str, Any]], str]:
-    """Rows of ``todo`` as they finish (any order) and the backend's description; the backend
-    (and a Dask client) stay open until ``stack`` closes."""
+    """Rows of ``todo`` as they finish (any order) and the backend's description; the joblib
+    backend stays configured until ``stack`` closes. ``client``: a Dask client, or None (local)."""
     import joblib
 
     calls = (joblib.delayed(run_job)(j, report) for j in todo)
-    if scheduler is None:
+    if client is None:
         n = n_jobs if n_jobs > 0 else (os.cpu_count() or 1)
         n = max(1, min(n, len(todo)))
         stack.enter_context(joblib.parallel_config(backend="loky", n_jobs=n, inner_max_num_threads=1))
         gen = joblib.Parallel(return_as="generator_unordered", batch_size=1)(calls)
         return gen, f"{n} local process{'es' if n > 1 else ''} (joblib, loky)"
-    client = _dask_client(scheduler)
-    stack.callback(client.close)          # disconnects; the cluster keeps running
     workers = client.scheduler_info().get("workers", {})
     threads = sum(w.get("nthreads", 1) for w in workers.values())
     stack.enter_context(joblib.parallel_config(backend="dask", client=client,
@@ -284,12 +283,18 @@ def _results(stack: ExitStack, todo: list[Job], n_jobs: int, scheduler: str | No
 
 def run_batch(jobs: list[Job], out: Path, *, n_jobs: int = -1, scheduler: str | None = None,
               report: Reporter | None = None, progress: bool = True) -> BatchResult:
-    """Run every job not already done (see the module doc); write the results table into ``out``."""
+    """Run every job not already done (see the module doc); write the results table into ``out``.
+    ``scheduler``: a Dask scheduler (address, scheduler file or ``config``), else local processes."""
     if not jobs:
         raise BatchError("the batch has no tests")
     out = Path(out).resolve()
     t0 = time.perf_counter()
-    with _batch_lock(out):
+    with ExitStack() as stack:
+        client = None
+        if scheduler is not None:       # connect first: an unreachable cluster writes nothing
+            client = _dask_client(scheduler)
+            stack.callback(client.close)          # disconnects; the cluster keeps running
+        stack.enter_context(_batch_lock(out))
         (out / ROWS_DIR).mkdir(exist_ok=True)
         rows: dict[str, dict[str, Any]] = {}
         for j in jobs:
@@ -298,14 +303,16 @@ def run_batch(jobs: list[Job], out: Path, *, n_jobs: int = -1, scheduler: str | 
                 rows[j.name] = done
         todo = [j for j in jobs if j.name not in rows]
         backend = "all done earlier: nothing to run"
-        try:
-            if todo:
-                for j in todo:          # a stale row must not survive a failed re-run
-                    _row_path(out, j.name).unlink(missing_ok=True)
-                with ExitStack() as stack:
-                    gen, backend = _results(stack, todo, n_jobs, scheduler, report)
-                    _collect(gen, rows, len(jobs), out, progress)
-        finally:
+        if todo:
+            gen, backend = _results(stack, todo, n_jobs, client, report)
+            for j in todo:              # a stale row must not survive a failed re-run
+                _row_path(out, j.name).unlink(missing_ok=True)
+            try:
+                _collect(gen, rows, len(jobs), out, progress)
+            finally:                    # also after Ctrl-C: the table of what finished
+                result = BatchResult(_ordered(jobs, rows), out, backend, time.perf_counter() - t0)
+                result.written = write_table(result.rows, out)
+        else:
             result = BatchResult(_ordered(jobs, rows), out, backend, time.perf_counter() - t0)
             result.written = write_table(result.rows, out)
     return result
