@@ -102,6 +102,9 @@ def e_figure(rows: list[dict[str, Any]], path: Path) -> Path | None:
     ax.plot(means, np.zeros_like(means), "|", color="k", ms=12)
     ax.set_xlabel("posterior mean of E (MPa)")
     ax.set_ylabel("tests")
+    from matplotlib.ticker import MaxNLocator
+
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_title(f"E across {len(ok)} tests")
     if forest:
         ax2 = axes[0, 1]
