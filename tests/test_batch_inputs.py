@@ -133,3 +133,23 @@ def test_cli_input_errors_are_one_line_exit_2(tmp_path, capsys):
     assert err.startswith("error: ") and err.count("\n") == 1 and "Traceback" not in err
     assert main(["batch", str(template), "--manifest", str(tmp_path / "missing.csv")]) == 2
     assert "manifest not found" in capsys.readouterr().err
+
+
+def test_results_table_takes_nested_and_mixed_values(tmp_path):
+    """A run with tests: has per-test values (dicts); a failed row has text where others have numbers."""
+    import pandas as pd
+
+    from bayes_dnlr.pipeline.batch import write_table
+
+    rows = [{"name": "joint", "status": "ok", "sigma0_used": {"ta": 0.3, "tb": 0.3}, "E_mean": 2850.0,
+             "converged": True, "inputs": {"data.file": "a.csv"}},
+            {"name": "single", "status": "ok", "sigma0_used": 0.3, "E_mean": None, "converged": False},
+            {"name": "bad", "status": "failed", "error": "DataError: x.csv: line 3", "E_mean": "n/a"}]
+    csv_path, pq_path = write_table(rows, tmp_path)
+    pq = pd.read_parquet(pq_path)
+    assert list(pq["sigma0_used"])[:2] == ['{"ta": 0.3, "tb": 0.3}', "0.3"]
+    assert pd.isna(pq.loc[2, "sigma0_used"])
+    assert pq.loc[0, "E_mean"] == "2850.0" and pd.isna(pq.loc[1, "E_mean"]) and pq.loc[2, "E_mean"] == "n/a"
+    assert list(pq["converged"])[:2] == [True, False]
+    assert pq.loc[0, "in:data.file"] == "a.csv"
+    assert list(pd.read_csv(csv_path)["name"]) == ["joint", "single", "bad"]

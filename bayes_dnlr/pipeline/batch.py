@@ -134,11 +134,13 @@ def run_job(job: Job, report: Reporter | None = None) -> dict[str, Any]:
 def fingerprint(cfg) -> dict[str, Any]:
     """What a finished test's outputs depend on: the chain's fingerprint (config sections, sampler
     walkers/seed/moves, data file sha256) and the settings that decide its length and burn-in."""
+    from bayes_dnlr.pipeline.fit import _data_sha
     from bayes_dnlr.pipeline.sample import _settings, fingerprint_parts
-    from bayes_dnlr.rundir import file_sha256
 
-    return {"chain": digest(fingerprint_parts(cfg, file_sha256(cfg.data_path))),
-            "settings": _settings(cfg)}
+    sha = _data_sha(cfg)            # the data file's sha256 (a digest of them for a run with tests:)
+    if sha is None:
+        raise BatchError(f"{cfg.name}: a data file is missing")
+    return {"chain": digest(fingerprint_parts(cfg, sha)), "settings": _settings(cfg)}
 
 
 def result_row(job: Job, cfg) -> dict[str, Any]:
@@ -152,7 +154,8 @@ def result_row(job: Job, cfg) -> dict[str, Any]:
     gn = summary.get("gauss_newton") or {}
     truth = cfg.truth.params if cfg.truth is not None else {}
     row: dict[str, Any] = {
-        "data_file": str(cfg.data_path), "n_points": summary.get("n_points"),
+        "data_file": ", ".join(str(c.data_path) for c in cfg.test_configs()),
+        "n_points": summary.get("n_points"),
         "walkers": summary.get("walkers"), "steps": summary.get("steps"),
         "converged": summary.get("converged"), "stop_reason": summary.get("stop_reason"),
         "sampling_time_s": summary.get("wall_time_s"),
@@ -173,7 +176,13 @@ def result_row(job: Job, cfg) -> dict[str, Any]:
     for p, v in cfg.fixed_values.items():
         row[f"{p}_fixed"] = v
     std = summary.get("standards") or {}
-    row["iso527_1"], row["astm_d638"] = std.get("iso527_1"), std.get("astm_d638")
+    for key in ("iso527_1", "astm_d638"):      # one value, or one per test in a run with tests:
+        v = std.get(key)
+        if isinstance(v, int | float) or v is None:
+            row[key] = v
+    for test, values in std.items():
+        if isinstance(values, dict):
+            row.update({f"{key}[{test}]": values.get(key) for key in ("iso527_1", "astm_d638")})
     row["deborah_max"] = summary.get("deborah_max")
     rhats = [s.get("r_hat") for s in post.values() if s.get("r_hat") is not None]
     esss = [min(s.get("ess_bulk") or 0, s.get("ess_tail") or 0) for s in post.values()]
@@ -353,6 +362,11 @@ def table_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return flat
 
 
+def _cell(v: Any) -> Any:
+    """A table cell: nested values (per-test values of a run with tests:) as JSON text."""
+    return json.dumps(v, sort_keys=True) if isinstance(v, dict | list) else v
+
+
 FIRST = ("name", "status", "error", "reused", "origin", "run_dir", "data_file", "worker", "elapsed_s")
 
 
@@ -364,11 +378,15 @@ def write_table(rows: list[dict[str, Any]], out: Path) -> list[Path]:
     cols: list[str] = [c for c in FIRST if any(c in r for r in recs)]
     for r in recs:
         cols += [k for k in r if k not in cols]
-    df = pd.DataFrame([jsonable(r) for r in recs], columns=cols)
-    for c in df.columns:               # keep numbers numeric in Parquet: None -> NaN
-        if df[c].dtype == object and df[c].map(lambda v: v is None or isinstance(v, int | float)
-                                               and not isinstance(v, bool)).all():
-            df[c] = pd.to_numeric(df[c])
+    df = pd.DataFrame([{k: _cell(v) for k, v in jsonable(r).items()} for r in recs], columns=cols)
+    for c in df.columns:
+        if df[c].dtype != object:
+            continue
+        values = [v for v in df[c] if v is not None and v == v]
+        if all(isinstance(v, int | float) and not isinstance(v, bool) for v in values):
+            df[c] = pd.to_numeric(df[c])               # numbers stay numbers: None -> NaN
+        elif not all(isinstance(v, bool) for v in values):
+            df[c] = df[c].map(lambda v: None if v is None or v != v else str(v))  # one type per column
     csv_path, pq_path = out / TABLE_CSV, out / TABLE_PARQUET
     write_atomic(csv_path, df.to_csv(index=False))
     tmp = out / f".{TABLE_PARQUET}.{os.getpid()}.tmp"
