@@ -153,3 +153,14 @@ def test_results_table_takes_nested_and_mixed_values(tmp_path):
     assert list(pq["converged"])[:2] == [True, False]
     assert pq.loc[0, "in:data.file"] == "a.csv"
     assert list(pd.read_csv(csv_path)["name"]) == ["joint", "single", "bad"]
+
+
+def test_scheduler_from_an_empty_dask_config_is_a_clear_error(tmp_path, capsys, monkeypatch):
+    dask = pytest.importorskip("dask")
+    pytest.importorskip("distributed")
+    monkeypatch.delenv("DASK_SCHEDULER_ADDRESS", raising=False)
+    cfg = write_case(tmp_path / "runs", "r0", n=50)
+    with dask.config.set({"scheduler-address": None}):
+        assert main(["batch", str(cfg), "--scheduler", "config", "--quiet"]) == 2
+    assert "the Dask config has no scheduler-address" in capsys.readouterr().err
+    assert not (tmp_path / "runs" / "batch").exists()
