@@ -7,6 +7,7 @@
     python -m bayes_dnlr compare  runs/hdpe-a-*
     python -m bayes_dnlr design   design.yaml
     python -m bayes_dnlr export   runs/hdpe-a-5e-3 --format abaqus --nu 0.45
+    python -m bayes_dnlr batch    runs/*/config.yaml [--scheduler tcp://host:8786]
 
 Heavy modules are imported inside each command so that ``--help`` stays instant.
 """
@@ -78,6 +79,15 @@ def cmd_export(args: argparse.Namespace) -> None:
     print(result.table())
 
 
+def cmd_batch(args: argparse.Namespace) -> int:
+    from bayes_dnlr.report.batch import run_campaign
+
+    result = run_campaign(args.inputs, manifest=args.manifest, out=args.out, n_jobs=args.jobs,
+                          scheduler=args.scheduler, report=args.report, progress=not args.quiet)
+    print(result.summary())
+    return 1 if result.failed else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m bayes_dnlr",
@@ -141,17 +151,37 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="seed of the --draws choice")
     p.add_argument("--force", action="store_true", help="replace existing, different card files")
     p.set_defaults(func=cmd_export)
+
+    p = sub.add_parser("batch", help="fit, sample and report many tests on all cores or a Dask "
+                                     "cluster; resumable; results table and batch page")
+    p.add_argument("inputs", nargs="+", metavar="config",
+                   help="config files or glob patterns; with --manifest, one template config")
+    p.add_argument("--manifest", type=Path, default=None,
+                   help="CSV, one row per test; columns are dotted config keys (data.file, "
+                        "data.area0, data.window.strain_max, ...) overriding the template")
+    p.add_argument("--out", type=Path, default=None,
+                   help="folder for results.csv/.parquet, batch.html (and the runs of a manifest); "
+                        "default: <configs' common folder>/batch or <manifest folder>/batch-<stem>")
+    p.add_argument("--jobs", type=int, default=-1,
+                   help="local worker processes, one test each (default: all cores)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run on a Dask cluster: tcp://host:8786, a scheduler file, or 'config' "
+                        "(the Dask config's scheduler-address)")
+    p.add_argument("--no-report", dest="report", action="store_false",
+                   help="skip the per-test report.html (the batch page is still written)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_batch)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        args.func(args)
+        status = args.func(args)
     except BayesDnlrError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
-    return 0
+    return status or 0

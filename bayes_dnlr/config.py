@@ -447,10 +447,21 @@ class FitConfig(_Strict):
     max_iterations: int = Field(default=200, ge=1)
 
 
+class TruthCorrelated(_Strict):
+    """A smooth correlated error added to the observable stress of a synthetic test: a zero-mean
+    Gaussian process on the time axis with the kernels of noise.discrepancy (exp: Ornstein-Uhlenbeck,
+    matern32), to test the model-discrepancy likelihood on data it describes."""
+
+    kernel: Literal["exp", "matern32"] = "exp"
+    amplitude: float = Field(ge=0, description="MPa, the process sd")
+    length: float = Field(gt=0, description="s, the correlation length")
+
+
 class TruthNoise(_Strict):
     strain_sd: float = Field(default=1.0e-4, ge=0)
     stress_sd: float = Field(default=0.3, ge=0, description="MPa, on the observable stress")
     force_sd: float = Field(default=0.0, ge=0, description="N, on the force signal")
+    correlated: TruthCorrelated | None = None
 
 
 class TruthConfig(_Strict):

@@ -6,7 +6,12 @@ then optionally a hold (relaxation, section 4.1 and Fig. 10). The true stress is
 measured* strain (Gaussian, sd ``strain_sd``), the force computed so that σ* (eq. 6) or σ (eq. 2)
 from the file equals the true stress plus Gaussian noise of sd ``stress_sd``, plus ``force_sd`` on
 the force. Random draws, from ``numpy.random.default_rng(seed)`` in this order: time jitter, axial
-strain noise, stress noise, force noise, transverse strain noise.
+strain noise, stress noise, force noise, transverse strain noise, then the correlated error.
+
+``truth.noise.correlated`` adds a smooth correlated error to the observable stress (a model error as
+the discrepancy likelihood sees it, docs/model-error.md): a stationary Gaussian process on the time
+axis, exp (Ornstein-Uhlenbeck, k = a² e^{-τ/ℓ}) or matern32 (k = a² (1 + √3τ/ℓ) e^{-√3τ/ℓ}),
+drawn exactly on the (possibly non-uniform) grid in O(n) from its state-space form.
 """
 
 from __future__ import annotations
@@ -182,6 +187,50 @@ def _check(cfg: Config) -> TruthConfig:
     return truth
 
 
+def _matern32_step(dt: float, lam: float, amplitude: float) -> tuple[np.ndarray, np.ndarray]:
+    """Transition Φ and a square root of the process noise Q of the Matérn-3/2 state (f, f') over dt."""
+    e = np.exp(-lam * dt)
+    phi = e * np.array([[1.0 + lam * dt, dt], [-lam * lam * dt, 1.0 - lam * dt]])
+    p_inf = np.diag([amplitude**2, lam**2 * amplitude**2])
+    q = p_inf - phi @ p_inf @ phi.T
+    l11 = np.sqrt(max(q[0, 0], 0.0))
+    l21 = q[1, 0] / l11 if l11 > 0 else 0.0
+    l22 = np.sqrt(max(q[1, 1] - l21 * l21, 0.0))
+    return phi, np.array([[l11, 0.0], [l21, l22]])
+
+
+def correlated_error(time: np.ndarray, kernel: str, amplitude: float, length: float,
+                     rng: np.random.Generator, size: int | None = None) -> np.ndarray:
+    """Exact draw(s) of a zero-mean stationary Gaussian process on the sorted ``time`` grid.
+
+    kernel exp: the AR(1) recursion x_k = φ x_{k-1} + a √(1-φ²) z, φ = e^{-Δt/ℓ}; matern32: the
+    2-state (f, f') recursion with Φ = e^{FΔt} and Q = P∞ - Φ P∞ Φᵀ. Shape (n,), or (size, n)."""
+    t = np.asarray(time, dtype=float)
+    m = 1 if size is None else int(size)
+    dts = np.diff(t)
+    if np.any(dts <= 0):
+        raise ValueError("correlated_error needs strictly increasing times")
+    out = np.empty((m, t.size))
+    if kernel == "exp":
+        x = amplitude * rng.standard_normal(m)
+        out[:, 0] = x
+        for k, dt in enumerate(dts, start=1):
+            phi = np.exp(-dt / length)
+            x = phi * x + amplitude * np.sqrt(-np.expm1(-2.0 * dt / length)) * rng.standard_normal(m)
+            out[:, k] = x
+    elif kernel == "matern32":
+        lam = np.sqrt(3.0) / length
+        x = rng.standard_normal((m, 2)) * np.array([amplitude, lam * amplitude])
+        out[:, 0] = x[:, 0]
+        for k, dt in enumerate(dts, start=1):
+            phi, chol = _matern32_step(dt, lam, amplitude)
+            x = x @ phi.T + rng.standard_normal((m, 2)) @ chol.T
+            out[:, k] = x[:, 0]
+    else:
+        raise ValueError(f"unknown kernel {kernel!r} (exp or matern32)")
+    return out[0] if size is None else out
+
+
 def _columns(cfg: Config, truth: TruthConfig, p: Protocol, stress: np.ndarray,
              rng: np.random.Generator) -> list[tuple[str, str, np.ndarray]]:
     """(role, header, values in the package's units), in the order time, axial strain, eps22,
@@ -194,6 +243,9 @@ def _columns(cfg: Config, truth: TruthConfig, p: Protocol, stress: np.ndarray,
     eps22 = -0.5 * p.strain
     if c.eps22 is not None and noise.strain_sd > 0:
         eps22 = eps22 + rng.normal(0.0, noise.strain_sd, n)
+    if noise.correlated is not None and noise.correlated.amplitude > 0:
+        k = noise.correlated
+        observed = observed + correlated_error(p.time, k.kernel, k.amplitude, k.length, rng)
     out: list[tuple[str, str, np.ndarray]] = []
     as_written = nominal_from_hencky if d.strain_measure == "nominal" else np.asarray
     if c.time is not None:

@@ -22,7 +22,7 @@ def test_help_lists_every_command_without_heavy_imports():
     assert out.stdout.strip() == "[]"
     help_text = subprocess.run([sys.executable, "-m", "bayes_dnlr", "--help"], capture_output=True,
                                text=True, check=True).stdout
-    for command in ("simulate", "fit", "sample", "report", "compare"):
+    for command in ("simulate", "fit", "sample", "report", "compare", "batch"):
         assert command in help_text
 
 
