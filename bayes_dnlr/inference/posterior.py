@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -137,6 +138,18 @@ def summarize(names: list[str], draws: np.ndarray, *, fit: dict[str, Any], tau: 
     return jsonable(summary)
 
 
+def _netcdf_bytes(datatree) -> bytes:
+    """posterior.nc in memory. Inside a Dask worker xarray would take a *distributed* write lock
+    named after the target, which for an in-memory file is unknown to the scheduler: the write is
+    local, so it runs under Dask's synchronous scheduler (a plain thread lock)."""
+    if "dask" not in sys.modules:
+        return datatree.to_netcdf(engine="h5netcdf")
+    import dask
+
+    with dask.config.set(scheduler="synchronous"):
+        return datatree.to_netcdf(engine="h5netcdf")
+
+
 def write_outputs(run_dir: Path, datatree, summary: dict[str, Any]) -> None:
     """posterior.nc and summary.json, each replaced atomically (rundir.write_atomic).
 
@@ -144,7 +157,7 @@ def write_outputs(run_dir: Path, datatree, summary: dict[str, Any]) -> None:
     is met by a plain file write (a one-line DiskFullError, the temporary removed) and never inside
     HDF5 (whose failed writes can crash the process when it exits)."""
     run_dir = Path(run_dir)
-    write_atomic(run_dir / POSTERIOR_FILE, datatree.to_netcdf(engine="h5netcdf"))
+    write_atomic(run_dir / POSTERIOR_FILE, _netcdf_bytes(datatree))
     write_json(run_dir / SUMMARY_FILE, summary)
 
 
