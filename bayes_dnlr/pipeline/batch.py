@@ -20,7 +20,6 @@ depends only on its config (seed) and data.
 
 from __future__ import annotations
 
-import fcntl
 import json
 import os
 import socket
@@ -35,6 +34,7 @@ from typing import Any
 
 from bayes_dnlr.config import DISCREPANCY_PARAMETERS, PARAMETER_NAMES
 from bayes_dnlr.errors import BayesDnlrError
+from bayes_dnlr.lockfile import LockBusy, exclusive_lock
 from bayes_dnlr.pipeline.manifest import BatchError, Job
 from bayes_dnlr.rundir import digest, jsonable, write_atomic, write_json
 
@@ -228,20 +228,14 @@ def current_row(job: Job, out: Path, want_report: bool) -> dict[str, Any] | None
 
 @contextmanager
 def _batch_lock(out: Path) -> Iterator[None]:
-    """One batch per output folder at a time (advisory lock, released even on SIGKILL)."""
-    out.mkdir(parents=True, exist_ok=True)
-    f = open(out / LOCK_FILE, "a+")  # noqa: SIM115 - held for the whole batch
+    """One batch per output folder at a time (bayes_dnlr/lockfile.py: released even on SIGKILL, and
+    no lock file left behind)."""
     try:
-        fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        f.close()
+        with exclusive_lock(out / LOCK_FILE):
+            yield
+    except LockBusy:
         raise BatchError(f"{out}: another batch is running into this folder; wait for it or stop "
                          "it (finished tests are kept and the next run resumes)") from None
-    try:
-        yield
-    finally:
-        fcntl.flock(f, fcntl.LOCK_UN)
-        f.close()
 
 
 def _dask_client(scheduler: str):

@@ -51,6 +51,7 @@ from bayes_dnlr.inference.posterior import (
 )
 from bayes_dnlr.inference.priors import build_priors, sampled_names
 from bayes_dnlr.inference.store import ChainWriter, SamplerState, StoredRun, read_attrs, read_run
+from bayes_dnlr.lockfile import LockBusy, exclusive_lock
 from bayes_dnlr.pipeline.fit import load_tests, sections
 from bayes_dnlr.pipeline.noise import joint_noise_block, noise_block, residual_warnings
 from bayes_dnlr.pipeline.target import joint_target, single_target
@@ -148,22 +149,14 @@ def sample(cfg: Config, *, restart: bool = False, progress: bool = True) -> Post
 
 @contextmanager
 def _run_lock(run_dir: Path):
-    """One ``sample`` per run directory at a time (an advisory lock, released even on SIGKILL)."""
-    import fcntl
-
-    run_dir.mkdir(parents=True, exist_ok=True)
-    f = open(run_dir / LOCK_FILE, "a+")  # noqa: SIM115 - held for the whole run
+    """One ``sample`` per run directory at a time (bayes_dnlr/lockfile.py: released even on SIGKILL,
+    and no lock file left behind)."""
     try:
-        fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        f.close()
+        with exclusive_lock(run_dir / LOCK_FILE):
+            yield
+    except LockBusy:
         raise RunError(f"{run_dir}: another `sample` is running on this run directory; wait for it "
                        "or stop it (its chain is kept and resumes)") from None
-    try:
-        yield
-    finally:
-        fcntl.flock(f, fcntl.LOCK_UN)
-        f.close()
 
 
 def _current_fit(cfg: Config, test, *, replace: bool, progress: bool) -> dict[str, Any]:
