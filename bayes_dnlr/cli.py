@@ -22,6 +22,14 @@ from bayes_dnlr import __version__
 from bayes_dnlr.errors import BayesDnlrError
 
 
+def _shown(path: Path) -> str:
+    """A path as the user would type it: relative to the current folder when inside it."""
+    try:
+        return str(Path(path).resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
+
+
 def _config(path: str):
     from bayes_dnlr.config import load_config
 
@@ -61,6 +69,7 @@ def cmd_compare(args: argparse.Namespace) -> None:
 
     table = compare_runs([Path(d) for d in args.run_dirs], out_dir=args.out)
     print(table.markdown())
+    print("outputs: " + ", ".join(_shown(p) for p in table.written))
 
 
 def cmd_design(args: argparse.Namespace) -> None:

@@ -107,6 +107,7 @@ def test_gauss_newton_only_runs_and_cli(tmp_path, capsys, monkeypatch):
     assert main(["compare", str(a), str(b)]) == 0          # writes beside the runs, not into cwd
     printed = capsys.readouterr().out
     assert "E Gauss-Newton (MPa)" in printed and "Yes:" in printed
+    assert "outputs: runs/compare.md, runs/compare.csv" in printed   # says where, as typed
     assert (root / "compare.md").is_file() and (root / "compare.csv").is_file()
     assert not (tmp_path / "compare.md").exists()
     assert "no posterior yet" in (root / "compare.md").read_text()

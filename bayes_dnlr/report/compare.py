@@ -1,7 +1,8 @@
 """Compare runs (paper Tables 3 and 5): E, G, tau_max, De_max and the standards across strain rates.
 
 ``compare_runs(run_dirs, out_dir)`` reads each run's summary.json (posterior) and fit.json
-(Gauss-Newton), writes compare.md and compare.csv into ``out_dir`` (the current directory when None)
+(Gauss-Newton), writes compare.md and compare.csv into ``out_dir`` (by default the folder that holds the runs,
+never the current directory)
 and returns a ``Comparison`` whose ``markdown()`` is what the CLI prints.
 
 Consistency of E across runs (the paper's central claim: E is instantaneous, so it must not depend on
