@@ -30,22 +30,31 @@ def _shown(path: Path) -> str:
         return str(path)
 
 
-def _config(path: str):
+def _config(path: str, command: str):
+    """The config of a command that starts from one: a config file, or a run folder holding it."""
+    from bayes_dnlr.arguments import config_file
     from bayes_dnlr.config import load_config
 
-    return load_config(path)
+    return load_config(config_file(path, command))
+
+
+def _run(path: str, command: str) -> Path:
+    """The run folder of a command that reads a run: a run folder, or the config naming it."""
+    from bayes_dnlr.arguments import run_folder
+
+    return run_folder(path, command)
 
 
 def cmd_simulate(args: argparse.Namespace) -> None:
     from bayes_dnlr.synthetic import simulate_test
 
-    print(simulate_test(_config(args.config), overwrite=args.force).summary())
+    print(simulate_test(_config(args.config, "simulate"), overwrite=args.force).summary())
 
 
 def cmd_fit(args: argparse.Namespace) -> None:
     from bayes_dnlr.pipeline.fit import fit
 
-    result = fit(_config(args.config), overwrite=args.force)
+    result = fit(_config(args.config, "fit"), overwrite=args.force)
     if not args.quiet:
         print(result.table())
 
@@ -53,21 +62,21 @@ def cmd_fit(args: argparse.Namespace) -> None:
 def cmd_sample(args: argparse.Namespace) -> None:
     from bayes_dnlr.pipeline.sample import sample
 
-    post = sample(_config(args.config), restart=args.restart, progress=not args.quiet)
+    post = sample(_config(args.config, "sample"), restart=args.restart, progress=not args.quiet)
     print(post.table())
 
 
 def cmd_report(args: argparse.Namespace) -> None:
     from bayes_dnlr.report import build_report
 
-    for run_dir in args.run_dirs:
-        print(build_report(Path(run_dir)))
+    for run_dir in [_run(d, "report") for d in args.run_dirs]:
+        print(build_report(run_dir))
 
 
 def cmd_compare(args: argparse.Namespace) -> None:
     from bayes_dnlr.report.compare import compare_runs
 
-    table = compare_runs([Path(d) for d in args.run_dirs], out_dir=args.out)
+    table = compare_runs([_run(d, "compare") for d in args.run_dirs], out_dir=args.out)
     print(table.markdown())
     print("outputs: " + ", ".join(_shown(p) for p in table.written))
 
@@ -82,8 +91,8 @@ def cmd_design(args: argparse.Namespace) -> None:
 def cmd_export(args: argparse.Namespace) -> None:
     from bayes_dnlr.export.run import export
 
-    result = export(args.run_dir, args.format, terms=args.terms, draws=args.draws, nu=args.nu,
-                    density=args.density, out=args.out, material=args.material, seed=args.seed,
+    result = export(_run(args.run_dir, "export"), args.format, terms=args.terms, draws=args.draws,
+                    nu=args.nu, density=args.density, out=args.out, material=args.material, seed=args.seed,
                     force=args.force)
     print(result.table())
 

@@ -38,7 +38,8 @@ def test_missing_config_is_one_clear_line(tmp_path, capsys, command):
     missing = tmp_path / "nope.yaml"
     assert main([command, str(missing)]) == 2
     err = capsys.readouterr().err
-    assert err == f"error: {missing}: config file not found\n"
+    assert err == (f"error: {missing}: config file not found ({command} takes the config file, e.g. "
+                   "runs/hdpe-a-5e-3/config.yaml)\n")
 
 
 def test_bad_key_names_file_and_key(tmp_path, capsys):
