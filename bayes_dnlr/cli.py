@@ -106,6 +106,15 @@ def cmd_batch(args: argparse.Namespace) -> int:
     return 1 if result.failed else 0
 
 
+EXAMPLE = "runs/hdpe-a-5e-3"
+
+
+def _command(sub, name: str, text: str, doc: str) -> argparse.ArgumentParser:
+    """A subcommand whose help says what it does and ends with its docs page."""
+    return sub.add_parser(name, help=text, description=text + ".",
+                          epilog=f"More: {doc}; every command: docs/cli.md.")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m bayes_dnlr",
@@ -114,48 +123,58 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"bayes_dnlr {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    p = sub.add_parser("simulate", help="write a synthetic test CSV from the config's truth: section")
-    p.add_argument("config", help="YAML config with a truth: section")
+    p = _command(sub, "simulate", "write a synthetic test CSV from the config's truth: section",
+                 "docs/config.md (truth:)")
+    p.add_argument("config", help=f"the config file with a truth: section, e.g. {EXAMPLE}/config.yaml "
+                                  "(or its run folder)")
     p.add_argument("--force", action="store_true", help="replace an existing data file")
     p.set_defaults(func=cmd_simulate)
 
-    p = sub.add_parser("fit", help="least squares (LM / Gauss-Newton) and the paper's stochastic "
-                                   "analysis; writes fit.json")
-    p.add_argument("config")
+    p = _command(sub, "fit", "least squares (LM / Gauss-Newton) and the paper's stochastic analysis; "
+                             "writes fit.json", "docs/fit.md")
+    p.add_argument("config", help=f"the config file, e.g. {EXAMPLE}/config.yaml (or the run folder "
+                                  "holding it); docs/config.md")
     p.add_argument("--force", action="store_true",
                    help="replace a fit.json made from another config or data")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(func=cmd_fit)
 
-    p = sub.add_parser("sample", help="emcee posterior (runs fit first when needed); resumable")
-    p.add_argument("config")
+    p = _command(sub, "sample", "emcee posterior to the target ESS (runs fit first when needed); "
+                                "resumable", "docs/sampling.md")
+    p.add_argument("config", help=f"the config file, e.g. {EXAMPLE}/config.yaml (or the run folder "
+                                  "holding it)")
     p.add_argument("--restart", action="store_true",
                    help="discard an existing chain (from another config or data) and start again")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sample)
 
-    p = sub.add_parser("report", help="report.html and figures/*.png for a finished run")
-    p.add_argument("run_dirs", nargs="+", metavar="run_dir")
+    p = _command(sub, "report", "report.html and figures/*.png for a finished run", "docs/report.md")
+    p.add_argument("run_dirs", nargs="+", metavar="run_dir",
+                   help=f"one or more run folders, e.g. {EXAMPLE} (or their config files)")
     p.set_defaults(func=cmd_report)
 
-    p = sub.add_parser("compare", help="Table 3/5-style table across runs (Markdown and CSV)")
-    p.add_argument("run_dirs", nargs="+", metavar="run_dir")
+    p = _command(sub, "compare", "Table 3/5-style table across runs (Markdown and CSV); is E the same "
+                                 "at every strain rate?", "docs/report.md")
+    p.add_argument("run_dirs", nargs="+", metavar="run_dir",
+                   help="the run folders to compare, e.g. runs/hdpe-a-* (or their config files)")
     p.add_argument("--out", type=Path, default=None,
                    help="folder for compare.md and compare.csv (default: the folder that holds the runs)")
     p.set_defaults(func=cmd_compare)
 
-    p = sub.add_parser("design", help="experiment design: predicted sd, Err and correlations of planned "
-                                      "tests, and the recommended one")
-    p.add_argument("design", help="design.yaml (docs/design.md)")
+    p = _command(sub, "design", "experiment design: predicted sd, Err and correlations of planned "
+                                "tests, and the recommended one", "docs/design.md")
+    p.add_argument("design", help="the design file, e.g. runs/design/a-par.yaml")
     p.add_argument("--force", action="store_true", help="replace a design.json made from another design")
     p.add_argument("--top", type=int, default=10, help="candidates shown on the console (default 10)")
     p.set_defaults(func=cmd_design)
 
     from bayes_dnlr.export import FORMAT_NAMES
 
-    p = sub.add_parser("export", help="FE material cards (the small-strain Prony series) at the posterior "
-                                      "median and 5 %%/95 %% quantiles of E, from a finished run")
-    p.add_argument("run_dir", help="a finished run directory (summary.json and posterior.nc)")
+    p = _command(sub, "export", "FE material cards (the small-strain Prony series) at the posterior "
+                                "median and 5 %%/95 %% quantiles of E, from a finished run",
+                 "docs/export.md")
+    p.add_argument("run_dir", help=f"a finished run folder (summary.json and posterior.nc), e.g. "
+                                   f"{EXAMPLE} (or its config file)")
     p.add_argument("--format", required=True, choices=FORMAT_NAMES)
     p.add_argument("--terms", type=int, default=None,
                    help="refit a shorter series over the test's time range (default: the model's "
@@ -170,10 +189,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="replace existing, different card files")
     p.set_defaults(func=cmd_export)
 
-    p = sub.add_parser("batch", help="fit, sample and report many tests on all cores or a Dask "
-                                     "cluster; resumable; results table and batch page")
+    p = _command(sub, "batch", "fit, sample and report many tests on all cores or a Dask cluster; "
+                               "resumable; results table and batch page", "docs/batch.md")
     p.add_argument("inputs", nargs="+", metavar="config",
-                   help="config files or glob patterns; with --manifest, one template config")
+                   help="config files or glob patterns, e.g. 'runs/hdpe-a-*/config.yaml'; with "
+                        "--manifest, one template config")
     p.add_argument("--manifest", type=Path, default=None,
                    help="CSV, one row per test; columns are dotted config keys (data.file, "
                         "data.area0, data.window.strain_max, ...) overriding the template")
