@@ -68,8 +68,13 @@ def cmd_sample(args: argparse.Namespace) -> None:
 
 def cmd_report(args: argparse.Namespace) -> None:
     from bayes_dnlr.report import build_report
+    from bayes_dnlr.report.current import REPORT_FILE, stale_inputs
 
     for run_dir in [_run(d, "report") for d in args.run_dirs]:
+        if not args.force and stale_inputs(run_dir) == []:
+            print(f"{run_dir / REPORT_FILE} is current (newer than its config, data and results): "
+                  "not rebuilt; report --force rebuilds it")
+            continue
         print(build_report(run_dir))
 
 
@@ -151,6 +156,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = _command(sub, "report", "report.html and figures/*.png for a finished run", "docs/report.md")
     p.add_argument("run_dirs", nargs="+", metavar="run_dir",
                    help=f"one or more run folders, e.g. {EXAMPLE} (or their config files)")
+    p.add_argument("--force", action="store_true",
+                   help="rebuild a report that is current (newer than its config, data and results)")
     p.set_defaults(func=cmd_report)
 
     p = _command(sub, "compare", "Table 3/5-style table across runs (Markdown and CSV); is E the same "
