@@ -1,5 +1,6 @@
 """The command line: parse, call, print. No logic lives here.
 
+    python -m bayes_dnlr init     export.csv --out runs/my-test/config.yaml
     python -m bayes_dnlr simulate runs/hdpe-a-5e-3/config.yaml
     python -m bayes_dnlr fit      runs/hdpe-a-5e-3/config.yaml
     python -m bayes_dnlr sample   runs/hdpe-a-5e-3/config.yaml
@@ -86,6 +87,12 @@ def cmd_compare(args: argparse.Namespace) -> None:
     print("outputs: " + ", ".join(_shown(p) for p in table.written))
 
 
+def cmd_init(args: argparse.Namespace) -> None:
+    from bayes_dnlr.init import init_config
+
+    print(init_config(args.data, args.out).text())
+
+
 def cmd_design(args: argparse.Namespace) -> None:
     from bayes_dnlr.design.config import load_design
     from bayes_dnlr.report.design import design_with_figure
@@ -127,6 +134,14 @@ def build_parser() -> argparse.ArgumentParser:
                     "least squares and emcee posterior).")
     parser.add_argument("--version", action="version", version=f"bayes_dnlr {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = _command(sub, "init", "a starting config from a test export: columns guessed from the header "
+                              "(or the values), units read, and the list of edits to make before fit",
+                 "docs/data-input.md")
+    p.add_argument("data", help="the test export (CSV or text), e.g. runs/bluehill-like/bluehill-like.csv")
+    p.add_argument("--out", type=Path, default=None,
+                   help="the config to write (default: runs/<file name>/config.yaml); never overwritten")
+    p.set_defaults(func=cmd_init)
 
     p = _command(sub, "simulate", "write a synthetic test CSV from the config's truth: section",
                  "docs/config.md (truth:)")
