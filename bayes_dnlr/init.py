@@ -214,8 +214,9 @@ def build_config(data: Path, out: Path) -> tuple[dict[str, Any], list[Edit], lis
     d["window"] = window
     comments["window"] = why
     edits.append(Edit("check", "data.window", window,
-                      f"the identification window: {why}; the paper's interval I is strain_max: 0.13, "
-                      "{} is the whole test"))
+                      f"the identification window: {why}. {{}} is the whole test: right when the "
+                      "strain is measured on the specimen (extensometer, DIC) and the deformation "
+                      "stays homogeneous; a crosshead strain past yield (necking) is not"))
     raw = {"name": run_name(out.parent.name), "data": d, "noise": {"sigma0": "residuals"}}
     return raw, edits, found, comments
 
@@ -273,6 +274,8 @@ def _trial(raw: dict[str, Any], edits: list[Edit], out: Path) -> list[str]:
     from bayes_dnlr.data import load_test
 
     trial = copy.deepcopy(raw)
+    trial["data"]["file"] = str((out.absolute().parent / raw["data"]["file"]).resolve()
+                                if not Path(raw["data"]["file"]).is_absolute() else raw["data"]["file"])
     for e in edits:
         if e.action == "set" and e.key in PLACEHOLDER:
             trial["data"][e.key.split(".", 1)[1]] = PLACEHOLDER[e.key]

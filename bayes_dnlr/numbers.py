@@ -74,6 +74,18 @@ def interval(lo: Any, hi: Any, sd: Any) -> str:
     return f"[{fmt_at(lo, sd)}, {fmt_at(hi, sd)}]"
 
 
+def err_pct(err: Any) -> str:
+    """A relative sd (Err, eq. 33) in percent with 3 decimals; 'nan' when it is not finite and
+    '>1e4' when the estimate is (nearly) zero, e.g. on a bound (no 30-digit numbers in a table)."""
+    try:
+        e = 100.0 * float(err)
+    except (TypeError, ValueError):
+        return "nan"
+    if not math.isfinite(e):
+        return "nan"
+    return f"{e:.3f}" if abs(e) < 1e4 else ">1e4"
+
+
 def pct(x: float | None, digits: int = 2) -> str:
     """A fraction as a percentage ('0.0137' -> '1.37 %')."""
     return "–" if x is None or not math.isfinite(x) else f"{100 * x:.{digits}f} %"

@@ -51,3 +51,11 @@ def test_one_value_one_string_everywhere(finished, capsys):
     assert f"{row[2]} ± {row[3]}" == text                                   # report table
     hdi = interval(*e["hdi_90"], e["sd"])
     assert hdi in console and hdi in _headline(run, None) and hdi == row[5]
+
+
+def test_err_percent_never_prints_thirty_digits():
+    from bayes_dnlr.numbers import err_pct
+
+    assert err_pct(0.00488) == "0.488"
+    assert err_pct(3.5e22) == ">1e4"              # G on its bound: sd / |estimate| explodes
+    assert err_pct(float("nan")) == "nan" and err_pct(None) == "nan"
