@@ -73,10 +73,10 @@ def cmd_report(args: argparse.Namespace) -> None:
 
     for run_dir in [_run(d, "report") for d in args.run_dirs]:
         if not args.force and stale_inputs(run_dir) == []:
-            print(f"{run_dir / REPORT_FILE} is current (newer than its config, data and results): "
+            print(f"{_shown(run_dir / REPORT_FILE)} is current (newer than its config, data and results): "
                   "not rebuilt; report --force rebuilds it")
             continue
-        print(build_report(run_dir))
+        print(_shown(build_report(run_dir)))
 
 
 def cmd_compare(args: argparse.Namespace) -> None:

@@ -113,6 +113,11 @@ def test_gauss_newton_only_runs_and_cli(tmp_path, capsys, monkeypatch):
     assert "no posterior yet" in (root / "compare.md").read_text()
     with pytest.raises(RunError):
         compare_runs([tmp_path / "nope"])
+    from bayes_dnlr.report.compare import default_out_dir
+
+    assert default_out_dir([root / "a", tmp_path / "other" / "b"]) == tmp_path.resolve()
+    with pytest.raises(RunError, match="give compare --out DIR"):      # never the filesystem root
+        default_out_dir(["/nowhere-a/x/run1", "/nowhere-b/y/run2"])
 
 
 def _posterior_runs(root, e_of_rate):

@@ -221,7 +221,11 @@ def default_out_dir(run_dirs: Sequence[Path | str]) -> Path:
         return parents.pop()
     import os
 
-    return Path(os.path.commonpath([str(p) for p in parents]))
+    common = Path(os.path.commonpath([str(p) for p in parents]))
+    if common == Path(common.anchor):
+        raise RunError(f"the runs are in folders with nothing in common but {common} "
+                       f"({', '.join(sorted(str(p) for p in parents))}): give compare --out DIR")
+    return common
 
 
 def compare_runs(run_dirs: Sequence[Path | str], out_dir: Path | str | None = None) -> Comparison:
