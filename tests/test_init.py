@@ -103,3 +103,35 @@ def test_cli_prints_the_edits_and_never_overwrites(tmp_path, capsys, monkeypatch
     assert main(["init", "nope.csv"]) == 2
     assert "nope.csv: data file not found" in capsys.readouterr().err
     assert sorted(p.name for p in Path("runs/bluehill-like").iterdir()) == ["config.yaml"]
+
+
+def test_extension_in_mm_and_force_in_kn_ask_for_gauge_length_and_area(tmp_path):
+    """A header with units in the names: the extension needs L0 and the force S0; after those two
+    values (and nothing else), fit finds the true E."""
+    import numpy as np
+
+    from bayes_dnlr.model import simulate
+    from bayes_dnlr.pipeline.fit import fit
+
+    truth = {"E": 2854.0, "G": 2.32, "tau_max": 5.79}
+    t = np.linspace(0.0, 200.0, 801)
+    eps = 5e-3 * t                                          # Hencky strain at 5e-3 1/s
+    sigma = simulate(t, eps, truth)                         # true stress σ*, MPa
+    rng = np.random.default_rng(3)
+    ext = 50.0 * np.expm1(eps)                              # mm on L0 = 50 mm
+    force = (sigma + rng.normal(0, 0.3, t.size)) * 40.0 * np.exp(-eps) / 1000.0   # kN on S0 = 40 mm²
+    csv = tmp_path / "export.csv"
+    np.savetxt(csv, np.column_stack([t, ext, force]), delimiter=",", comments="",
+               header="Time (s),Extension (mm),Load (kN)")
+    out = tmp_path / "ext" / "config.yaml"
+    result = init_config(csv, out)
+    d = result.raw["data"]
+    assert d["columns"] == {"time": "Time (s)", "force": "Load (kN)", "extension": "Extension (mm)"}
+    assert [e.key for e in result.edits if e.action == "set"] == ["data.gauge_length", "data.area0"]
+    assert "units" not in d                                 # s, mm and kN read from the header
+    raw = yaml.safe_load(out.read_text())
+    raw["data"].update(gauge_length=50.0, area0=40.0)
+    raw["data"]["window"] = {}                              # the check: the whole test (homogeneous)
+    out.write_text(yaml.safe_dump(raw, sort_keys=False))
+    r = fit(load_config(out), write=False)
+    assert r.converged and abs(r.estimate["E"] - truth["E"]) < 3 * r.sd["E"], (r.estimate, r.sd)
