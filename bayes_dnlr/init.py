@@ -243,10 +243,10 @@ def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
     if not data.is_file():
         raise RunError(f"{data}: data file not found (init takes a test export, e.g. a CSV)")
     out = Path(out) if out is not None else Path("runs") / run_name(data.stem) / "config.yaml"
-    if out.exists():
-        raise RunError(f"{out}: exists; init never overwrites a config (give --out another path)")
     if out.suffix not in (".yaml", ".yml"):
         raise RunError(f"{out}: --out names the config file to write, e.g. runs/name/config.yaml")
+    if out.exists():
+        raise RunError(f"{out}: exists; init never overwrites a config (give --out another path)")
     raw, edits, found, comments = build_config(data, out)
     raw["name"] = run_name(out.parent.name) if out.name == "config.yaml" else run_name(out.stem)
     problems = _trial(raw, edits, out)

@@ -100,6 +100,9 @@ def test_cli_prints_the_edits_and_never_overwrites(tmp_path, capsys, monkeypatch
     assert capsys.readouterr().err == (f"error: {cfg}: exists; init never overwrites a config "
                                        "(give --out another path)\n")
     assert cfg.read_text() == before
+    assert main(["init", str(BLUEHILL), "--out", "runs/bluehill-like"]) == 2     # a folder, not a file
+    assert capsys.readouterr().err == ("error: runs/bluehill-like: --out names the config file to "
+                                       "write, e.g. runs/name/config.yaml\n")
     assert main(["init", "nope.csv"]) == 2
     assert "nope.csv: data file not found" in capsys.readouterr().err
     assert sorted(p.name for p in Path("runs/bluehill-like").iterdir()) == ["config.yaml"]
