@@ -112,6 +112,22 @@ def _peak_window(guess: Guess, load: Pick | None, strain: Pick | None, strain_fa
     return {}, "the whole test"
 
 
+def _hold_start(guess: Guess, strain: Pick) -> float | None:
+    """The time where the strain stops rising when it then stays (within 1 % of its range) for at
+    least the last tenth of the test: a relaxation hold. None for a tensile test."""
+    t, e = guess.picks["time"].column.values, strain.column.values
+    ok = np.isfinite(t) & np.isfinite(e)
+    t, e = t[ok], e[ok]
+    if t.size < 20 or np.ptp(e) == 0:
+        return None
+    top = float(e.max())
+    flat = np.abs(e - e[-1]) <= 0.01 * np.ptp(e)
+    start = int(np.flatnonzero(~flat)[-1]) + 1 if (~flat).any() else 0
+    if e[-1] < 0.9 * top or t[-1] - t[start] < 0.1 * (t[-1] - t[0]) or start == 0:
+        return None
+    return float(t[start])
+
+
 def _others(pick: Pick) -> str:
     return ", ".join(c.label for c in pick.others)
 
@@ -168,6 +184,11 @@ def build_config(data: Path, out: Path) -> tuple[dict[str, Any], list[Edit], lis
     strain_factor: float | None = None
     for role, pick in ((r, p[r]) for r in columns):
         unit = _unit_text(pick.column.unit)
+        if pick.column.unit_in_suffix and unit is not None:      # read by init, not by the reader
+            if role == "strain":
+                strain_factor = lookup(unit)[1]
+            units[role] = unit
+            continue
         if role == "strain":
             if unit is not None and lookup(unit) is not None:
                 strain_factor = lookup(unit)[1]
@@ -210,7 +231,16 @@ def build_config(data: Path, out: Path) -> tuple[dict[str, Any], list[Edit], lis
                           "nominal (engineering, Δl/l0) or hencky (true, ln(l/l0))? a machine's strain "
                           "channel is usually nominal"))
     comments["strain_measure"] = "nominal (engineering) or hencky (true) strain"
-    window, why = _peak_window(guess, load, strain if "strain" in columns else None, strain_factor)
+    hold = _hold_start(guess, strain)
+    if hold is not None:
+        d["relaxation_start"] = "auto"
+        comments["relaxation_start"] = f"the strain stops rising near t = {fmt(hold, 3)} s: a relaxation hold"
+        edits.append(Edit("check", "data.relaxation_start", "auto",
+                          f"the strain stops rising near t = {fmt(hold, 3)} s and stays: a relaxation "
+                          "hold after the ramp (auto detects its start; null: a tensile test only)"))
+    window, why = ((({}, "the whole test: the ramp and the hold (sigma_inf and tau_max_R are "
+                     "identified on the hold)")) if hold is not None else
+                   _peak_window(guess, load, strain if "strain" in columns else None, strain_factor))
     d["window"] = window
     comments["window"] = why
     edits.append(Edit("check", "data.window", window,

@@ -138,3 +138,23 @@ def test_extension_in_mm_and_force_in_kn_ask_for_gauge_length_and_area(tmp_path)
     out.write_text(yaml.safe_dump(raw, sort_keys=False))
     r = fit(load_config(out), write=False)
     assert r.converged and abs(r.estimate["E"] - truth["E"]) < 3 * r.sd["E"], (r.estimate, r.sd)
+
+
+def test_a_relaxation_hold_is_seen_and_the_window_keeps_it(tmp_path):
+    """The shipped ramp-and-hold example: relaxation_start: auto is proposed (a check), the window
+    is the whole test, and fit accepts it after the area (and the strain measure of eps11)."""
+    from bayes_dnlr.pipeline.fit import fit
+
+    out = tmp_path / "relax" / "config.yaml"
+    result = init_config(REPO / "runs/hdpe-b-relax-5e-3/hdpe-b-relax-5e-3.csv", out)
+    d = result.raw["data"]
+    assert d["relaxation_start"] == "auto" and d["window"] == {}
+    assert d["units"] == {"time": "s", "force": "N"}                 # from the names t_s and F_N
+    keys = {e.key for e in result.edits}
+    assert {"data.area0", "data.relaxation_start", "data.strain_measure"} <= keys
+    raw = yaml.safe_load(out.read_text())
+    raw["data"].update(area0=24.0, strain_measure="hencky")          # the shipped config's values
+    out.write_text(yaml.safe_dump(raw, sort_keys=False))
+    r = fit(load_config(out), write=False)
+    assert r.converged and {"sigma_inf", "tau_max_R"} <= set(r.estimate)
+    assert abs(r.estimate["E"] - 2270.0) < 4 * r.sd["E"], (r.estimate, r.sd)

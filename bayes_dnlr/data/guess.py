@@ -50,6 +50,8 @@ class Column:
     name: str | None             # header name, as written
     unit: str | None             # unit read from the file (units row or header), None: none
     values: np.ndarray           # a sample of its values, file units (NaN: missing)
+    unit_in_suffix: bool = False  # the unit was read from a name such as 't_s' or 'F_kN'
+
 
     @property
     def label(self) -> str:
@@ -121,6 +123,11 @@ def read_columns(path: Path) -> tuple[Layout, list[Column], tuple[int, int] | No
     n = group[1] if group else f
     cols = [Column(i + 1, layout.header[i] if layout.header and i < len(layout.header) else None,
                    layout.units[i] if i < len(layout.units) else None, values[:, i]) for i in range(n)]
+    for c in cols:              # 't_s', 'F_kN': a unit after the last underscore (not read by the reader)
+        if c.unit is None and c.name and "_" in c.name:
+            suffix = c.name.rsplit("_", 1)[1]
+            if lookup(suffix) is not None:
+                c.unit, c.unit_in_suffix = suffix, True
     return layout, cols, group, [*layout.notes, *notes]
 
 
@@ -182,7 +189,8 @@ def guess_columns(path: Path) -> Guess:
         u = _unit_role(c)
         r = _name_role(c)
         if u is not None and r not in ("eps22", "index"):
-            role, how = u, f"unit {c.unit.strip().strip('()[]')}"
+            role, how = u, f"unit {c.unit.strip().strip('()[]')}" + (" in the name" if c.unit_in_suffix
+                                                                     else "")
         else:
             role, how = r, "header name"
         if role is not None:
