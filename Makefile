@@ -1,4 +1,5 @@
 # bayes_dnlr: `make demo` (install + main job on the shipped example), `make test` (install + tests).
+# `make demo` again samples nothing and keeps a current report; `make demo FORCE=1` rebuilds the report.
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
 EXAMPLE ?= runs/hdpe-a-5e-3/config.yaml
@@ -19,7 +20,7 @@ RUN_DIR = $(patsubst %/,%,$(dir $(EXAMPLE)))
 
 demo: install
 	$(PY) -m bayes_dnlr sample $(EXAMPLE)
-	$(PY) -m bayes_dnlr report $(RUN_DIR)
+	$(PY) -m bayes_dnlr report $(RUN_DIR) $(if $(FORCE),--force)
 	@echo "open $(RUN_DIR)/report.html"
 
 test: install

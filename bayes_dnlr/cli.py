@@ -1,5 +1,6 @@
 """The command line: parse, call, print. No logic lives here.
 
+    python -m bayes_dnlr init     export.csv --out runs/my-test/config.yaml
     python -m bayes_dnlr simulate runs/hdpe-a-5e-3/config.yaml
     python -m bayes_dnlr fit      runs/hdpe-a-5e-3/config.yaml
     python -m bayes_dnlr sample   runs/hdpe-a-5e-3/config.yaml
@@ -22,22 +23,39 @@ from bayes_dnlr import __version__
 from bayes_dnlr.errors import BayesDnlrError
 
 
-def _config(path: str):
+def _shown(path: Path) -> str:
+    """A path as the user would type it: relative to the current folder when inside it."""
+    try:
+        return str(Path(path).resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
+
+
+def _config(path: str, command: str):
+    """The config of a command that starts from one: a config file, or a run folder holding it."""
+    from bayes_dnlr.arguments import config_file
     from bayes_dnlr.config import load_config
 
-    return load_config(path)
+    return load_config(config_file(path, command))
+
+
+def _run(path: str, command: str) -> Path:
+    """The run folder of a command that reads a run: a run folder, or the config naming it."""
+    from bayes_dnlr.arguments import run_folder
+
+    return run_folder(path, command)
 
 
 def cmd_simulate(args: argparse.Namespace) -> None:
     from bayes_dnlr.synthetic import simulate_test
 
-    print(simulate_test(_config(args.config), overwrite=args.force).summary())
+    print(simulate_test(_config(args.config, "simulate"), overwrite=args.force).summary())
 
 
 def cmd_fit(args: argparse.Namespace) -> None:
     from bayes_dnlr.pipeline.fit import fit
 
-    result = fit(_config(args.config), overwrite=args.force)
+    result = fit(_config(args.config, "fit"), overwrite=args.force)
     if not args.quiet:
         print(result.table())
 
@@ -45,22 +63,34 @@ def cmd_fit(args: argparse.Namespace) -> None:
 def cmd_sample(args: argparse.Namespace) -> None:
     from bayes_dnlr.pipeline.sample import sample
 
-    post = sample(_config(args.config), restart=args.restart, progress=not args.quiet)
+    post = sample(_config(args.config, "sample"), restart=args.restart, progress=not args.quiet)
     print(post.table())
 
 
 def cmd_report(args: argparse.Namespace) -> None:
     from bayes_dnlr.report import build_report
+    from bayes_dnlr.report.current import REPORT_FILE, stale_inputs
 
-    for run_dir in args.run_dirs:
-        print(build_report(Path(run_dir)))
+    for run_dir in [_run(d, "report") for d in args.run_dirs]:
+        if not args.force and stale_inputs(run_dir) == []:
+            print(f"{_shown(run_dir / REPORT_FILE)} is current (newer than its config, data and results): "
+                  "not rebuilt; report --force rebuilds it")
+            continue
+        print(_shown(build_report(run_dir)))
 
 
 def cmd_compare(args: argparse.Namespace) -> None:
     from bayes_dnlr.report.compare import compare_runs
 
-    table = compare_runs([Path(d) for d in args.run_dirs], out_dir=args.out)
+    table = compare_runs([_run(d, "compare") for d in args.run_dirs], out_dir=args.out)
     print(table.markdown())
+    print("outputs: " + ", ".join(_shown(p) for p in table.written))
+
+
+def cmd_init(args: argparse.Namespace) -> None:
+    from bayes_dnlr.init import init_config
+
+    print(init_config(args.data, args.out).text())
 
 
 def cmd_design(args: argparse.Namespace) -> None:
@@ -73,8 +103,8 @@ def cmd_design(args: argparse.Namespace) -> None:
 def cmd_export(args: argparse.Namespace) -> None:
     from bayes_dnlr.export.run import export
 
-    result = export(args.run_dir, args.format, terms=args.terms, draws=args.draws, nu=args.nu,
-                    density=args.density, out=args.out, material=args.material, seed=args.seed,
+    result = export(_run(args.run_dir, "export"), args.format, terms=args.terms, draws=args.draws,
+                    nu=args.nu, density=args.density, out=args.out, material=args.material, seed=args.seed,
                     force=args.force)
     print(result.table())
 
@@ -88,6 +118,15 @@ def cmd_batch(args: argparse.Namespace) -> int:
     return 1 if result.failed else 0
 
 
+EXAMPLE = "runs/hdpe-a-5e-3"
+
+
+def _command(sub, name: str, text: str, doc: str) -> argparse.ArgumentParser:
+    """A subcommand whose help says what it does and ends with its docs page."""
+    return sub.add_parser(name, help=text, description=text + ".",
+                          epilog=f"More: {doc}; every command: docs/cli.md.")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m bayes_dnlr",
@@ -96,48 +135,68 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"bayes_dnlr {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    p = sub.add_parser("simulate", help="write a synthetic test CSV from the config's truth: section")
-    p.add_argument("config", help="YAML config with a truth: section")
+    p = _command(sub, "init", "a starting config from a test export: columns guessed from the header "
+                              "(or the values), units read, and the list of edits to make before fit",
+                 "docs/data-input.md")
+    p.add_argument("data", help="the test export (CSV or text), e.g. runs/bluehill-like/bluehill-like.csv")
+    p.add_argument("--out", type=Path, default=None,
+                   help="the config to write (default: runs/<file name>/config.yaml); never overwritten")
+    p.set_defaults(func=cmd_init)
+
+    p = _command(sub, "simulate", "write a synthetic test CSV from the config's truth: section",
+                 "docs/config.md (truth:)")
+    p.add_argument("config", help=f"the config file with a truth: section, e.g. {EXAMPLE}/config.yaml "
+                                  "(or its run folder)")
     p.add_argument("--force", action="store_true", help="replace an existing data file")
     p.set_defaults(func=cmd_simulate)
 
-    p = sub.add_parser("fit", help="least squares (LM / Gauss-Newton) and the paper's stochastic "
-                                   "analysis; writes fit.json")
-    p.add_argument("config")
+    p = _command(sub, "fit", "least squares (LM / Gauss-Newton) and the paper's stochastic analysis; "
+                             "writes fit.json", "docs/fit.md")
+    p.add_argument("config", help=f"the config file, e.g. {EXAMPLE}/config.yaml (or the run folder "
+                                  "holding it); docs/config.md")
     p.add_argument("--force", action="store_true",
                    help="replace a fit.json made from another config or data")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(func=cmd_fit)
 
-    p = sub.add_parser("sample", help="emcee posterior (runs fit first when needed); resumable")
-    p.add_argument("config")
+    p = _command(sub, "sample", "emcee posterior to the target ESS (runs fit first when needed); "
+                                "resumable", "docs/sampling.md")
+    p.add_argument("config", help=f"the config file, e.g. {EXAMPLE}/config.yaml (or the run folder "
+                                  "holding it)")
     p.add_argument("--restart", action="store_true",
                    help="discard an existing chain (from another config or data) and start again")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sample)
 
-    p = sub.add_parser("report", help="report.html and figures/*.png for a finished run")
-    p.add_argument("run_dirs", nargs="+", metavar="run_dir")
+    p = _command(sub, "report", "report.html and figures/*.png for a finished run", "docs/report.md")
+    p.add_argument("run_dirs", nargs="+", metavar="run_dir",
+                   help=f"one or more run folders, e.g. {EXAMPLE} (or their config files)")
+    p.add_argument("--force", action="store_true",
+                   help="rebuild a report that is current (newer than its config, data and results)")
     p.set_defaults(func=cmd_report)
 
-    p = sub.add_parser("compare", help="Table 3/5-style table across runs (Markdown and CSV)")
-    p.add_argument("run_dirs", nargs="+", metavar="run_dir")
+    p = _command(sub, "compare", "Table 3/5-style table across runs (Markdown and CSV); is E the same "
+                                 "at every strain rate?", "docs/report.md")
+    p.add_argument("run_dirs", nargs="+", metavar="run_dir",
+                   help="the run folders to compare, e.g. runs/hdpe-a-* (or their config files)")
     p.add_argument("--out", type=Path, default=None,
                    help="folder for compare.md and compare.csv (default: the folder that holds the runs)")
     p.set_defaults(func=cmd_compare)
 
-    p = sub.add_parser("design", help="experiment design: predicted sd, Err and correlations of planned "
-                                      "tests, and the recommended one")
-    p.add_argument("design", help="design.yaml (docs/design.md)")
+    p = _command(sub, "design", "experiment design: predicted sd, Err and correlations of planned "
+                                "tests, and the recommended one", "docs/design.md")
+    p.add_argument("design", help="the design file, e.g. runs/design/a-par.yaml")
     p.add_argument("--force", action="store_true", help="replace a design.json made from another design")
     p.add_argument("--top", type=int, default=10, help="candidates shown on the console (default 10)")
     p.set_defaults(func=cmd_design)
 
     from bayes_dnlr.export import FORMAT_NAMES
 
-    p = sub.add_parser("export", help="FE material cards (the small-strain Prony series) at the posterior "
-                                      "median and 5 %%/95 %% quantiles of E, from a finished run")
-    p.add_argument("run_dir", help="a finished run directory (summary.json and posterior.nc)")
+    p = _command(sub, "export", "FE material cards (the small-strain Prony series) at the posterior "
+                                "median and 5 %%/95 %% quantiles of E, from a finished run",
+                 "docs/export.md")
+    p.add_argument("run_dir", help=f"a finished run folder (summary.json and posterior.nc), e.g. "
+                                   f"{EXAMPLE} (or its config file)")
     p.add_argument("--format", required=True, choices=FORMAT_NAMES)
     p.add_argument("--terms", type=int, default=None,
                    help="refit a shorter series over the test's time range (default: the model's "
@@ -152,10 +211,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="replace existing, different card files")
     p.set_defaults(func=cmd_export)
 
-    p = sub.add_parser("batch", help="fit, sample and report many tests on all cores or a Dask "
-                                     "cluster; resumable; results table and batch page")
+    p = _command(sub, "batch", "fit, sample and report many tests on all cores or a Dask cluster; "
+                               "resumable; results table and batch page", "docs/batch.md")
     p.add_argument("inputs", nargs="+", metavar="config",
-                   help="config files or glob patterns; with --manifest, one template config")
+                   help="config files or glob patterns, e.g. 'runs/hdpe-a-*/config.yaml'; with "
+                        "--manifest, one template config")
     p.add_argument("--manifest", type=Path, default=None,
                    help="CSV, one row per test; columns are dotted config keys (data.file, "
                         "data.area0, data.window.strain_max, ...) overriding the template")

@@ -1,4 +1,15 @@
-"""Numbers as people read them: significant digits, a value to the precision of its sd, percents."""
+"""Numbers as people read them: significant digits, a value to the precision of its sd, percents.
+
+The one precision rule of the package (issue 15), used by the console tables, the report's headline
+and tables, compare and batch, so that one value reads the same everywhere:
+
+- a value without an sd: ``SIG`` = 4 significant digits (``fmt``);
+- an sd: ``SD_DIGITS`` = 2 significant digits, integer digits never rounded away (``fmt_sd``:
+  13.77 -> 14, 0.000613 -> 0.00061, 137.7 -> 138);
+- a value with its sd: the value to the decimals of its two-digit sd, and at least 4 significant
+  digits (``fmt_at``), written ``value ± sd`` (``pm``); interval ends at the decimals of the sd of
+  the value they bound (``interval``).
+"""
 
 from __future__ import annotations
 
@@ -6,6 +17,9 @@ import math
 from typing import Any
 
 import numpy as np
+
+SIG = 4            # significant digits of a value without an sd
+SD_DIGITS = 2      # significant digits of an sd
 
 
 def fmt(x: Any, sig: int = 4) -> str:
@@ -41,6 +55,35 @@ def fmt_at(x: Any, sd: Any, sig: int = 4) -> str:
     d_sig = sig - 1 - int(math.floor(math.log10(abs(x))))
     d_sd = 1 - int(math.floor(math.log10(sd)))
     return f"{x:.{min(10, max(0, d_sig, d_sd))}f}"
+
+
+def fmt_sd(sd: Any) -> str:
+    """An sd (or any uncertainty) to SD_DIGITS significant digits: 13.77 -> '14'."""
+    return fmt(sd, SD_DIGITS)
+
+
+def pm(x: Any, sd: Any) -> str:
+    """'value ± sd' by the package's rule ('2869 ± 14'); the value alone when there is no sd."""
+    if sd is None or x is None:
+        return fmt(x)
+    return f"{fmt_at(x, sd)} ± {fmt_sd(sd)}"
+
+
+def interval(lo: Any, hi: Any, sd: Any) -> str:
+    """'[lo, hi]' at the decimals of ``sd`` (the sd of the value the interval is about)."""
+    return f"[{fmt_at(lo, sd)}, {fmt_at(hi, sd)}]"
+
+
+def err_pct(err: Any) -> str:
+    """A relative sd (Err, eq. 33) in percent with 3 decimals; 'nan' when it is not finite and
+    '>1e4' when the estimate is (nearly) zero, e.g. on a bound (no 30-digit numbers in a table)."""
+    try:
+        e = 100.0 * float(err)
+    except (TypeError, ValueError):
+        return "nan"
+    if not math.isfinite(e):
+        return "nan"
+    return f"{e:.3f}" if abs(e) < 1e4 else ">1e4"
 
 
 def pct(x: float | None, digits: int = 2) -> str:

@@ -38,7 +38,8 @@ def test_missing_config_is_one_clear_line(tmp_path, capsys, command):
     missing = tmp_path / "nope.yaml"
     assert main([command, str(missing)]) == 2
     err = capsys.readouterr().err
-    assert err == f"error: {missing}: config file not found\n"
+    assert err == (f"error: {missing}: config file not found ({command} takes the config file, e.g. "
+                   "runs/hdpe-a-5e-3/config.yaml)\n")
 
 
 def test_bad_key_names_file_and_key(tmp_path, capsys):
@@ -69,3 +70,22 @@ def test_fit_reports_the_detected_relaxation_start(tmp_path, capsys):
     fit = __import__("json").loads((run / "fit.json").read_text())
     assert fit["relaxation_start"] == 400.0
     assert any("detected" in n for n in fit["data_notes"])
+
+
+def test_every_subcommand_help_describes_its_arguments_and_names_its_docs_page():
+    import re
+
+    from bayes_dnlr.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
+    assert len(sub.choices) >= 8
+    for name, p in sub.choices.items():
+        positionals = [a for a in p._actions if not a.option_strings]
+        assert positionals, name
+        for a in positionals:
+            assert a.help and len(a.help) > 15, f"{name} {a.dest}: no description"
+        text = p.format_help().rstrip()
+        assert text.endswith("every command: docs/cli.md."), name
+        for page in re.findall(r"docs/[a-z-]+\.md", p.epilog):
+            assert (REPO / page).is_file(), f"{name}: {page} does not exist"

@@ -107,11 +107,17 @@ def test_gauss_newton_only_runs_and_cli(tmp_path, capsys, monkeypatch):
     assert main(["compare", str(a), str(b)]) == 0          # writes beside the runs, not into cwd
     printed = capsys.readouterr().out
     assert "E Gauss-Newton (MPa)" in printed and "Yes:" in printed
+    assert "outputs: runs/compare.md, runs/compare.csv" in printed   # says where, as typed
     assert (root / "compare.md").is_file() and (root / "compare.csv").is_file()
     assert not (tmp_path / "compare.md").exists()
     assert "no posterior yet" in (root / "compare.md").read_text()
     with pytest.raises(RunError):
         compare_runs([tmp_path / "nope"])
+    from bayes_dnlr.report.compare import default_out_dir
+
+    assert default_out_dir([root / "a", tmp_path / "other" / "b"]) == tmp_path.resolve()
+    with pytest.raises(RunError, match="give compare --out DIR"):      # never the filesystem root
+        default_out_dir(["/nowhere-a/x/run1", "/nowhere-b/y/run2"])
 
 
 def _posterior_runs(root, e_of_rate):

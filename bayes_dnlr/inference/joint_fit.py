@@ -27,7 +27,7 @@ from bayes_dnlr.inference.joint import JointProblem, Layout, base_name, pooled_s
 from bayes_dnlr.inference.lsq import FitResult, fit_test, run_minimiser
 from bayes_dnlr.inference.problem import LsqProblem
 from bayes_dnlr.inference.sensitivity import StochasticAnalysis, analyse, identifiability_warnings
-from bayes_dnlr.numbers import fmt, fmt_at
+from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd, pm
 from bayes_dnlr.rundir import jsonable
 
 
@@ -100,17 +100,17 @@ class JointFitResult:
         lines += ["", head + "  unit"]
         for k in self.names:
             sd = self.sd[k]
-            row = f"{k:<{w}}{fmt_at(self.estimate[k], sd):>14}{fmt(sd, 2):>12}{100 * self.err[k]:>9.3f}"
+            row = f"{k:<{w}}{fmt_at(self.estimate[k], sd):>14}{fmt_sd(sd):>12}{err_pct(self.err[k]):>9}"
             if d:
                 gs = d["sd"][k]
-                row += f"  {fmt_at(d['estimate'][k], gs):>14}{fmt(gs, 2):>12}{100 * d['err'][k]:>9.3f}"
+                row += f"  {fmt_at(d['estimate'][k], gs):>14}{fmt_sd(gs):>12}{err_pct(d['err'][k]):>9}"
             lines.append(row + f"  {UNITS.get(base_name(k), '')}")
         lines += ["", "single-test estimates (each test alone):"]
         for t, r in self.singles.items():
             src = r.discrepancy if (r.discrepancy and t in (d or {}).get("tests", [])) else None
             est = (src or {}).get("estimate", r.estimate)
             sds = (src or {}).get("sd", r.sd)
-            lines.append(f"  {t}: " + ", ".join(f"{k} {fmt_at(est[k], sds.get(k))} ± {fmt(sds.get(k), 2)}"
+            lines.append(f"  {t}: " + ", ".join(f"{k} {pm(est[k], sds.get(k))}"
                                                  for k in r.names))
         if self.warnings:
             lines += ["warnings:"] + [f"  - {m}" for m in self.warnings]

@@ -50,7 +50,7 @@ from bayes_dnlr.inference.sensitivity import (
     identifiability_warnings,
 )
 from bayes_dnlr.inference.start import clip_to, fallback, physics_start, spread_starts
-from bayes_dnlr.numbers import fmt, fmt_at
+from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd
 from bayes_dnlr.rundir import jsonable
 
 SAME_OPTIMUM_SD = 0.01      # multi-start end points within this many sd of the best: same optimum
@@ -165,10 +165,10 @@ class FitResult:
             if k not in self.sd:
                 lines.append(f"{k:<{w}}{fmt(v, 6):>14}{'fixed':>12}{'':>9}  {UNITS[k]}")
                 continue
-            row = f"{k:<{w}}{fmt_at(v, self.sd[k]):>14}{fmt(self.sd[k], 2):>12}{100 * self.err[k]:>9.3f}"
+            row = f"{k:<{w}}{fmt_at(v, self.sd[k]):>14}{fmt_sd(self.sd[k]):>12}{err_pct(self.err[k]):>9}"
             if d:
                 gv, gs = d["estimate"][k], d["sd"][k]
-                row += f"  {fmt_at(gv, gs):>14}{fmt(gs, 2):>12}{100 * d['err'][k]:>9.3f}"
+                row += f"  {fmt_at(gv, gs):>14}{fmt_sd(gs):>12}{err_pct(d['err'][k]):>9}"
             lines.append(row + f"  {UNITS[k]}")
         lines.append("")
         lines += _delta_tilde_lines("Δ̃ (eq. 35), white noise: Err % on the diagonal, ρ off it",

@@ -9,6 +9,7 @@ estimated on the chain after a burn-in of ``burn_in_tau`` τ; the run stops when
 ESS = kept steps × walkers / τ >= ``target_ess``, the kept chain is >= ``min_tau_multiple`` τ long
 and ArviZ's bulk/tail ESS and R-hat agree ("converged"), or at ``max_steps`` ("max_steps").
 
+The progress bar counts the ESS this rule credits, toward target_ess (inference/progress.py).
 emcee and ArviZ are imported inside the functions that need them.
 """
 
@@ -25,6 +26,7 @@ import numpy as np
 
 from bayes_dnlr.config import ConfigError
 from bayes_dnlr.errors import RunError
+from bayes_dnlr.inference.progress import EssProgress
 from bayes_dnlr.inference.store import ChainWriter, SamplerState
 
 START_SCALE = 1.0       # walkers start as a draw of the linearized (Laplace) posterior
@@ -330,11 +332,18 @@ class RunOutcome:
     evals: int                      # log-density evaluations this session
 
 
-def _progress_bar(progress: bool, initial: int, total: int):
+def _progress_bar(progress: bool, total: int):
+    """The bar counts the ESS the stopping rule credits, toward ``total`` = target_ess
+    (inference/progress.py)."""
     from tqdm.auto import tqdm
 
-    return tqdm(total=total, initial=initial, unit="step", desc="sampling", disable=not progress,
+    return tqdm(total=total, initial=0, unit="ESS", desc="sampling", disable=not progress,
                 dynamic_ncols=True, file=sys.stderr, leave=True)
+
+
+def _steps_text(n: int, rule: StopRule, conv: Convergence | None) -> str:
+    tau = "" if conv is None else f", tau {float(conv.tau.max()):.1f}"
+    return f"step {n}/{rule.max_steps}{tau}"
 
 
 def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Callable, moves: str,
@@ -358,7 +367,8 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
     reason = None
     t_session = time.perf_counter()
     evals_start = getattr(log_prob, "n_evals", 0)
-    bar = _progress_bar(progress, chain.n, rule.max_steps)
+    meter = EssProgress(rule.target_ess, rule.min_tau_multiple)
+    bar = _progress_bar(progress, meter.total)
     with bar:
         while True:
             n = chain.n
@@ -366,10 +376,8 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
                 conv = (convergence(chain.array, rule.burn_in_tau, rule.min_tau_multiple,
                                     rule.target_ess) if n >= MIN_STEPS_FOR_TAU else None)
                 reason = stop_reason(conv, n, rule.max_steps)
-                if conv is not None:
-                    bar.total = int(min(rule.max_steps, max(conv.needed_steps, n + every)))
-                    bar.set_postfix_str(f"ESS {conv.min_ess:.0f}/{rule.target_ess:.0f}, "
-                                        f"tau {conv.tau.max():.1f}", refresh=False)
+                bar.set_postfix_str(_steps_text(n, rule, conv), refresh=False)
+                bar.update(meter.check(conv) - bar.n)
                 if reason is not None:
                     break
             m = min(every - n % every, rule.max_steps - n)
@@ -388,7 +396,8 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
                     prev = block[i]
                     last = st
                     done = i + 1
-                    bar.update(1)
+                    bar.set_postfix_str(_steps_text(n + done, rule, conv), refresh=False)
+                    bar.update(0)
             finally:
                 if done:
                     state = SamplerState(block[done - 1].copy(), block_lp[done - 1].copy(),

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config import UNITS
-from bayes_dnlr.numbers import fmt, fmt_at
+from bayes_dnlr.numbers import interval, pm
 from bayes_dnlr.rundir import jsonable, write_atomic, write_json
 
 POSTERIOR_FILE = "posterior.nc"
@@ -220,9 +220,8 @@ class Posterior:
             p = s["posterior"][k]
             est, sd = (gn.get("estimate") or {}).get(k), (gn.get("sd") or {}).get(k)
             unit = UNITS.get(k.split("[", 1)[0], "")
-            rows.append([k, unit, f"{fmt_at(p['mean'], p['sd'])} ± {fmt(p['sd'], 2)}",
-                         f"[{fmt_at(p['hdi_90'][0], p['sd'])}, {fmt_at(p['hdi_90'][1], p['sd'])}]",
-                         "-" if est is None else f"{fmt_at(est, sd)} ± {fmt(sd, 2)}",
+            rows.append([k, unit, pm(p['mean'], p['sd']), interval(*p['hdi_90'], p['sd']),
+                         "-" if est is None else pm(est, sd),
                          f"{p['ess_bulk']:.0f}" if p.get("ess_bulk") else "-",
                          f"{p['ess_tail']:.0f}" if p.get("ess_tail") else "-",
                          f"{p['r_hat']:.4f}" if p.get("r_hat") else "-",

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr import __version__
-from bayes_dnlr.numbers import fmt, fmt_at
+from bayes_dnlr.numbers import fmt, pm
 from bayes_dnlr.pipeline.batch import BatchResult, run_batch
 from bayes_dnlr.pipeline.manifest import (
     BatchError,
@@ -137,7 +137,7 @@ def _img(path: Path, alt: str, caption: str) -> str:
 
 def _pm(r: dict[str, Any], p: str) -> str:
     m, s = r.get(f"{p}_mean"), r.get(f"{p}_sd")
-    return "–" if m is None else f"{fmt_at(m, s)} ± {fmt(s, 2)}"
+    return "–" if m is None else pm(m, s)
 
 
 def _link(r: dict[str, Any], out: Path) -> str:

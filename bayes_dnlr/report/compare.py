@@ -1,7 +1,8 @@
 """Compare runs (paper Tables 3 and 5): E, G, tau_max, De_max and the standards across strain rates.
 
 ``compare_runs(run_dirs, out_dir)`` reads each run's summary.json (posterior) and fit.json
-(Gauss-Newton), writes compare.md and compare.csv into ``out_dir`` (the current directory when None)
+(Gauss-Newton), writes compare.md and compare.csv into ``out_dir`` (by default the folder that holds the runs,
+never the current directory)
 and returns a ``Comparison`` whose ``markdown()`` is what the CLI prints.
 
 Consistency of E across runs (the paper's central claim: E is instantaneous, so it must not depend on
@@ -22,7 +23,8 @@ from pathlib import Path
 from typing import Any
 
 from bayes_dnlr.errors import RunError
-from bayes_dnlr.report.tables import RunResults, Table, deborah, fmt, fmt_at, load_run
+from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pm
+from bayes_dnlr.report.tables import RunResults, Table, deborah, load_run
 
 P_CONSISTENT = 0.05
 PARAMS = ("E", "G", "tau_max", "sigma_inf", "tau_max_R")
@@ -106,7 +108,7 @@ class Comparison:
 def _pm(v: float | None, sd: float | None) -> str:
     if v is None:
         return "–"
-    return fmt(v) if sd is None else f"{fmt_at(v, sd)} ± {fmt(sd, 2)}"
+    return pm(v, sd)
 
 
 def run_row(run: RunResults) -> dict[str, Any]:
@@ -187,11 +189,11 @@ def consistency_of_e(rows: Sequence[dict[str, Any]]) -> Consistency:
 
 def rate_table(ra) -> Table:
     """The posterior differences of E from the slowest rate, and the trend per decade."""
-    rows = [[f"E[{t}] - E[{ra.reference}] (MPa)", fmt(ra.rates[t], 3), fmt(d["mean"]), fmt(d["sd"]),
-             f"[{fmt(d['hdi_90'][0])}, {fmt(d['hdi_90'][1])}]", f"{d['z']:+.1f}"]
+    rows = [[f"E[{t}] - E[{ra.reference}] (MPa)", fmt(ra.rates[t], 3), fmt_at(d["mean"], d["sd"]),
+             fmt_sd(d["sd"]), interval(*d["hdi_90"], d["sd"]), f"{d['z']:+.1f}"]
             for t, d in ra.differences.items()]
     s = ra.slope
-    rows.append(["trend of E (% per decade of rate)", "", f"{s['mean']:+.2f}", fmt(s["sd"]),
+    rows.append(["trend of E (% per decade of rate)", "", f"{s['mean']:+.2f}", fmt_sd(s["sd"]),
                  f"95 % [{s['lo95']:+.2f}, {s['hi95']:+.2f}]", ""])
     return Table(["quantity", "rate (1/s)", "posterior mean", "sd", "interval", "mean / sd"], rows,
                  "E across strain rates, from the posteriors", css="num")
@@ -219,7 +221,11 @@ def default_out_dir(run_dirs: Sequence[Path | str]) -> Path:
         return parents.pop()
     import os
 
-    return Path(os.path.commonpath([str(p) for p in parents]))
+    common = Path(os.path.commonpath([str(p) for p in parents]))
+    if common == Path(common.anchor):
+        raise RunError(f"the runs are in folders with nothing in common but {common} "
+                       f"({', '.join(sorted(str(p) for p in parents))}): give compare --out DIR")
+    return common
 
 
 def compare_runs(run_dirs: Sequence[Path | str], out_dir: Path | str | None = None) -> Comparison:

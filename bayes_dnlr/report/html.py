@@ -18,11 +18,12 @@ import numpy as np
 
 from bayes_dnlr import __version__
 from bayes_dnlr.inference.plausibility import plausibility_warnings
+from bayes_dnlr.numbers import fmt, interval, pm
 from bayes_dnlr.report import figures as figs
 from bayes_dnlr.report import noise as rn
 from bayes_dnlr.report import tables as tb
 from bayes_dnlr.report import views
-from bayes_dnlr.report.tables import RunResults, fmt, load_run
+from bayes_dnlr.report.tables import RunResults, load_run
 
 N_DRAWS = 200          # posterior draws pushed through the model for the bands
 
@@ -176,18 +177,18 @@ def _headline(run: RunResults, std: dict | None) -> str:
     e, e_sd, src = tb.e_model(run)
     parts = []
     if e is not None:
-        s = f"<b>E = {fmt(e)} ± {fmt(e_sd)} MPa</b> ({src} ± sd"
+        s = f"<b>E = {pm(e, e_sd)} MPa</b> ({src} ± sd"
         post = (run.summary or {}).get("posterior") or {}
         if "E" in post and post["E"].get("hdi_90"):
             lo, hi = post["E"]["hdi_90"]
-            s += f"; 90 % HDI [{fmt(lo)}, {fmt(hi)}]"
+            s += f"; 90 % HDI {interval(lo, hi, e_sd)}"
         s += ")"
         gn = run.gn()
         if run.uses_discrepancy:
             s += "; with the model discrepancy"
         if gn is not None and src != "Gauss-Newton" and "E" in gn["estimate"]:
-            s += (f"; white-noise least squares (the paper's) {fmt(gn['estimate']['E'])} ± "
-                  f"{fmt((gn['sd'] or {}).get('E'))} MPa")
+            s += (f"; white-noise least squares (the paper's) "
+                  f"{pm(gn['estimate']['E'], (gn['sd'] or {}).get('E'))} MPa")
         parts.append(s + ".")
     iso = ((run.summary or {}).get("standards") or {}).get("iso527_1")
     if iso is None and std and std.get("iso527_1") is not None:

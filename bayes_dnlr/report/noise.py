@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bayes_dnlr.numbers import fmt, fmt_at, pct
+from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pct, pm
 from bayes_dnlr.report import figures as figs
 from bayes_dnlr.report.tables import RunResults, Table
 
@@ -100,7 +100,7 @@ def interval_table(run: RunResults, parameter: str = "E") -> Table | None:
         if est is None or sd is None:
             return
         err = sd / abs(est) if est else None
-        rows.append([label, fmt_at(est, sd), fmt(sd), f"[{fmt_at(lo, sd)}, {fmt_at(hi, sd)}]", pct(err)])
+        rows.append([label, fmt_at(est, sd), fmt_sd(sd), interval(lo, hi, sd), pct(err)])
 
     z = 1.6448536269514722
     w_est, w_sd = (fit.get("estimate") or {}).get(parameter), (fit.get("sd") or {}).get(parameter)
@@ -148,7 +148,7 @@ def hyper_table(run: RunResults) -> Table | None:
         post = noise.get(key) or {}
         if post.get("sampled"):
             lo, hi = post["hdi_90"]
-            cell = f"{fmt(post['mean'])} ± {fmt(post['sd'], 2)} [{fmt(lo)}, {fmt(hi)}]"
+            cell = f"{pm(post['mean'], post['sd'])} {interval(lo, hi, post['sd'])}"
         else:
             cell = "fixed" if post else "—"
         rows.append([f"{label} ({u})", fmt(ml.get(key)), prior, cell])

@@ -19,7 +19,7 @@ import numpy as np
 
 from bayes_dnlr.config import UNITS, Config, load_config
 from bayes_dnlr.crosscheck import crosscheck_values, deborah_max
-from bayes_dnlr.numbers import fmt, fmt_at, pct
+from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pct
 from bayes_dnlr.rundir import find_config
 
 SD_TOLERANCE = 0.15      # posterior sd vs linearized sd, relative
@@ -311,8 +311,8 @@ def parameter_table(run: RunResults) -> Table:
         if post:
             s = post.get(n, {})
             hdi = s.get("hdi_90") or [None, None]
-            row += [fmt_at(s.get("mean"), prec), fmt(s.get("sd")), fmt_at(s.get("median"), prec),
-                    f"[{fmt_at(hdi[0], prec)}, {fmt_at(hdi[1], prec)}]", fmt(s.get("ess_bulk"), 3),
+            row += [fmt_at(s.get("mean"), prec), fmt_sd(s.get("sd")), fmt_at(s.get("median"), prec),
+                    interval(hdi[0], hdi[1], prec), fmt(s.get("ess_bulk"), 3),
                     fmt(s.get("ess_tail"), 3), fmt(s.get("r_hat"), 4)]
         if gn is not None:
             est, sd = gn["estimate"].get(n), (gn["sd"] or {}).get(n)
@@ -321,7 +321,7 @@ def parameter_table(run: RunResults) -> Table:
                 err = saved_err[n]          # fit's Err: null for a value of zero (e.g. on a bound)
             else:
                 err = None if est in (None, 0) or sd is None else sd / abs(est)
-            row += [fmt_at(est, prec), fmt(sd), pct(err)]
+            row += [fmt_at(est, sd if sd else prec), fmt_sd(sd), pct(err)]
         if truth:
             t = truth.get(n)
             cell = fmt_at(t, prec)
@@ -537,7 +537,7 @@ def standards_table(run: RunResults, results: dict | None) -> Table:
         if val is not None and e_mean and val > e_mean:
             ratio += " ⚑"
         rows.append([label[key], fmt(val), ratio, how])
-    rows.append([f"E, model ({src})", fmt(e_mean), "1", f"± {fmt(e_sd)} MPa" if e_sd else ""])
+    rows.append([f"E, model ({src})", fmt_at(e_mean, e_sd), "1", f"± {fmt_sd(e_sd)} MPa" if e_sd else ""])
     notes = ["Ratio: standard modulus / E. The paper's Table 1 and 4 find 1138 (ISO) and 1141 (ASTM) "
              "against E = 2830 MPa (ratio 0.40) for HDPE at 5 mm/min: the standards measure an apparent "
              "modulus that depends on the test speed, not the instantaneous modulus."]
@@ -641,14 +641,14 @@ def crosscheck_table(run: RunResults, standards: dict | None = None) -> Table | 
             v = standards[key].modulus
         if v is not None and e_mean:
             rows.append([label, fmt(v), "", f"{(v - e_mean) / e_mean * 100:+.0f} %", "this tensile curve"])
-    rows.append([f"E model-based ({src})", fmt(e_mean), fmt(e_sd), "reference", "this run"])
+    rows.append([f"E model-based ({src})", fmt_at(e_mean, e_sd), fmt_sd(e_sd), "reference", "this run"])
     for v in vals:
         disc = "–" if not e_mean else f"{v.ratio_to(e_mean) * 100:+.1f} %"
         agree = ""
         if v.sd is not None and e_sd is not None and e_mean:
             z = abs(v.modulus - e_mean) / math.hypot(v.sd, e_sd)
             agree = f"; {z:.1f} combined sd from E" + (" ⚑" if z > 2 else "")
-        rows.append([v.technique, fmt(v.modulus), fmt(v.sd), disc, v.detail + agree])
+        rows.append([v.technique, fmt_at(v.modulus, v.sd), fmt_sd(v.sd), disc, v.detail + agree])
     return Table(["technique", "modulus (MPa)", "± sd (MPa)", "discrepancy to E", "detail"], rows,
                  "Independent measurements of E (paper Table 4)",
                  ["Discrepancy: (E_technique - E_model) / E_model, as in the paper's Table 4. ⚑: more than "

@@ -1,0 +1,36 @@
+"""Is a run's report current? report.html newer than everything it is built from (issue 15: the
+re-run of a finished ``make demo`` rebuilt an unchanged report, 17 s for nothing)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from bayes_dnlr.rundir import RESOLVED_CONFIG, RESOLVED_CONFIG_BESIDE_SOURCE, find_config
+
+REPORT_FILE = "report.html"
+RESULTS = ("fit.json", "summary.json", "posterior.nc")
+
+
+def report_inputs(run_dir: Path) -> list[Path]:
+    """The files report.html is built from: the run's configs, its data file(s) and results."""
+    from bayes_dnlr.config import load_config
+
+    run_dir = Path(run_dir)
+    paths = [run_dir / n for n in (RESOLVED_CONFIG, RESOLVED_CONFIG_BESIDE_SOURCE, *RESULTS)]
+    try:
+        cfg = load_config(find_config(run_dir))
+        paths += [t.data_path for t in cfg.test_configs()]
+    except Exception:  # noqa: BLE001 - an unreadable config: build_report will say what is wrong
+        return []
+    return [p for p in paths if p.is_file()]
+
+
+def stale_inputs(run_dir: Path) -> list[Path] | None:
+    """None when report.html is missing or cannot be judged (build it); else the inputs newer than
+    it (an empty list: the report is current)."""
+    report = Path(run_dir) / REPORT_FILE
+    inputs = report_inputs(run_dir)
+    if not report.is_file() or not inputs:
+        return None
+    built = report.stat().st_mtime_ns
+    return [p for p in inputs if p.stat().st_mtime_ns >= built]
