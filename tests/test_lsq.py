@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 from typing import Any
 
@@ -176,6 +177,8 @@ def test_interval_I_with_G_fixed_is_the_papers_two_parameter_identification():
     assert all(abs(v) < 3 for v in within_sd(r, TABLE3).values())
     assert -0.995 <= r.correlation[0, 1] <= -0.95
     assert r.delta_tilde.shape == (2, 2)
+    rows = [line for line in r.table().splitlines() if line.split()[:1] in (["E"], ["G"], ["tau_max"])]
+    assert len(rows) == 3 and len({len(line) - len(line.split()[-1]) for line in rows}) == 1  # units aligned
     # interval II narrows E: the paper's Table 2 (a) vs (b)
     r2 = fit_test(config(), test_data(t, e, y))
     assert r2.sd["E"] < r.sd["E"]
@@ -331,7 +334,8 @@ def test_fit_json_is_strict_json(tmp_path: Path):
 
 # ---------------------------------------------------------------- real data (optional)
 
-REAL_ETFE = REPO.parent / "shared" / "data" / "real" / "ETFE_MD_CSR_0p1pct_per_s_T40C_3specimens.csv"
+REAL_ETFE = Path(os.environ.get("BAYES_DNLR_REAL_DATA", REPO.parent / "shared" / "data" / "real")) / \
+    "ETFE_MD_CSR_0p1pct_per_s_T40C_3specimens.csv"
 
 
 @pytest.mark.skipif(not REAL_ETFE.is_file(), reason="../shared/data/real is absent (not part of the project)")

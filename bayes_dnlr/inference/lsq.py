@@ -163,7 +163,10 @@ class FitResult:
         lines.append(head + "  unit")
         for k, v in self.estimate.items():
             if k not in self.sd:
-                lines.append(f"{k:<{w}}{fmt(v, 6):>14}{'fixed':>12}{'':>9}  {UNITS[k]}")
+                row = f"{k:<{w}}{fmt(v, 6):>14}{'fixed':>12}{'':>9}"
+                if d:
+                    row += f"  {fmt(v, 6):>14}{'fixed':>12}{'':>9}"
+                lines.append(f"{row}  {UNITS[k]}")
                 continue
             row = f"{k:<{w}}{fmt_at(v, self.sd[k]):>14}{fmt_sd(self.sd[k]):>12}{err_pct(self.err[k]):>9}"
             if d:
