@@ -29,9 +29,9 @@ def _config(path: str):
 
 
 def cmd_simulate(args: argparse.Namespace) -> None:
-    from bayes_dnlr.synthetic import simulate_test
+    from bayes_dnlr.synthetic import simulate_tests
 
-    print(simulate_test(_config(args.config), overwrite=args.force).summary())
+    print("\n".join(r.summary() for r in simulate_tests(_config(args.config), overwrite=args.force)))
 
 
 def cmd_fit(args: argparse.Namespace) -> None:

@@ -745,6 +745,13 @@ def _is_type_tag(part: str) -> bool:
     return part in _UNION_TAGS or part.startswith(("function-", "literal["))
 
 
+def _names_a_key(msg: str) -> bool:
+    """A top-level message that already starts with the key it is about (``tests[3].name: ...``)."""
+    import re
+
+    return re.match(r"^(tests\[\d+\]|parameters|noise|truth|data)[.\w\[\]]*: ", msg) is not None
+
+
 def _format_errors(err: ValidationError, where: str) -> str:
     entries = []
     for e in err.errors():
@@ -760,7 +767,9 @@ def _format_errors(err: ValidationError, where: str) -> str:
     # the value, and drop the members that failed on the value as a whole (e.g. "should be 'none'")
     keep = [(loc, msg) for loc, msg in entries
             if not any(len(other) > len(loc) and other[:len(loc)] == loc for other, _ in entries)]
-    lines = [f"{where}: {'.'.join(loc) or '(top level)'}: {msg}" for loc, msg in keep]
+    lines = [f"{where}: {'.'.join(loc)}: {msg}" if loc else
+             f"{where}: {msg}" if _names_a_key(msg) else f"{where}: (top level): {msg}"
+             for loc, msg in keep]
     # one line per distinct message, in order
     return "\n".join(dict.fromkeys(lines))
 

@@ -143,11 +143,21 @@ def _blocks(views: dict[str, Config], tests: dict[str, Any]) -> dict[str, LsqPro
     return out
 
 
+def _fit_single(i: int, view: Config, test: Any) -> FitResult:
+    """One test alone; its errors name the test (``tests[i] (name): ...``): a parameter its data
+    cannot identify is a config error of that test (fix it, give it ``per: test``, or widen the
+    window)."""
+    try:
+        return fit_test(view, test)
+    except BayesDnlrError as err:
+        raise type(err)(f"tests[{i}] ({view.name}): {err}") from None
+
+
 def fit_joint(cfg: Config, tests: dict[str, Any]) -> JointFitResult:
     """The joint fit of a run with ``tests:`` (``tests``: name -> TestData); writes nothing."""
     t0 = time.perf_counter()
     views = {t: cfg.for_test(t) for t in cfg.test_names}
-    singles = {t: fit_test(views[t], tests[t]) for t in views}
+    singles = {t: _fit_single(i, views[t], tests[t]) for i, t in enumerate(views)}
     layout = Layout.build({t: views[t].free_parameters for t in views}, cfg.per_test_parameters)
     bounds = {g: cfg.parameters[base_name(g)].bounds() for g in layout.names}
     blocks = _blocks(views, tests)
