@@ -734,7 +734,13 @@ class Config(_Strict):
 
     def to_yaml(self) -> str:
         """The config as resolved (defaults filled in), as YAML."""
-        return yaml.safe_dump(self.model_dump(mode="json", exclude_none=True), sort_keys=False)
+        return yaml.safe_dump(self.as_dict(), sort_keys=False)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The config as resolved, as plain data that ``parse_config`` reads back (a run with tests:
+        has each test's noise under tests[i]: the top-level default is left out)."""
+        return self.model_dump(mode="json", exclude_none=True,
+                               exclude={"noise"} if self.is_joint else None)
 
 
 _UNION_TAGS = {"BaselineNoise", "SampledNoise", "DiscrepancyConfig", "float", "int", "str", "none",

@@ -147,3 +147,18 @@ def test_bad_config_simulate_needs_every_truth(tmp_path):
     path.write_text(yaml.safe_dump(raw, sort_keys=False))
     line = _one_error_line(cli("simulate", "--force", str(path)))
     assert "tests[1].truth" in line
+
+
+def test_joint_report_shows_every_test_one_corner_and_tables_3_5(joint_run):
+    from bayes_dnlr.report import build_report
+
+    page = build_report(joint_run).read_text()
+    figs = sorted(p.name for p in (joint_run / "figures").glob("*.png"))
+    assert figs.count("corner.png") == 1
+    assert [f for f in figs if f.startswith("fit-")] == sorted(f"fit-{t}.png" for t in RATES)
+    assert "Tables 3/5 layout" in page and "(shared)" in page
+    for t in RATES:
+        assert f"<th>{t}</th>" in page          # one column per test
+        assert f"<h3>{t} (" in page             # its fit and residuals
+    # E shared: the rate question is explained, the paper's χ² of the tests alone is given
+    assert "one E by construction" in page and "χ²" in page

@@ -272,7 +272,7 @@ def load_run(run_dir: Path | str, load_data: bool = True) -> RunResults:
             run.draws = read_draws(nc) or None
         except Exception as err:  # noqa: BLE001 - any reader failure becomes a note in the report
             problems.append(f"posterior.nc could not be read: {err}")
-    if load_data:
+    if load_data and not cfg.is_joint:     # a joint run: each test is loaded by its view
         try:
             from bayes_dnlr.data import load_test
 
@@ -287,7 +287,7 @@ def load_run(run_dir: Path | str, load_data: bool = True) -> RunResults:
 # ---------------------------------------------------------------------------------------------
 
 def _unit(n: str) -> str:
-    return UNITS.get(n, "")
+    return UNITS.get(n.split("[", 1)[0], "")     # tau_max[r5e-3] of a joint run: s
 
 
 def parameter_table(run: RunResults) -> Table:
