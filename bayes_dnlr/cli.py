@@ -5,6 +5,7 @@
     python -m bayes_dnlr sample   runs/hdpe-a-5e-3/config.yaml
     python -m bayes_dnlr report   runs/hdpe-a-5e-3
     python -m bayes_dnlr compare  runs/hdpe-a-*
+    python -m bayes_dnlr population runs/population/spec-*
     python -m bayes_dnlr design   design.yaml
     python -m bayes_dnlr export   runs/hdpe-a-5e-3 --format abaqus --nu 0.45
     python -m bayes_dnlr batch    runs/*/config.yaml [--scheduler tcp://host:8786]
@@ -61,6 +62,14 @@ def cmd_compare(args: argparse.Namespace) -> None:
 
     table = compare_runs([Path(d) for d in args.run_dirs], out_dir=args.out)
     print(table.markdown())
+
+
+def cmd_population(args: argparse.Namespace) -> None:
+    from bayes_dnlr.report.population import markdown, population_report
+
+    pr = population_report([Path(d) for d in args.run_dirs], parameter=args.parameter, out=args.out,
+                           force=args.force)
+    print(markdown(pr) + "written: " + ", ".join(str(p) for p in pr.written))
 
 
 def cmd_design(args: argparse.Namespace) -> None:
@@ -125,6 +134,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, default=None,
                    help="folder for compare.md and compare.csv (default: the folder that holds the runs)")
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("population", help="specimens of one material as a population: the material's "
+                                          "mean E, the specimen-to-specimen sd and each specimen's "
+                                          "shrunken E, from finished runs (docs/population.md)")
+    p.add_argument("run_dirs", nargs="+", metavar="run_dir", help="finished runs, one per specimen")
+    p.add_argument("--parameter", default="E", choices=["E", "G"], help="the pooled parameter (default E)")
+    p.add_argument("--out", type=Path, default=None,
+                   help="folder for population.json/.md/.png (default: the folder that holds the runs)")
+    p.add_argument("--force", action="store_true",
+                   help="replace a population.json made from other runs")
+    p.set_defaults(func=cmd_population)
 
     p = sub.add_parser("design", help="experiment design: predicted sd, Err and correlations of planned "
                                       "tests, and the recommended one")

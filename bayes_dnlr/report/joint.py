@@ -212,8 +212,9 @@ def _rate_section(run: RunResults, views: dict[str, RunResults], ra) -> list[str
         sec.append(rate_table(ra).html())
         method = ra.to_dict()["method"]
         cls = {"consistent": "ok", "rate-dependent": "warn"}.get(ra.verdict, "")
+        words = ra.words.removeprefix(ra.verdict + ": ")
         sec.append(f'<div class="box {cls}"><b>Verdict: {html.escape(ra.verdict)}.</b> '
-                   f"{html.escape(ra.words.removeprefix(ra.verdict + ': '))}<br>Model comparison, one E for all rates against one E per "
+                   f"{html.escape(words)}<br>Model comparison, one E for all rates against one E per "
                    f"rate: ln BF<sub>01</sub> = {ra.log_bf01:+.2f}, method: {html.escape(method)}, "
                    f"under the likelihood of each test ({_likelihoods(views)}).</div>")
         if ra.notes:
