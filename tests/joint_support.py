@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 from bayes_dnlr.config import load_config
@@ -64,3 +65,58 @@ def make_joint(folder: Path, name: str = "joint", *, per_test: tuple[str, ...] =
     path.write_text(yaml.safe_dump(raw, sort_keys=False))
     simulate_tests(load_config(path))
     return path
+
+
+def recovery(folder: Path, seed: int = 0, n_points: int = 400, stress_sd: float = 0.3) -> dict[str, Any]:
+    """Joint recovery on a synthetic three-rate set (one E and G, tau_max per test, the paper's
+    protocol to strain 1.9): the joint posterior beside each test sampled alone, all with the default
+    sampler (ESS >= 1000) and the default noise model. Returns the figures issue 11 asks for."""
+    import json
+    import time
+
+    from bayes_dnlr.pipeline.sample import sample
+
+    run = folder / "joint"
+    run.mkdir(parents=True, exist_ok=True)
+    taus = {"r2.5e-3": 10.64, "r5e-3": 5.79, "r1e-2": 3.15}
+    tests = []
+    for i, (t, rate) in enumerate(RATES.items()):
+        spec = rate_test(t, rate, {**SHARED, "tau_max": taus[t]}, n_points=n_points, strain_max=1.9,
+                         stress_sd=stress_sd, seed=100 * seed + i + 1, discrepancy=True)
+        spec["data"]["window"] = {"strain_max": 1.9}
+        tests.append(spec)
+    sampler = {"walkers": 32, "max_steps": 20000, "target_ess": 1000, "seed": seed + 1,
+               "checkpoint_every": 500}
+    raw = {"name": "joint", "tests": tests, "sampler": sampler,
+           "parameters": {"tau_max": {"prior": "log-uniform", "low": 0.01, "high": 10000, "per": "test"}}}
+    (run / "config.yaml").write_text(yaml.safe_dump(raw, sort_keys=False))
+    cfg = load_config(run / "config.yaml")
+    simulate_tests(cfg)
+    out: dict[str, Any] = {"single": {}}
+    for t in RATES:
+        view = cfg.for_test(t)
+        t0 = time.perf_counter()
+        s = sample(view, progress=False).summary
+        out["single"][t] = {"E_mean": s["posterior"]["E"]["mean"], "E_sd": s["posterior"]["E"]["sd"],
+                            "sampling_s": s["wall_time_s"], "total_s": time.perf_counter() - t0,
+                            "steps": s["steps"]}
+    t0 = time.perf_counter()
+    s = sample(cfg, progress=False).summary
+    total = time.perf_counter() - t0
+    post = s["posterior"]
+    best = min(v["E_sd"] for v in out["single"].values())
+    out["joint"] = {
+        "E_mean": post["E"]["mean"], "E_sd": post["E"]["sd"],
+        "E_z": (post["E"]["mean"] - SHARED["E"]) / post["E"]["sd"],
+        "sd_ratio_to_best_single": post["E"]["sd"] / best,
+        "r_hat_max": max(v["r_hat"] for v in post.values()),
+        "ess_bulk_min": min(v["ess_bulk"] for v in post.values()),
+        "ess_tail_min": min(v["ess_tail"] for v in post.values()),
+        "sampling_s": s["wall_time_s"], "total_s": total, "steps": s["steps"],
+        "parameters": list(post), "converged": s["converged"],
+    }
+    singles = out["single"].values()
+    out["time_ratio_sampling_to_mean_single"] = s["wall_time_s"] / np.mean([v["sampling_s"] for v in singles])
+    out["time_ratio_total_to_mean_single"] = total / np.mean([v["total_s"] for v in singles])
+    (folder / "recovery.json").write_text(json.dumps(out, indent=2))
+    return out
