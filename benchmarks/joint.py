@@ -46,7 +46,7 @@ def main() -> None:
               f"{singles:>24} {r['time_ratio_sampling_to_mean_single']:>6.2f} "
               f"{r['time_ratio_total_to_mean_single']:>11.2f}")
         print("      single-test E: " + ", ".join(
-            f"{t} {v['E_mean']:.0f} ± {v['E_sd']:.1f}" for t, v in r["single"].items()))
+            f"{t} {v['E_mean']:.0f} ± {v['E_sd']:.1f} ({v['steps']} steps)" for t, v in r["single"].items()))
     print(f"load after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     print("ratio: joint sampling time / mean single-test sampling time; ratio total: fit + sample "
           "wall time of the joint run / mean single-test fit + sample wall time")

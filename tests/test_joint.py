@@ -162,3 +162,20 @@ def test_joint_report_shows_every_test_one_corner_and_tables_3_5(joint_run):
         assert f"<h3>{t} (" in page             # its fit and residuals
     # E shared: the rate question is explained, the paper's χ² of the tests alone is given
     assert "one E by construction" in page and "χ²" in page
+
+
+@pytest.mark.slow
+def test_joint_recovery(tmp_path):
+    """Three rates with one E and G (issue 11, "Joint recovery"): the joint E within 3 sd of the
+    truth, its sd at most 0.75 × the best single-test posterior sd, R-hat ≤ 1.01 and ESS ≥ 1000
+    for every parameter (benchmarks/joint.py prints these with the times)."""
+    from joint_support import recovery
+
+    r = recovery(tmp_path, seed=0)
+    j = r["joint"]
+    assert j["converged"]
+    assert abs(j["E_z"]) <= 3, j
+    assert j["sd_ratio_to_best_single"] <= 0.75, j
+    assert j["r_hat_max"] <= 1.01, j
+    assert min(j["ess_bulk_min"], j["ess_tail_min"]) >= 1000, j
+    assert j["parameters"][:5] == JOINT_NAMES
