@@ -7,7 +7,8 @@ jointly, every run with the default sampler (32 walkers, ESS >= 1000) and the de
 seed: the joint E, its distance to the truth in posterior sd (target within 3), its sd against the
 best single-test posterior sd (target <= 0.75), the largest R-hat (<= 1.01) and the smallest ESS
 (>= 1000) over every parameter, and the joint sampling time against the mean single-test time
-measured in the same run (target <= 3x).
+measured in the same run (target <= 3x), with the load-independent work ratio (steps x model
+points: the joint likelihood evaluates every test's model at each step).
 
     .venv/bin/python benchmarks/joint.py [--seeds 0 1 2] [--points 400]
 """
@@ -33,7 +34,8 @@ def main() -> None:
     print(f"load before: {' '.join(f'{x:.2f}' for x in os.getloadavg())} on {os.cpu_count()} cores")
     print(f"truth E {SHARED['E']:g} MPa; {args.points} points per test")
     head = (f"{'seed':>4} {'joint E':>9} {'sd':>6} {'z':>6} {'sd/best':>8} {'R-hat max':>9} "
-            f"{'ESS min':>8} {'steps':>6} {'joint s':>8} {'single s':>24} {'ratio':>6} {'ratio total':>11}")
+            f"{'ESS min':>8} {'steps':>6} {'joint s':>8} {'single s':>24} {'ratio':>6} {'ratio total':>11} "
+            f"{'work ratio':>10}")
     print(head)
     for seed in args.seeds:
         with tempfile.TemporaryDirectory() as tmp:
@@ -44,12 +46,13 @@ def main() -> None:
               f"{j['sd_ratio_to_best_single']:>8.3f} {j['r_hat_max']:>9.4f} "
               f"{min(j['ess_bulk_min'], j['ess_tail_min']):>8.0f} {j['steps']:>6} {j['sampling_s']:>8.1f} "
               f"{singles:>24} {r['time_ratio_sampling_to_mean_single']:>6.2f} "
-              f"{r['time_ratio_total_to_mean_single']:>11.2f}")
+              f"{r['time_ratio_total_to_mean_single']:>11.2f} {r['work_ratio_to_mean_single']:>10.2f}")
         print("      single-test E: " + ", ".join(
             f"{t} {v['E_mean']:.0f} ± {v['E_sd']:.1f} ({v['steps']} steps)" for t, v in r["single"].items()))
     print(f"load after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     print("ratio: joint sampling time / mean single-test sampling time; ratio total: fit + sample "
-          "wall time of the joint run / mean single-test fit + sample wall time")
+          "wall time of the joint run / mean single-test fit + sample wall time;\nwork ratio: steps x "
+          "model points of the joint run / the mean single test's (load-independent; same walkers)")
 
 
 if __name__ == "__main__":
