@@ -9,7 +9,12 @@
 2. Time of the population step on 8 specimens with 40 000 draws each (a full run's worth: 32 walkers
    × 1250 kept steps), against the time of one single-test `fit` measured in the same run.
 
-    .venv/bin/python benchmarks/population.py [--populations 100] [--specimens 8]
+3. ``--big-joint``: why two stages. The six shipped specimens (runs/population/spec-*) sampled as ONE
+   emcee run with E, G and tau_max per specimen (18 parameters, 40 walkers; a hierarchical run would
+   add mu and s), against the six single runs (3 parameters each; they must be finished: `sample`
+   each first): steps, autocorrelation times and sampling time to ESS >= 1000.
+
+    .venv/bin/python benchmarks/population.py [--populations 100] [--specimens 8] [--big-joint]
 """
 
 from __future__ import annotations
@@ -63,11 +68,60 @@ def fit_time() -> float:
         return time.perf_counter() - t0
 
 
+def big_joint() -> None:
+    """The six shipped specimens as one 18-parameter emcee run against their six single runs."""
+    import json
+    import tempfile
+
+    import yaml
+
+    from bayes_dnlr.config import load_config
+    from bayes_dnlr.pipeline.sample import sample
+
+    root = Path(__file__).resolve().parents[1] / "runs" / "population"
+    specs = sorted(root.glob("spec-*/config.yaml"))
+    singles = []
+    for c in specs:
+        summary = c.parent / "summary.json"
+        if not summary.is_file():
+            sys.exit(f"{c.parent}: not sampled yet: run `python -m bayes_dnlr sample {c}` first")
+        singles.append(json.loads(summary.read_text()))
+    tests = []
+    for c in specs:
+        raw = yaml.safe_load(c.read_text())
+        raw["data"]["file"] = str(c.parent / raw["data"]["file"])
+        tests.append({"name": raw["name"], "data": raw["data"], "noise": raw["noise"]})
+    priors = {"E": {"prior": "uniform", "low": 100, "high": 20000},
+              "G": {"prior": "uniform", "low": 0, "high": 50},
+              "tau_max": {"prior": "log-uniform", "low": 0.01, "high": 10000}}
+    with tempfile.TemporaryDirectory() as tmp:
+        cfg_path = Path(tmp) / "config.yaml"
+        cfg_path.write_text(yaml.safe_dump({
+            "name": "bigjoint", "tests": tests, "output": {"dir": tmp},
+            "parameters": {k: {**v, "per": "test"} for k, v in priors.items()},
+            "sampler": {"walkers": 40, "max_steps": 20000, "target_ess": 1000, "seed": 1,
+                        "checkpoint_every": 200}}))
+        s = sample(load_config(cfg_path), progress=False).summary
+    taus = [v for v in s["autocorr_time"].values()]
+    st = [x["steps"] for x in singles]
+    stau = [v for x in singles for v in x["autocorr_time"].values()]
+    tsingle = sum(x["wall_time_s"] for x in singles)
+    print(f"one emcee run, {len(s['posterior'])} parameters, 40 walkers: {s['steps']} steps, tau "
+          f"{min(taus):.0f}-{max(taus):.0f}, sampling {s['wall_time_s']:.1f} s")
+    print(f"{len(singles)} single runs, 3 parameters, 32 walkers: {min(st)}-{max(st)} steps, tau "
+          f"{min(stau):.1f}-{max(stau):.1f}, sampling {tsingle:.1f} s in all; ratio "
+          f"{s['wall_time_s'] / tsingle:.1f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--populations", type=int, default=100)
     ap.add_argument("--specimens", type=int, default=8)
+    ap.add_argument("--big-joint", action="store_true", help="only part 3 (see the module doc)")
     args = ap.parse_args()
+    if args.big_joint:
+        big_joint()
+        return
     print(f"load: {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} {os.getloadavg()[2]:.2f} "
           f"on {os.cpu_count()} cores")
     t0 = time.perf_counter()
