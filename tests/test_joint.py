@@ -179,3 +179,9 @@ def test_joint_recovery(tmp_path):
     assert j["r_hat_max"] <= 1.01, j
     assert min(j["ess_bulk_min"], j["ess_tail_min"]) >= 1000, j
     assert j["parameters"][:5] == JOINT_NAMES
+
+
+def test_compare_refuses_a_joint_run_in_one_line(joint_run, tmp_path):
+    line = _one_error_line(cli("compare", str(joint_run), "--out", str(tmp_path / "cmp")))
+    assert "several tests" in line and "report" in line
+    assert not (tmp_path / "cmp").exists()
