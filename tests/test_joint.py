@@ -185,3 +185,21 @@ def test_compare_refuses_a_joint_run_in_one_line(joint_run, tmp_path):
     line = _one_error_line(cli("compare", str(joint_run), "--out", str(tmp_path / "cmp")))
     assert "several tests" in line and "report" in line
     assert not (tmp_path / "cmp").exists()
+
+
+def test_joint_correlation_warnings_in_one_line():
+    """A shared E ties every test's tau_max to it and so to each other: one warning, every pair."""
+    from bayes_dnlr.inference.joint_fit import _joint_identifiability
+    from bayes_dnlr.inference.sensitivity import analyse
+
+    rng = np.random.default_rng(0)
+    n = 200
+    ua, ub = rng.normal(size=n), rng.normal(size=n)    # E's sensitivity in test a and in test b
+    Xa = np.column_stack([ua, -ua + 0.03 * rng.normal(size=n), np.zeros(n), rng.normal(size=n)])
+    Xb = np.column_stack([ub, np.zeros(n), -ub + 0.03 * rng.normal(size=n), rng.normal(size=n)])
+    names = ["E", "tau_max[a]", "tau_max[b]", "G"]
+    warns = _joint_identifiability(analyse(np.vstack([Xa, Xb]), names, np.ones(4), 1.0))
+    corr = [w for w in warns if "correlated" in w]
+    assert len(corr) == 1 and not any(w.startswith("|ρ(") for w in warns)
+    for pair in ("E–tau_max[a]", "E–tau_max[b]", "tau_max[a]–tau_max[b]"):
+        assert pair in corr[0]
