@@ -203,3 +203,31 @@ def test_joint_correlation_warnings_in_one_line():
     assert len(corr) == 1 and not any(w.startswith("|ρ(") for w in warns)
     for pair in ("E–tau_max[a]", "E–tau_max[b]", "tau_max[a]–tau_max[b]"):
         assert pair in corr[0]
+
+
+def test_joint_report_with_model_error_in_one_test(tmp_path):
+    """One test with a smooth correlated error: its own discrepancy in the joint posterior
+    (disc_amplitude[r5e-3]); the others white; the report draws δ on that test's residuals only."""
+    from bayes_dnlr.config import load_config
+    from bayes_dnlr.pipeline.sample import sample
+    from bayes_dnlr.report import build_report
+    from bayes_dnlr.synthetic import simulate_tests
+
+    path = make_joint(tmp_path, "bias", discrepancy=True, sampler={"walkers": 24, "max_steps": 200})
+    raw = yaml.safe_load(path.read_text())
+    for t in raw["tests"]:
+        t["noise"] = {"sigma0": "residuals"}
+    raw["tests"][1]["truth"]["noise"]["correlated"] = {"kernel": "matern32", "amplitude": 0.5,
+                                                       "length": 20.0}
+    path.write_text(yaml.safe_dump(raw, sort_keys=False))
+    cfg = load_config(path)
+    simulate_tests(cfg, overwrite=True)
+    summary = sample(cfg, progress=False).summary
+    assert "disc_amplitude[r5e-3]" in summary["posterior"]
+    assert not any(k.startswith("disc_") and "[r5e-3]" not in k for k in summary["posterior"])
+    assert summary["noise"]["tests"]["r5e-3"]["model"] == "discrepancy"
+    page = build_report(path.parent).read_text()
+    assert page.count("green on the residuals") == 1
+    verdicts = page.split("Model error: ")[1:]          # in test order: r2.5e-3, r5e-3, r1e-2
+    assert len(verdicts) == 3
+    assert "discrepancy" in verdicts[1][:600] and "No evidence" not in verdicts[1][:100]

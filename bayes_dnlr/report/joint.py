@@ -25,6 +25,7 @@ import numpy as np
 from bayes_dnlr import __version__
 from bayes_dnlr.inference.joint import NOISE_NAMES, base_name, joint_name
 from bayes_dnlr.report import figures as figs
+from bayes_dnlr.report import noise as rn
 from bayes_dnlr.report import tables as tb
 from bayes_dnlr.report.tables import RunResults, Table, fmt, fmt_at
 
@@ -309,12 +310,18 @@ def build_joint_report(run: RunResults, figdir: Path, t0: float) -> str:
             continue
         curves = model_curves(v, N_DRAWS)
         slug = "".join(c if c.isalnum() or c in "._-" else "_" for c in t)
+        centre = curves.median if curves.median is not None else curves.gn_curve
+        disc = (rn.discrepancy_on_window(v, centre[curves.window])
+                if centre is not None and v.uses_discrepancy else None)
         p = figs.fit_plot(curves.x, curves.data, figdir / f"fit-{slug}.png", window=curves.window,
                           median=curves.median, band=curves.band, predictive=curves.predictive,
-                          gn_curve=curves.gn_curve, sigma0=v.sigma0(), xlabel=curves.xlabel)
+                          gn_curve=curves.gn_curve, sigma0=v.sigma0(), xlabel=curves.xlabel,
+                          discrepancy=None if disc is None else disc.mean)
         what = ("the joint posterior median of this test's model, its 90 % credible band (dark) and "
                 "90 % posterior predictive band (light)" if curves.median is not None
                 else "the joint least-squares fit")
+        if disc is not None:
+            what += "; green on the residuals: the posterior mean of this test's model discrepancy δ"
         sec.append(_img(p, f"fit {t}", f"Data (grey dots) and {what}; dashed blue: the joint "
                                        "least-squares fit. Residuals below, ±σ0 dotted."))
         resid = None
