@@ -6,6 +6,7 @@
     python -m bayes_dnlr sample   runs/hdpe-a-5e-3/config.yaml
     python -m bayes_dnlr report   runs/hdpe-a-5e-3
     python -m bayes_dnlr compare  runs/hdpe-a-*
+    python -m bayes_dnlr population runs/population/spec-*
     python -m bayes_dnlr design   design.yaml
     python -m bayes_dnlr export   runs/hdpe-a-5e-3 --format abaqus --nu 0.45
     python -m bayes_dnlr batch    runs/*/config.yaml [--scheduler tcp://host:8786]
@@ -47,9 +48,10 @@ def _run(path: str, command: str) -> Path:
 
 
 def cmd_simulate(args: argparse.Namespace) -> None:
-    from bayes_dnlr.synthetic import simulate_test
+    from bayes_dnlr.synthetic import simulate_tests
 
-    print(simulate_test(_config(args.config, "simulate"), overwrite=args.force).summary())
+    cfg = _config(args.config, "simulate")
+    print("\n".join(r.summary() for r in simulate_tests(cfg, overwrite=args.force)))
 
 
 def cmd_fit(args: argparse.Namespace) -> None:
@@ -91,6 +93,14 @@ def cmd_init(args: argparse.Namespace) -> None:
     from bayes_dnlr.init import init_config
 
     print(init_config(args.data, args.out).text())
+
+
+def cmd_population(args: argparse.Namespace) -> None:
+    from bayes_dnlr.report.population import markdown, population_report
+
+    runs = [_run(d, "population") for d in args.run_dirs]
+    pr = population_report(runs, parameter=args.parameter, out=args.out, force=args.force)
+    print(markdown(pr) + "written: " + ", ".join(str(p) for p in pr.written))
 
 
 def cmd_design(args: argparse.Namespace) -> None:
@@ -182,6 +192,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, default=None,
                    help="folder for compare.md and compare.csv (default: the folder that holds the runs)")
     p.set_defaults(func=cmd_compare)
+
+    p = _command(sub, "population", "specimens of one material as a population: the material's mean E, "
+                                    "the specimen-to-specimen sd and each specimen's shrunken E, from "
+                                    "finished runs", "docs/population.md")
+    p.add_argument("run_dirs", nargs="+", metavar="run_dir",
+                   help="finished single-test runs (run folders or their configs), one per specimen, "
+                        "e.g. runs/population/spec-*")
+    p.add_argument("--parameter", default="E", choices=["E", "G"], help="the pooled parameter (default E)")
+    p.add_argument("--out", type=Path, default=None,
+                   help="folder for population.json/.md/.png (default: the folder that holds the runs)")
+    p.add_argument("--force", action="store_true",
+                   help="replace a population.json made from other runs")
+    p.set_defaults(func=cmd_population)
 
     p = _command(sub, "design", "experiment design: predicted sd, Err and correlations of planned "
                                 "tests, and the recommended one", "docs/design.md")

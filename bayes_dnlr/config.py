@@ -734,7 +734,13 @@ class Config(_Strict):
 
     def to_yaml(self) -> str:
         """The config as resolved (defaults filled in), as YAML."""
-        return yaml.safe_dump(self.model_dump(mode="json", exclude_none=True), sort_keys=False)
+        return yaml.safe_dump(self.as_dict(), sort_keys=False)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The config as resolved, as plain data that ``parse_config`` reads back (a run with tests:
+        has each test's noise under tests[i]: the top-level default is left out)."""
+        return self.model_dump(mode="json", exclude_none=True,
+                               exclude={"noise"} if self.is_joint else None)
 
 
 _UNION_TAGS = {"BaselineNoise", "SampledNoise", "DiscrepancyConfig", "float", "int", "str", "none",
@@ -743,6 +749,13 @@ _UNION_TAGS = {"BaselineNoise", "SampledNoise", "DiscrepancyConfig", "float", "i
 
 def _is_type_tag(part: str) -> bool:
     return part in _UNION_TAGS or part.startswith(("function-", "literal["))
+
+
+def _names_a_key(msg: str) -> bool:
+    """A top-level message that already starts with the key it is about (``tests[3].name: ...``)."""
+    import re
+
+    return re.match(r"^(tests\[\d+\]|parameters|noise|truth|data)[.\w\[\]]*: ", msg) is not None
 
 
 def _format_errors(err: ValidationError, where: str) -> str:
@@ -760,7 +773,9 @@ def _format_errors(err: ValidationError, where: str) -> str:
     # the value, and drop the members that failed on the value as a whole (e.g. "should be 'none'")
     keep = [(loc, msg) for loc, msg in entries
             if not any(len(other) > len(loc) and other[:len(loc)] == loc for other, _ in entries)]
-    lines = [f"{where}: {'.'.join(loc) or '(top level)'}: {msg}" for loc, msg in keep]
+    lines = [f"{where}: {'.'.join(loc)}: {msg}" if loc else
+             f"{where}: {msg}" if _names_a_key(msg) else f"{where}: (top level): {msg}"
+             for loc, msg in keep]
     # one line per distinct message, in order
     return "\n".join(dict.fromkeys(lines))
 

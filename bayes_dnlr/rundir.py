@@ -61,7 +61,7 @@ def resolved_config_path(cfg: Config) -> Path:
 
 def resolved_config_text(cfg: Config) -> str:
     """The config as resolved (defaults filled in), with paths that work from the run directory."""
-    raw = cfg.model_dump(mode="json", exclude_none=True)
+    raw = cfg.as_dict()
     if cfg.is_joint:
         for t, spec in zip(raw["tests"], cfg.test_configs(), strict=True):
             t["data"]["file"] = os.path.relpath(spec.data_path, cfg.run_dir)

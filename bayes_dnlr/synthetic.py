@@ -408,3 +408,18 @@ def simulate_test(cfg: Config, overwrite: bool = False) -> SimulationResult:
                      "tensile")
     return SimulationResult(cfg.data_path, status, cfg.name, truth, p.time, p.strain, stress,
                             p.relaxation_start, tuple(notes))
+
+
+def simulate_tests(cfg: Config, overwrite: bool = False) -> list[SimulationResult]:
+    """Every test's synthetic file: ``[simulate_test(cfg)]`` for one test; for a run with
+    ``tests:``, each test from its own ``tests[i].truth`` (all are checked before any is written)."""
+    if not cfg.is_joint:
+        return [simulate_test(cfg, overwrite)]
+    views = cfg.test_configs()
+    where = cfg.source if cfg.source is not None else "config"
+    for i, v in enumerate(views):
+        if v.truth is None:
+            raise ConfigError(f"{where}: tests[{i}].truth: section is missing: simulate needs each "
+                              "test's known parameters and protocol (see docs/joint.md)")
+        _check(v)
+    return [simulate_test(v, overwrite) for v in views]

@@ -14,7 +14,9 @@ draws reweighted by E[N(x | μ, s)] / π(x) over the posterior of (μ, s).
 Monte Carlo check: for each specimen, the effective number of draws behind L,
 (Σ w)² / Σ w², at the posterior mean of (μ, s). Few effective draws (< 50) mean the weights rest on a
 handful of draws: the population is then narrower than one specimen's posterior, and more (or
-longer) stage-1 draws are needed.
+longer) stage-1 draws are needed. Also the Monte Carlo variance of ln L̂ there,
+Σ_k Var(w_k) / (N_k mean(w_k)²) (the delta method on each specimen's mean; Talbot & Golomb 2023 ask
+for less than 1): above 1, the grid posterior of (μ, s) moves with the draws used.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from typing import Any
 import numpy as np
 
 MIN_EFFECTIVE = 50.0
+MAX_LOG_L_VARIANCE = 1.0
 N_MU, N_S = 120, 100
 MAX_DRAWS = 1000        # per specimen for the grid (thinned at random): an MCMC run's worth of ESS
 N_HYPER_DRAWS = 400     # (mu, s) draws from the grid posterior for the shrunk estimates
@@ -39,14 +42,26 @@ class Population:
     s: dict[str, Any]
     specimens: dict[str, dict[str, Any]]   # own (mean, sd) and shrunk (mean, sd, hdi_90)
     effective_draws: dict[str, float]  # at the posterior mean of (mu, s)
+    log_l_variance: float              # Monte Carlo variance of ln L at the posterior mean of (mu, s)
     grid: dict[str, np.ndarray]        # mu, s, posterior (N_MU, N_S)
     parameter: str = "E"
     s_prior_scale: float = 0.0
     warnings: list[str] = field(default_factory=list)
 
+    @property
+    def passed(self) -> bool:
+        """The Monte Carlo check: every specimen keeps enough effective draws and ln L is stable."""
+        return (min(self.effective_draws.values()) >= MIN_EFFECTIVE
+                and self.log_l_variance <= MAX_LOG_L_VARIANCE)
+
     def to_dict(self) -> dict[str, Any]:
         return {"parameter": self.parameter, "specimens": self.names, "mu": self.mu, "s": self.s,
-                "shrunk": self.specimens, "effective_draws": self.effective_draws,
+                "shrunk": self.specimens,
+                "monte_carlo_check": {"effective_draws": self.effective_draws,
+                                      "log_likelihood_variance": self.log_l_variance,
+                                      "limits": {"effective_draws_min": MIN_EFFECTIVE,
+                                                 "log_likelihood_variance_max": MAX_LOG_L_VARIANCE},
+                                      "passed": self.passed},
                 "s_prior": {"prior": "half-normal", "scale": self.s_prior_scale},
                 "mu_prior": "flat over the grid", "method": "two-stage reweighting of each "
                 "specimen's posterior draws (Hogg et al. 2010), grid over (mu, s)",
@@ -118,9 +133,16 @@ def population(draws: Mapping[str, np.ndarray], priors: Mapping[str, Any], param
     # Monte Carlo check at the posterior mean of (mu, s)
     mu_hat, s_hat = mu_stats["mean"], max(s_stats["mean"], s_grid[0])
     warnings = []
+    var_log_l = 0.0
     for k in names:
-        w = np.exp(-0.5 * ((x[k] - mu_hat) / s_hat) ** 2 - logpi[k])
+        lw = -0.5 * ((x[k] - mu_hat) / s_hat) ** 2 - logpi[k]
+        w = np.exp(lw - lw.max())
         ess_at[k] = float(w.sum() ** 2 / max((w * w).sum(), 1e-300))
+        var_log_l += float(w.var() / (w.size * max(w.mean(), 1e-300) ** 2))
+    if var_log_l > MAX_LOG_L_VARIANCE:
+        warnings.append(f"Monte Carlo check: the variance of ln L at the population's posterior mean is "
+                        f"{var_log_l:.3g} > {MAX_LOG_L_VARIANCE:g}: the (mu, s) posterior depends on which "
+                        "stage-1 draws were used; sample the specimens longer")
     few = [k for k, e in ess_at.items() if e < MIN_EFFECTIVE]
     if few:
         warnings.append(f"Monte Carlo check: {', '.join(few)} keep fewer than {MIN_EFFECTIVE:.0f} effective "
@@ -137,5 +159,5 @@ def population(draws: Mapping[str, np.ndarray], priors: Mapping[str, Any], param
         w = acc * np.exp(-(logpi[k] - logpi[k].max()))
         specimens[k] = {"own": {"mean": float(x[k].mean()), "sd": float(x[k].std(ddof=1))},
                         "shrunk": _weighted_stats(x[k], w)}
-    return Population(names, mu_stats, s_stats, specimens, ess_at,
+    return Population(names, mu_stats, s_stats, specimens, ess_at, var_log_l,
                       {"mu": mu_grid, "s": s_grid, "posterior": post}, parameter, scale, warnings)

@@ -241,6 +241,10 @@ def compare_runs(run_dirs: Sequence[Path | str], out_dir: Path | str | None = No
             raise RunError(f"{d}: not a run directory")
         need_data = not (d / "summary.json").is_file()
         run = load_run(d, load_data=need_data)
+        if run.cfg.is_joint:
+            raise RunError(f"{d}: a run with several tests (tests:) is compared within itself: its "
+                           f"report (python -m bayes_dnlr report {d}) has the Tables 3/5 layout and the "
+                           "rate question from the joint posterior; compare takes one-test runs")
         if run.fit is None and run.summary is None:
             notes.append(f"{run.name}: no fit.json or summary.json yet (run `fit` or `sample`).")
         elif run.summary is None:

@@ -246,6 +246,12 @@ def build_report(run_dir: Path | str) -> Path:
     figdir.mkdir(exist_ok=True)
     for old in figdir.glob("*.png"):     # figures of an earlier report that may not apply any more
         old.unlink()
+    if run.cfg.is_joint:
+        from bayes_dnlr.report.joint import build_joint_report
+
+        out = run_dir / "report.html"
+        out.write_text(build_joint_report(run, figdir, t0), encoding="utf-8")
+        return out
     std = None
     if run.test is not None:
         from bayes_dnlr.standards import standard_results

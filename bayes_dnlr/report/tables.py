@@ -272,7 +272,7 @@ def load_run(run_dir: Path | str, load_data: bool = True) -> RunResults:
             run.draws = read_draws(nc) or None
         except Exception as err:  # noqa: BLE001 - any reader failure becomes a note in the report
             problems.append(f"posterior.nc could not be read: {err}")
-    if load_data:
+    if load_data and not cfg.is_joint:     # a joint run: each test is loaded by its view
         try:
             from bayes_dnlr.data import load_test
 
@@ -287,7 +287,7 @@ def load_run(run_dir: Path | str, load_data: bool = True) -> RunResults:
 # ---------------------------------------------------------------------------------------------
 
 def _unit(n: str) -> str:
-    return UNITS.get(n, "")
+    return UNITS.get(n.split("[", 1)[0], "")     # tau_max[r5e-3] of a joint run: s
 
 
 def parameter_table(run: RunResults) -> Table:
@@ -666,6 +666,9 @@ def sampler_table(run: RunResults) -> Table | None:
                      ", ".join(f"{k} {fmt(v, 3)}" for k, v in tau.items())])
     elif tau is not None:
         rows.append(["autocorrelation time (steps)", fmt(tau, 3)])
+    s0 = s.get("sigma0")
+    sigma_txt = (", ".join(f"{t} {fmt(v, 3)}" for t, v in s0.items()) if isinstance(s0, dict)
+                 and not {"mean", "value"} & set(s0) else fmt(run.sigma0(), 3))   # per test: a joint run
     rows += [["wall time (s)", fmt(s.get("wall_time_s"), 3)], ["n points (q)", fmt(s.get("n_points"), 8)],
-             ["σ0 (MPa)", fmt(run.sigma0(), 3)]]
+             ["σ0 (MPa)", sigma_txt]]
     return Table(["", "value"], rows, "Sampler", css="num")
