@@ -38,7 +38,8 @@ class ConfigError(BayesDnlrError, ValueError):
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=False)
+    # NaN and ±inf are refused in every number (docs/config.md, "Validation rules")
+    model_config = ConfigDict(extra="forbid", frozen=False, allow_inf_nan=False)
 
 
 class Window(_Strict):
@@ -433,7 +434,7 @@ class SamplerConfig(_Strict):
     walkers: int = Field(default=32, ge=2)
     max_steps: int = Field(default=20000, ge=1)
     target_ess: float = Field(default=1000.0, gt=0)
-    seed: int = 1
+    seed: int = Field(default=1, ge=0, lt=2**32, description="numpy's RandomState takes 0 <= seed < 2**32")
     checkpoint_every: int = Field(default=100, ge=1)
     moves: Literal["de-snooker", "stretch", "de"] = Field(
         default="de", description="emcee moves; DEMove alone mixes best here (benchmarks/moves.py)")
@@ -475,7 +476,7 @@ class TruthConfig(_Strict):
     sample_rate: float | None = Field(default=None, gt=0, description="Hz")
     time_jitter: float = Field(default=0.0, ge=0, lt=0.5, description="relative, uniform ±")
     noise: TruthNoise = Field(default_factory=TruthNoise)
-    seed: int = 0
+    seed: int = Field(default=0, ge=0, lt=2**32)
     layout: Literal["plain", "bluehill", "zwick"] = Field(
         default="plain", description="plain CSV; bluehill: Instron-like metadata block, units row, "
                                      "quoted thousands, strain in %; zwick: ';' and decimal comma, "
@@ -745,6 +746,9 @@ def _is_type_tag(part: str) -> bool:
     return part in _UNION_TAGS or part.startswith(("function-", "literal["))
 
 
+_BOUND_TYPES = {"greater_than", "greater_than_equal", "less_than", "less_than_equal"}
+
+
 def _format_errors(err: ValidationError, where: str) -> str:
     entries = []
     for e in err.errors():
@@ -755,6 +759,12 @@ def _format_errors(err: ValidationError, where: str) -> str:
             msg = "unknown key (check the spelling; see docs/config.md)"
         elif e["type"] == "missing":
             msg = "required key is missing"
+        elif e["type"] == "finite_number":
+            msg = f"expected a finite number, got {e.get('input')!r}"
+        elif e["type"] in ("int_parsing", "int_from_float"):
+            msg = f"expected a whole number, got {e.get('input')!r}"
+        elif e["type"] in _BOUND_TYPES:
+            msg = f"{msg}, got {e.get('input')!r}"
         entries.append((loc, msg))
     # a union lists why each member failed: keep the deepest errors, those that name a key inside
     # the value, and drop the members that failed on the value as a whole (e.g. "should be 'none'")
@@ -774,17 +784,23 @@ def parse_config(raw: dict[str, Any], source: Path | None = None) -> Config:
         cfg = Config.model_validate(raw)
     except ValidationError as err:
         raise ConfigError(_format_errors(err, where)) from None
+    from bayes_dnlr.config_limits import range_errors
+
+    bad = range_errors(cfg)
+    if bad:
+        raise ConfigError(f"{where}: {bad[0]}")
     cfg.source = source
     return cfg
 
 
 def load_config(path: str | Path) -> Config:
-    """Read and validate a YAML config. Errors name the file and the key."""
+    """Read and validate a YAML config (bayes_dnlr/yamlio.py: UTF-8, no duplicated key). Errors
+    name the file and the key (or line)."""
+    from bayes_dnlr.yamlio import YamlError, load_yaml
+
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"{path}: config file not found")
     try:
-        raw = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as err:
-        raise ConfigError(f"{path}: not valid YAML: {err}") from None
+        raw = load_yaml(path, "config file")
+    except YamlError as err:
+        raise ConfigError(str(err)) from None
     return parse_config(raw, source=path.resolve())

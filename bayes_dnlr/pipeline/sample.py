@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import json
 import sys
-from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -54,7 +53,17 @@ from bayes_dnlr.inference.store import ChainWriter, SamplerState, StoredRun, rea
 from bayes_dnlr.pipeline.fit import load_tests, sections
 from bayes_dnlr.pipeline.noise import joint_noise_block, noise_block, residual_warnings
 from bayes_dnlr.pipeline.target import joint_target, single_target
-from bayes_dnlr.rundir import digest, jsonable, prepare_run_dir, resolved_config_text, section_digests
+from bayes_dnlr.rundir import (
+    check_output_dir,
+    digest,
+    discard_if_empty,
+    jsonable,
+    make_dir,
+    prepare_run_dir,
+    resolved_config_text,
+    section_digests,
+)
+from bayes_dnlr.runlock import run_lock
 
 CHAINS_FILE = "chains.h5"
 LOCK_FILE = "sample.lock"
@@ -141,29 +150,23 @@ def sample(cfg: Config, *, restart: bool = False, progress: bool = True) -> Post
         check_sampler(cfg, names)
     build_priors(cfg)               # validate the model priors early
     make_moves(cfg.sampler.moves)
+    check_output_dir(cfg.run_dir, writable=False)
     test = load_tests(cfg)
-    with _run_lock(cfg.run_dir):
-        return _sample(cfg, test, names, restart=restart, progress=progress)
+    created = make_dir(cfg.run_dir)
+    try:
+        with _run_lock(cfg.run_dir):
+            return _sample(cfg, test, names, restart=restart, progress=progress)
+    except BaseException:
+        if created:
+            discard_if_empty(cfg.run_dir)   # nothing half-made is left by a failed first command
+        raise
 
 
-@contextmanager
 def _run_lock(run_dir: Path):
-    """One ``sample`` per run directory at a time (an advisory lock, released even on SIGKILL)."""
-    import fcntl
-
-    run_dir.mkdir(parents=True, exist_ok=True)
-    f = open(run_dir / LOCK_FILE, "a+")  # noqa: SIM115 - held for the whole run
-    try:
-        fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        f.close()
-        raise RunError(f"{run_dir}: another `sample` is running on this run directory; wait for it "
-                       "or stop it (its chain is kept and resumes)") from None
-    try:
-        yield
-    finally:
-        fcntl.flock(f, fcntl.LOCK_UN)
-        f.close()
+    """One ``sample`` per run directory at a time (bayes_dnlr/runlock.py: released even on SIGKILL,
+    removed when the command ends)."""
+    return run_lock(run_dir, LOCK_FILE, f"{run_dir}: another `sample` is running on this run "
+                    "directory; wait for it or stop it (its chain is kept and resumes)")
 
 
 def _current_fit(cfg: Config, test, *, replace: bool, progress: bool) -> dict[str, Any]:
