@@ -26,6 +26,7 @@ import numpy as np
 from bayes_dnlr.config import ConfigError
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.inference.store import ChainWriter, SamplerState
+from bayes_dnlr.interrupt import Interrupted, deferred_interrupt
 
 START_SCALE = 1.0       # walkers start as a draw of the linearized (Laplace) posterior
 MIN_STEPS_FOR_TAU = 20  # shorter chains: no τ estimate, no stopping decision
@@ -359,8 +360,8 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
     t_session = time.perf_counter()
     evals_start = getattr(log_prob, "n_evals", 0)
     bar = _progress_bar(progress, chain.n, rule.max_steps)
-    with bar:
-        while True:
+    with bar, deferred_interrupt() as ctrl_c:
+        while not ctrl_c.requested:
             n = chain.n
             if n % every == 0 or n >= rule.max_steps:
                 conv = (convergence(chain.array, rule.burn_in_tau, rule.min_tau_multiple,
@@ -389,6 +390,8 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
                     last = st
                     done = i + 1
                     bar.update(1)
+                    if ctrl_c.requested:    # Ctrl-C: commit what is done, stop outside emcee
+                        break
             finally:
                 if done:
                     state = SamplerState(block[done - 1].copy(), block_lp[done - 1].copy(),
@@ -397,5 +400,7 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
                     evals = evals0 + getattr(log_prob, "n_evals", 0) - evals_start
                     writer.append(block[:done], block_lp[:done], block_acc[:done], state,
                                   elapsed0 + time.perf_counter() - t_session, evals)
+    if ctrl_c.requested:
+        raise Interrupted(f"stopped at step {chain.n}")
     return RunOutcome(chain.array, conv, reason, state, time.perf_counter() - t_session,
                       getattr(log_prob, "n_evals", 0) - evals_start)

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config import Config, ConfigError
-from bayes_dnlr.errors import RunError
+from bayes_dnlr.errors import BayesDnlrError, RunError
 from bayes_dnlr.inference.mcmc import (
     MIN_STEPS_FOR_TAU,
     MOVES,
@@ -50,6 +50,7 @@ from bayes_dnlr.inference.posterior import (
 )
 from bayes_dnlr.inference.priors import build_priors, sampled_names
 from bayes_dnlr.inference.store import ChainWriter, SamplerState, StoredRun, read_attrs, read_run
+from bayes_dnlr.interrupt import Interrupted
 from bayes_dnlr.pipeline.fit import load_tests, sections
 from bayes_dnlr.pipeline.noise import joint_noise_block, noise_block, residual_warnings
 from bayes_dnlr.pipeline.target import joint_target, single_target
@@ -266,12 +267,14 @@ def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: boo
     try:
         out = run_ensemble(post, priors.to_physical, sc.moves, state, chain0, writer, rule,
                            fresh=fresh, elapsed0=elapsed0, evals0=evals0, progress=progress)
-    except BaseException:
+    except BaseException as err:
         steps = writer.steps
         writer.close()
-        if progress:
-            print(f"\nstopped at step {steps}; the chain is saved in {chains}: run `sample` again "
-                  "to continue", file=sys.stderr)
+        kept = f"stopped at step {steps}; the chain is saved in {chains}: run `sample` again to continue"
+        if isinstance(err, KeyboardInterrupt):
+            raise Interrupted(kept) from None
+        if progress and not isinstance(err, BayesDnlrError):
+            print(f"\n{kept}", file=sys.stderr)
         raise
     conv, reason = out.convergence, out.reason
     elapsed = elapsed0 + out.sampling_time
