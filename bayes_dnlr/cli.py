@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import errno
 import sys
+import warnings
 from pathlib import Path
 
 from bayes_dnlr import __version__
@@ -184,7 +185,11 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        status = args.func(args)
+        with warnings.catch_warnings():
+            # numpy's overflow/invalid-value warnings are not for the user: bad numbers are refused
+            # with a named error, and a doubtful result comes with its own note
+            warnings.simplefilter("ignore", RuntimeWarning)
+            status = args.func(args)
     except BayesDnlrError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

@@ -424,7 +424,7 @@ class NoiseConfig(_Strict):
         if isinstance(v, bool) or v is None:
             raise ValueError(f"expected {expected}")
         if isinstance(v, int | float) and not (math.isfinite(v) and v > 0):
-            raise ValueError(f"must be > 0, got {v}; expected {expected}")
+            raise ValueError(f"must be a finite number > 0, got {v}; expected {expected}")
         if isinstance(v, str) and v != "residuals":
             raise ValueError(f"unknown form {v!r}; expected {expected}")
         return v

@@ -109,6 +109,26 @@ def physical_memory() -> float:
         return math.inf
 
 
+def fewest_sampled(cfg: Config) -> int:
+    """The fewest parameters the sampler can carry for ``cfg`` (the discrepancy's hyperparameters
+    may drop out after the fit): the free model parameters and sigma0 when sampled."""
+    from bayes_dnlr.config import SampledNoise
+
+    n_tests = len(cfg.test_names)
+    n = sum(n_tests if cfg.parameters[k].per_test else 1 for k in cfg.free_parameters)
+    noises = [t.noise for t in cfg.tests] if cfg.tests is not None else [cfg.noise]
+    return n + sum(isinstance(noise.sigma0, SampledNoise) for noise in noises)
+
+
+def _walkers(cfg: Config) -> str | None:
+    ndim = fewest_sampled(cfg)
+    if cfg.sampler.walkers >= 2 * ndim:
+        return None
+    return (f"sampler.walkers: {cfg.sampler.walkers} walkers for at least {ndim} sampled parameters "
+            f"({', '.join(cfg.free_parameters)}{', sigma0' if ndim > len(cfg.free_parameters) else ''}"
+            f"); the ensemble moves need at least 2 x {ndim} = {2 * ndim} (32 is a good choice)")
+
+
 def _allocation(cfg: Config) -> str | None:
     s = cfg.sampler
     ndim = sampled_dimension(cfg)
@@ -129,5 +149,5 @@ def range_errors(cfg: Config) -> list[str]:
         found += [_noise(t.noise, f"tests[{i}].noise") for i, t in enumerate(cfg.tests)]
     else:
         found.append(_noise(cfg.noise, "noise"))
-    found.append(_allocation(cfg))
+    found += [_walkers(cfg), _allocation(cfg)]
     return [f for f in found if f]

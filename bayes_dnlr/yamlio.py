@@ -6,16 +6,28 @@ file, line and column, and no silent surprises.
 - A key given twice in the same mapping is refused, with both lines: plain YAML loaders keep the
   last one silently, so a duplicated ``area0`` would change the result without a word.
 - A syntax error is one line: file, line, column and what the parser expected.
+- A number in exponent form without a point (``1e12``, ``3e-1``) is a number, as in YAML 1.2:
+  YAML 1.1 (PyYAML's default) reads it as a string, and ``sigma0: 3e-1`` would be refused.
 """
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
 import yaml
 
 from bayes_dnlr.errors import BayesDnlrError
+
+
+class Loader(yaml.SafeLoader):
+    """PyYAML's safe loader, with YAML 1.2's floats in exponent form without a point."""
+
+
+Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float", re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"))
 
 
 class YamlError(BayesDnlrError, ValueError):
@@ -84,7 +96,7 @@ def parse_yaml(text: str, where: str) -> Any:
     """The YAML document in ``text`` (None when empty); YamlError naming ``where`` and the line for
     a syntax error or a duplicated key."""
     try:
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
+        node = yaml.compose(text, Loader=Loader)
     except yaml.YAMLError as err:
         raise YamlError(f"{where}: {_mark(err)}not valid YAML: {_describe(err)}") from None
     if node is None:
@@ -94,7 +106,7 @@ def parse_yaml(text: str, where: str) -> Any:
     if found:
         raise YamlError(f"{where}: {found[0]}")
     try:
-        return yaml.safe_load(text)
+        return yaml.load(text, Loader=Loader)  # noqa: S506 - a safe loader
     except yaml.YAMLError as err:   # e.g. a tag the safe loader does not construct
         raise YamlError(f"{where}: {_mark(err)}not valid YAML: {_describe(err)}") from None
 
