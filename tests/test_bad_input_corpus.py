@@ -17,7 +17,12 @@ subprocesses to prove nothing reaches the terminal but the one line.
 from __future__ import annotations
 
 import copy
-from collections.abc import Callable
+import os
+import shutil
+import subprocess
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -396,11 +401,12 @@ CASES = _yaml_cases() + _config_cases() + _csv_cases() + _environment_cases()
 # ---------------------------------------------------------------- running a case
 
 def listing(folder: Path) -> dict[str, tuple[int, int]]:
-    """Every path under ``folder`` with its size and mtime (what a failed command must not touch)."""
+    """Every path under ``folder``, with size and mtime for files (what a failed command must not
+    touch; a folder's own mtime changes when a lock file comes and goes, so only its presence counts)."""
     out = {}
     for p in sorted(folder.rglob("*")):
         st = p.lstat()
-        out[str(p.relative_to(folder))] = (st.st_size if p.is_file() else -1, st.st_mtime_ns)
+        out[str(p.relative_to(folder))] = (st.st_size, st.st_mtime_ns) if p.is_file() else (-1, 0)
     return out
 
 
@@ -460,10 +466,156 @@ def test_corpus_case(tmp_path: Path, capsys, case: Case) -> None:
                 assert case.note_in_fit in (folder / "run/fit.json").read_text(), case.id
 
 
+# ---------------------------------------------------------------- environment around a finished run
+
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory) -> Path:
+    """A case folder with a finished run (fit and a 30-step chain) in ``run/``."""
+    folder = tmp_path_factory.mktemp("finished") / "case"
+    config = make_case(folder, Case("base", "environment", "accept"))
+    for command in ("fit", "sample"):
+        assert cli.main([command, "--quiet", str(config)]) == 0
+    assert (folder / "run" / "summary.json").is_file()
+    return folder
+
+
+@contextmanager
+def read_only(folder: Path) -> Iterator[None]:
+    """``folder`` read-only for this process: a read-only bind mount as root (who ignores
+    permissions), the write bits removed otherwise; skipped where neither works."""
+    if os.geteuid() != 0:
+        modes = {p: p.stat().st_mode for p in [folder, *folder.rglob("*")]}
+        for p, m in modes.items():
+            p.chmod(m & ~0o222)
+        try:
+            yield
+        finally:
+            for p, m in modes.items():
+                p.chmod(m)
+        return
+    bind = subprocess.run(["mount", "--bind", str(folder), str(folder)], capture_output=True, text=True)
+    if bind.returncode != 0:
+        pytest.skip(f"cannot bind-mount a read-only folder: {bind.stderr.strip()}")
+    try:
+        ro = subprocess.run(["mount", "-o", "remount,bind,ro", str(folder)], capture_output=True, text=True)
+        if ro.returncode != 0:
+            pytest.skip(f"cannot remount read-only: {ro.stderr.strip()}")
+        yield
+    finally:
+        if subprocess.run(["umount", str(folder)], capture_output=True).returncode != 0:
+            subprocess.run(["umount", "-l", str(folder)], capture_output=True)
+
+
+def _edit_config(folder: Path, edit: Callable[[dict], dict]) -> None:
+    config = folder / "config.yaml"
+    config.write_text(yaml.safe_dump(edit(yaml.safe_load(config.read_text())), sort_keys=False))
+
+
+def _garbage(path: Path) -> None:
+    path.write_bytes(b"\x00garbage\xff" * 64)
+
+
+@dataclass
+class RunCase:
+    id: str
+    command: str
+    expect: str
+    names: tuple[str, ...] = ()
+    prepare: Callable[[Path], None] | None = None
+    readonly: bool = False
+    remove_run: bool = False
+
+
+RUN_CASES = [
+    RunCase("ro-finished-sample", "sample", "accept", ("finished earlier",), readonly=True),
+    RunCase("ro-fit", "fit", "error", ("cannot write", "run", "read-only"), readonly=True),
+    RunCase("ro-fresh-sample", "sample", "error", ("cannot write", "run", "Read-only"), readonly=True,
+            remove_run=True),
+    RunCase("ro-fresh-fit", "fit", "error", ("cannot write", "run"), readonly=True, remove_run=True),
+    RunCase("stale-fit", "fit", "error", ("fit.json", "--force", "parameters"),
+            prepare=lambda d: _edit_config(d, with_("parameters.E.high", 30000))),
+    RunCase("stale-chain", "sample", "error", ("chains.h5", "another config", "--restart"),
+            prepare=lambda d: _edit_config(d, with_("parameters.E.high", 30000))),
+    RunCase("changed-seed", "sample", "error", ("chains.h5", "sampler", "--restart"),
+            prepare=lambda d: _edit_config(d, with_("sampler.seed", 2))),
+    RunCase("changed-fit-method-resume", "sample", "error", ("fit.json", "fit --force"),
+            prepare=lambda d: _edit_config(d, lambda c: with_("fit.method", "gauss-newton")(
+                with_("sampler.max_steps", 60)(c)))),
+    RunCase("corrupt-chain", "sample", "error", ("chains.h5", "--restart"),
+            prepare=lambda d: _garbage(d / "run" / "chains.h5")),
+    RunCase("corrupt-fit-json", "fit", "error", ("fit.json", "--force"),
+            prepare=lambda d: _garbage(d / "run" / "fit.json")),
+    RunCase("data-changed", "sample", "error", ("chains.h5", "data file changed"),
+            prepare=lambda d: (d / "test.csv").write_text(set_cell(L, F, "655.5")(BASE_CSV))),
+    RunCase("data-removed", "sample", "error", ("test.csv", "not found"),
+            prepare=lambda d: (d / "test.csv").unlink()),
+    RunCase("finished-sample-again", "sample", "accept", ("finished earlier",)),
+]
+
+
+@pytest.mark.parametrize("case", RUN_CASES, ids=lambda c: c.id)
+def test_corpus_run_environment(tmp_path: Path, capsys, finished_run: Path, case: RunCase) -> None:
+    folder = tmp_path / "case"
+    shutil.copytree(finished_run, folder, symlinks=True)
+    if case.remove_run:
+        shutil.rmtree(folder / "run")
+    if case.prepare is not None:
+        case.prepare(folder)
+    config = folder / "config.yaml"
+    with read_only(folder) if case.readonly else nullcontext():
+        before = listing(folder)
+        code, out, err = run_cli([case.command, "--quiet", str(config)], capsys)
+        after = listing(folder)
+    assert "Traceback" not in out + err, err
+    if case.expect == "error":
+        check_error(Case(case.id, "environment", "error", case.names), case.command, code, out, err)
+    else:
+        assert code == 0, err
+        assert all(n in out + err for n in case.names), out + err
+    assert after == before, f"{case.id}: files changed"
+
+
+def test_locked_run_is_refused_and_the_lock_kept(tmp_path: Path, capsys, finished_run: Path) -> None:
+    """A second `sample` on a run directory another one holds: one line, and the holder's lock
+    (file and flock) untouched."""
+    from bayes_dnlr.runlock import run_lock
+
+    folder = tmp_path / "case"
+    shutil.copytree(finished_run, folder)
+    with run_lock(folder / "run", "sample.lock", "held by the test"):
+        before = listing(folder)
+        code, out, err = run_cli(["sample", "--quiet", str(folder / "config.yaml")], capsys)
+        assert listing(folder) == before
+    check_error(Case("locked", "environment", "error", ("another `sample` is running", "run")),
+                "sample", code, out, err)
+    assert not (folder / "run" / "sample.lock").exists()      # the holder removed it on release
+
+
+# ---------------------------------------------------------------- the real terminal
+
+SUBPROCESS_CASES = ["dup-nested-area0", "cfg-parameters.tau_max=value=-1.0", "csv-strain-huge",
+                    "csv-force-all-zero"]
+
+
+@pytest.mark.parametrize("case_id", SUBPROCESS_CASES)
+def test_nothing_but_the_line_reaches_the_terminal(tmp_path: Path, case_id: str) -> None:
+    """A real process: stderr is the one error line (no traceback, no numpy warning), exit 2."""
+    case = next(c for c in CASES if c.id == case_id)
+    config = make_case(tmp_path / "case", case)
+    before = listing(config.parent)
+    proc = subprocess.run([sys.executable, "-m", "bayes_dnlr", "fit", str(config)],
+                          capture_output=True, text=True, timeout=300)
+    check_error(case, "fit (subprocess)", proc.returncode, proc.stdout, proc.stderr)
+    assert proc.stdout == ""
+    assert listing(config.parent) == before
+
+
 def test_corpus_size_and_classes() -> None:
     """At least 100 cases, every class present, ids unique."""
-    assert len(CASES) >= 100
+    total = len(CASES) + len(RUN_CASES) + 1
+    assert total >= 100
     assert len({c.id for c in CASES}) == len(CASES)
     kinds = {k: sum(c.kind == k for c in CASES) for k in ("yaml", "config", "csv", "environment")}
-    assert all(n >= 5 for n in kinds.values()), kinds
+    kinds["environment"] += len(RUN_CASES) + 1
+    assert all(n >= 10 for n in kinds.values()), kinds
     assert sum(c.expect == "accept" for c in CASES) >= 10
