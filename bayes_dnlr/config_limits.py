@@ -124,9 +124,10 @@ def _walkers(cfg: Config) -> str | None:
     ndim = fewest_sampled(cfg)
     if cfg.sampler.walkers >= 2 * ndim:
         return None
-    return (f"sampler.walkers: {cfg.sampler.walkers} walkers for at least {ndim} sampled parameters "
-            f"({', '.join(cfg.free_parameters)}{', sigma0' if ndim > len(cfg.free_parameters) else ''}"
-            f"); the ensemble moves need at least 2 x {ndim} = {2 * ndim} (32 is a good choice)")
+    names = cfg.free_parameters + (["sigma0"] if ndim > len(cfg.free_parameters) else [])
+    return (f"sampler.walkers: {cfg.sampler.walkers} walkers for {ndim} sampled parameters "
+            f"({', '.join(names)}); the ensemble moves need at least 2 × {ndim} = {2 * ndim} "
+            f"(32 is a good choice)")
 
 
 def _allocation(cfg: Config) -> str | None:

@@ -165,7 +165,10 @@ def write_atomic(path: Path, content: str | bytes | memoryview) -> None:
             os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException as err:
-        tmp.unlink(missing_ok=True)
+        try:
+            tmp.unlink(missing_ok=True)
+        except OSError:         # e.g. a read-only file system: there is no temporary either
+            pass
         clean = storage_error(err, path, "the previous version of the file, if any, is unchanged")
         if clean is not None:
             raise clean from None

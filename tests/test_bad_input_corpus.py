@@ -531,6 +531,8 @@ RUN_CASES = [
     RunCase("ro-fit", "fit", "error", ("cannot write", "run", "read-only"), readonly=True),
     RunCase("ro-fresh-sample", "sample", "error", ("cannot write", "run", "Read-only"), readonly=True,
             remove_run=True),
+    RunCase("ro-continue-sample", "sample", "error", ("cannot write", "Read-only"), readonly=True,
+            prepare=lambda d: _edit_config(d, with_("sampler.max_steps", 60))),
     RunCase("ro-fresh-fit", "fit", "error", ("cannot write", "run"), readonly=True, remove_run=True),
     RunCase("stale-fit", "fit", "error", ("fit.json", "--force", "parameters"),
             prepare=lambda d: _edit_config(d, with_("parameters.E.high", 30000))),
