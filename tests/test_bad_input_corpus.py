@@ -593,6 +593,28 @@ def test_locked_run_is_refused_and_the_lock_kept(tmp_path: Path, capsys, finishe
     assert not (folder / "run" / "sample.lock").exists()      # the holder removed it on release
 
 
+@pytest.mark.parametrize("name", ["config.yaml", "test.csv"])
+def test_unreadable_file(tmp_path: Path, capsys, monkeypatch, name: str) -> None:
+    """A file the user may not read (permission denied; simulated, since root reads anything)."""
+    import errno
+
+    config = make_case(tmp_path / "case", Case("base", "environment", "accept"))
+    real = Path.read_bytes
+
+    def read_bytes(self: Path) -> bytes:
+        if self.name == name:
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(self))
+        return real(self)
+
+    monkeypatch.setattr(Path, "read_bytes", read_bytes)
+    for command in ("fit", "sample"):
+        before = listing(config.parent)
+        code, out, err = run_cli([command, "--quiet", str(config)], capsys)
+        check_error(Case(f"unreadable-{name}", "environment", "error", (name, "ermission denied")),
+                    command, code, out, err)
+        assert listing(config.parent) == before
+
+
 # ---------------------------------------------------------------- the real terminal
 
 SUBPROCESS_CASES = ["dup-nested-area0", "cfg-parameters.tau_max=value=-1.0", "csv-strain-huge",
@@ -614,10 +636,10 @@ def test_nothing_but_the_line_reaches_the_terminal(tmp_path: Path, case_id: str)
 
 def test_corpus_size_and_classes() -> None:
     """At least 100 cases, every class present, ids unique."""
-    total = len(CASES) + len(RUN_CASES) + 1
+    total = len(CASES) + len(RUN_CASES) + 1 + 2       # + the locked run, the unreadable files
     assert total >= 100
     assert len({c.id for c in CASES}) == len(CASES)
     kinds = {k: sum(c.kind == k for c in CASES) for k in ("yaml", "config", "csv", "environment")}
-    kinds["environment"] += len(RUN_CASES) + 1
+    kinds["environment"] += len(RUN_CASES) + 1 + 2
     assert all(n >= 10 for n in kinds.values()), kinds
     assert sum(c.expect == "accept" for c in CASES) >= 10
