@@ -770,9 +770,10 @@ def _format_errors(err: ValidationError, where: str) -> str:
     # the value, and drop the members that failed on the value as a whole (e.g. "should be 'none'")
     keep = [(loc, msg) for loc, msg in entries
             if not any(len(other) > len(loc) and other[:len(loc)] == loc for other, _ in entries)]
-    lines = [f"{where}: {'.'.join(loc) or '(top level)'}: {msg}" for loc, msg in keep]
-    # one line per distinct message, in order
-    return "\n".join(dict.fromkeys(lines))
+    items = list(dict.fromkeys(f"{'.'.join(loc) or '(top level)'}: {msg}" for loc, msg in keep))
+    # one line: the first problem, then the others in brackets (the CLI prints one line)
+    more = f" (also {len(items) - 1} more: {'; '.join(items[1:])})" if len(items) > 1 else ""
+    return f"{where}: {items[0]}{more}"
 
 
 def parse_config(raw: dict[str, Any], source: Path | None = None) -> Config:
