@@ -1,6 +1,6 @@
-"""One writer per run directory: ``sample.lock``, an advisory ``flock`` that the kernel releases
-even when the process is killed, and a file that is removed when the command ends (no lock is left
-behind, on success or failure).
+"""One writer per run directory (``sample.lock``; ``batch.lock`` for a batch's output folder): an
+advisory ``flock`` that the kernel releases even when the process is killed, and a file that is
+removed when the command ends (no lock is left behind, on success or failure).
 
 Removing a lock file is safe with the inode check: a process that opened the file just before the
 holder removed it finds, once it has the lock, that the path no longer names its file, and tries
@@ -21,12 +21,12 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from bayes_dnlr.diskio import storage_error
-from bayes_dnlr.errors import RunError
+from bayes_dnlr.errors import BayesDnlrError, RunError
 
 READ_ONLY = {errno.EROFS, errno.EACCES, errno.EPERM}
 
 
-def _open_locked(path: Path, busy: str):
+def _open_locked(path: Path, busy: str, error: type[BayesDnlrError]):
     """The open, locked lock file at ``path`` (None when the folder is read-only)."""
     while True:
         try:
@@ -39,7 +39,7 @@ def _open_locked(path: Path, busy: str):
             fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             f.close()
-            raise RunError(busy) from None
+            raise error(busy) from None
         try:
             same = os.stat(path).st_ino == os.fstat(f.fileno()).st_ino
         except FileNotFoundError:
@@ -50,11 +50,12 @@ def _open_locked(path: Path, busy: str):
 
 
 @contextmanager
-def run_lock(run_dir: Path, name: str, busy: str) -> Iterator[None]:
-    """Hold ``run_dir/name`` exclusively for the block; RunError(``busy``) when another process
-    holds it. The lock file is removed at the end."""
+def run_lock(run_dir: Path, name: str, busy: str,
+             error: type[BayesDnlrError] = RunError) -> Iterator[None]:
+    """Hold ``run_dir/name`` exclusively for the block; ``error(busy)`` when another process holds
+    it. The lock file is removed at the end."""
     path = Path(run_dir) / name
-    f = _open_locked(path, busy)
+    f = _open_locked(path, busy, error)
     try:
         yield
     finally:

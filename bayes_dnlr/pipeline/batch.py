@@ -20,7 +20,6 @@ depends only on its config (seed) and data.
 
 from __future__ import annotations
 
-import fcntl
 import json
 import os
 import socket
@@ -37,6 +36,7 @@ from bayes_dnlr.config import DISCREPANCY_PARAMETERS, PARAMETER_NAMES
 from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.pipeline.manifest import BatchError, Job
 from bayes_dnlr.rundir import digest, jsonable, write_atomic, write_json
+from bayes_dnlr.runlock import run_lock
 
 ROWS_DIR = "rows"
 TABLE_CSV = "results.csv"
@@ -226,22 +226,12 @@ def current_row(job: Job, out: Path, want_report: bool) -> dict[str, Any] | None
     return {**row, "reused": True, "origin": job.origin}
 
 
-@contextmanager
-def _batch_lock(out: Path) -> Iterator[None]:
-    """One batch per output folder at a time (advisory lock, released even on SIGKILL)."""
+def _batch_lock(out: Path):
+    """One batch per output folder at a time (bayes_dnlr/runlock.py: released even on SIGKILL,
+    removed when the batch ends)."""
     out.mkdir(parents=True, exist_ok=True)
-    f = open(out / LOCK_FILE, "a+")  # noqa: SIM115 - held for the whole batch
-    try:
-        fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        f.close()
-        raise BatchError(f"{out}: another batch is running into this folder; wait for it or stop "
-                         "it (finished tests are kept and the next run resumes)") from None
-    try:
-        yield
-    finally:
-        fcntl.flock(f, fcntl.LOCK_UN)
-        f.close()
+    return run_lock(out, LOCK_FILE, f"{out}: another batch is running into this folder; wait for it "
+                    "or stop it (finished tests are kept and the next run resumes)", BatchError)
 
 
 def _dask_client(scheduler: str):
