@@ -181,6 +181,10 @@ def _yaml_cases() -> list[Case]:
              yaml_text=lambda s: s + "sampler: {walkers: 64}\n"),
         Case("dup-deep-prior", "yaml", "error", ("key 'parameters.E.high' is given twice",),
              yaml_text=lambda s: s.replace("    high: 20000\n", "    high: 20000\n    high: 30000\n", 1)),
+        Case("dup-in-a-list", "yaml", "error", ("key 'tests[1].data' is given twice",),
+             yaml_text=lambda s: s.replace("data:\n", "tests:\n- {name: a, data: {file: test.csv}}\n"
+                                           "- {name: b, data: {file: test.csv}, data: {file: x.csv}}\n"
+                                           "old_data:\n", 1)),
         # awkward but valid YAML
         Case("yaml-bom", "yaml", "accept", yaml_text=lambda s: "\ufeff" + s, commands=("fit",)),
         Case("yaml-crlf", "yaml", "accept", yaml_text=lambda s: s.replace("\n", "\r\n"), commands=("fit",)),
