@@ -17,11 +17,19 @@ Heavy modules are imported inside each command so that ``--help`` stays instant.
 from __future__ import annotations
 
 import argparse
+import errno
 import sys
+import warnings
 from pathlib import Path
 
 from bayes_dnlr import __version__
 from bayes_dnlr.errors import BayesDnlrError
+
+INTERRUPTED = 130    # 128 + SIGINT, the shell's convention for Ctrl-C (docs/cli.md)
+# file-system errors of the user's environment: one line and exit 2 (a bug raises something else)
+USER_ERRNOS = {errno.ENOENT, errno.EISDIR, errno.ENOTDIR, errno.EEXIST, errno.EACCES, errno.EPERM,
+               errno.EROFS, errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EFBIG, errno.ENAMETOOLONG,
+               errno.ELOOP}
 
 
 def _shown(path: Path) -> str:
@@ -260,11 +268,25 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        status = args.func(args)
+        with warnings.catch_warnings():
+            # numpy's overflow/invalid-value warnings are not for the user: bad numbers are refused
+            # with a named error, and a doubtful result comes with its own note
+            warnings.simplefilter("ignore", RuntimeWarning)
+            status = args.func(args)
     except BayesDnlrError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as err:    # Ctrl-C; sample's chain is kept (bayes_dnlr/interrupt.py)
+        print(f"interrupted: {err}" if str(err) else "interrupted", file=sys.stderr)
+        return INTERRUPTED
+    except MemoryError:
+        print("error: out of memory: lower sampler.walkers or max_steps, or use fewer data rows "
+              "(data.rows)", file=sys.stderr)
+        return 2
+    except OSError as err:
+        if err.errno not in USER_ERRNOS:
+            raise
+        print(f"error: {err.filename or ''}{': ' if err.filename else ''}{err.strerror or err}",
+              file=sys.stderr)
+        return 2
     return status or 0

@@ -38,7 +38,8 @@ class ConfigError(BayesDnlrError, ValueError):
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=False)
+    # NaN and ±inf are refused in every number (docs/config.md, "Validation rules")
+    model_config = ConfigDict(extra="forbid", frozen=False, allow_inf_nan=False)
 
 
 class Window(_Strict):
@@ -423,7 +424,7 @@ class NoiseConfig(_Strict):
         if isinstance(v, bool) or v is None:
             raise ValueError(f"expected {expected}")
         if isinstance(v, int | float) and not (math.isfinite(v) and v > 0):
-            raise ValueError(f"must be > 0, got {v}; expected {expected}")
+            raise ValueError(f"must be a finite number > 0, got {v}; expected {expected}")
         if isinstance(v, str) and v != "residuals":
             raise ValueError(f"unknown form {v!r}; expected {expected}")
         return v
@@ -433,7 +434,7 @@ class SamplerConfig(_Strict):
     walkers: int = Field(default=32, ge=2)
     max_steps: int = Field(default=20000, ge=1)
     target_ess: float = Field(default=1000.0, gt=0)
-    seed: int = 1
+    seed: int = Field(default=1, ge=0, lt=2**32, description="numpy's RandomState takes 0 <= seed < 2**32")
     checkpoint_every: int = Field(default=100, ge=1)
     moves: Literal["de-snooker", "stretch", "de"] = Field(
         default="de", description="emcee moves; DEMove alone mixes best here (benchmarks/moves.py)")
@@ -475,7 +476,7 @@ class TruthConfig(_Strict):
     sample_rate: float | None = Field(default=None, gt=0, description="Hz")
     time_jitter: float = Field(default=0.0, ge=0, lt=0.5, description="relative, uniform ±")
     noise: TruthNoise = Field(default_factory=TruthNoise)
-    seed: int = 0
+    seed: int = Field(default=0, ge=0, lt=2**32)
     layout: Literal["plain", "bluehill", "zwick"] = Field(
         default="plain", description="plain CSV; bluehill: Instron-like metadata block, units row, "
                                      "quoted thousands, strain in %; zwick: ';' and decimal comma, "
@@ -751,6 +752,9 @@ def _is_type_tag(part: str) -> bool:
     return part in _UNION_TAGS or part.startswith(("function-", "literal["))
 
 
+_BOUND_TYPES = {"greater_than", "greater_than_equal", "less_than", "less_than_equal"}
+
+
 def _names_a_key(msg: str) -> bool:
     """A top-level message that already starts with the key it is about (``tests[3].name: ...``)."""
     import re
@@ -768,16 +772,22 @@ def _format_errors(err: ValidationError, where: str) -> str:
             msg = "unknown key (check the spelling; see docs/config.md)"
         elif e["type"] == "missing":
             msg = "required key is missing"
+        elif e["type"] == "finite_number":
+            msg = f"expected a finite number, got {e.get('input')!r}"
+        elif e["type"] in ("int_parsing", "int_from_float"):
+            msg = f"expected a whole number, got {e.get('input')!r}"
+        elif e["type"] in _BOUND_TYPES:
+            msg = f"{msg}, got {e.get('input')!r}"
         entries.append((loc, msg))
     # a union lists why each member failed: keep the deepest errors, those that name a key inside
     # the value, and drop the members that failed on the value as a whole (e.g. "should be 'none'")
     keep = [(loc, msg) for loc, msg in entries
             if not any(len(other) > len(loc) and other[:len(loc)] == loc for other, _ in entries)]
-    lines = [f"{where}: {'.'.join(loc)}: {msg}" if loc else
-             f"{where}: {msg}" if _names_a_key(msg) else f"{where}: (top level): {msg}"
-             for loc, msg in keep]
-    # one line per distinct message, in order
-    return "\n".join(dict.fromkeys(lines))
+    items = list(dict.fromkeys(f"{'.'.join(loc)}: {msg}" if loc else
+                               msg if _names_a_key(msg) else f"(top level): {msg}" for loc, msg in keep))
+    # one line: the first problem, then the others in brackets (the CLI prints one line)
+    more = f" (also {len(items) - 1} more: {'; '.join(items[1:])})" if len(items) > 1 else ""
+    return f"{where}: {items[0]}{more}"
 
 
 def parse_config(raw: dict[str, Any], source: Path | None = None) -> Config:
@@ -789,17 +799,23 @@ def parse_config(raw: dict[str, Any], source: Path | None = None) -> Config:
         cfg = Config.model_validate(raw)
     except ValidationError as err:
         raise ConfigError(_format_errors(err, where)) from None
+    from bayes_dnlr.config_limits import range_errors
+
+    bad = range_errors(cfg)
+    if bad:
+        raise ConfigError(f"{where}: {bad[0]}")
     cfg.source = source
     return cfg
 
 
 def load_config(path: str | Path) -> Config:
-    """Read and validate a YAML config. Errors name the file and the key."""
+    """Read and validate a YAML config (bayes_dnlr/yamlio.py: UTF-8, no duplicated key). Errors
+    name the file and the key (or line)."""
+    from bayes_dnlr.yamlio import YamlError, load_yaml
+
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"{path}: config file not found")
     try:
-        raw = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as err:
-        raise ConfigError(f"{path}: not valid YAML: {err}") from None
+        raw = load_yaml(path, "config file")
+    except YamlError as err:
+        raise ConfigError(str(err)) from None
     return parse_config(raw, source=path.resolve())

@@ -20,6 +20,7 @@ import yaml
 
 from bayes_dnlr.config import Config
 from bayes_dnlr.diskio import storage_error, sweep_stale_temps, temp_path
+from bayes_dnlr.errors import RunError, StorageError
 
 RESOLVED_CONFIG = "config.yaml"
 RESOLVED_CONFIG_BESIDE_SOURCE = "config.resolved.yaml"
@@ -71,13 +72,50 @@ def resolved_config_text(cfg: Config) -> str:
     return yaml.safe_dump(raw, sort_keys=False)
 
 
+def check_output_dir(run_dir: Path, *, writable: bool) -> None:
+    """Refuse, before any work, a run directory that is a file or lies under one, and (``writable``)
+    one that cannot be created or written (a read-only folder or file system)."""
+    run_dir = Path(run_dir)
+    for q in (run_dir, *run_dir.parents):
+        if not q.exists():
+            continue
+        if not q.is_dir():
+            what = "is a file" if q == run_dir else f"lies under {q}, which is a file"
+            raise RunError(f"{run_dir}: the run directory {what}; set output.dir in the config (or "
+                           "rename the run) to write the outputs elsewhere")
+        if writable and not os.access(q, os.W_OK | os.X_OK):
+            raise StorageError(f"cannot write {run_dir} ({q} is read-only for this user); set "
+                               "output.dir in the config to a folder you can write")
+        return
+
+
+def make_dir(run_dir: Path) -> bool:
+    """Create the run directory (and its parents); True when this call created it."""
+    run_dir = Path(run_dir)
+    if run_dir.is_dir():
+        return False
+    try:
+        run_dir.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        check_output_dir(run_dir, writable=False)
+        raise
+    except OSError as err:
+        raise (storage_error(err, run_dir) or err) from None
+    return True
+
+
+def discard_if_empty(run_dir: Path) -> None:
+    """Remove a run directory a failed command created, when nothing was left in it."""
+    try:
+        Path(run_dir).rmdir()
+    except OSError:
+        pass
+
+
 def prepare_run_dir(cfg: Config) -> Path:
     """Create the run directory and write the config as resolved (defaults filled in)."""
     run_dir = cfg.run_dir
-    try:
-        run_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise (storage_error(err, run_dir) or err) from None
+    make_dir(run_dir)
     write_atomic(resolved_config_path(cfg), resolved_config_text(cfg))
     return run_dir
 
@@ -127,7 +165,10 @@ def write_atomic(path: Path, content: str | bytes | memoryview) -> None:
             os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException as err:
-        tmp.unlink(missing_ok=True)
+        try:
+            tmp.unlink(missing_ok=True)
+        except OSError:         # e.g. a read-only file system: there is no temporary either
+            pass
         clean = storage_error(err, path, "the previous version of the file, if any, is unchanged")
         if clean is not None:
             raise clean from None

@@ -64,7 +64,7 @@ def test_defaults_are_filled(tmp_path):
      "strain_min (0.5) must be smaller than strain_max (0.1)"),
     (with_("sampler.walkers", 1), "sampler.walkers", "greater than or equal to 2"),
     (with_("model.modes", 0), "model.modes", "greater than or equal to 1"),
-    (with_("noise.sigma0", -1.0), "noise.sigma0", "must be > 0, got -1.0"),
+    (with_("noise.sigma0", -1.0), "noise.sigma0", "must be a finite number > 0, got -1.0"),
     (with_("noise.sigma0", "resid"), "noise.sigma0", "unknown form"),
     (with_("name", "bad name/"), "name", "pattern"),
 ])

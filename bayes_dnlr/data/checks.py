@@ -146,3 +146,26 @@ def spike_warning(stress: np.ndarray, lines: np.ndarray, start: int = 0) -> str 
     return (f"warning: a spike at line {lines[k]}: the stress there is {stress[k]:.6g} MPa, its neighbours "
             f"{stress[k - 1]:.6g} and {stress[k + 1]:.6g} MPa (stress noise sd about {sd:.2g} MPa): a "
             f"corrupt cell? It would dominate the fit")
+
+
+NO_LOAD_NOISE = 10.0      # a peak stress within this many noise sd of zero is no load
+
+
+def check_load(stress: np.ndarray, window: np.ndarray, lines: np.ndarray, path, source: str) -> None:
+    """Refuse a test without tensile load in its window: a stress that never rises clearly above
+    zero (a force column of zeros, a compressive sign, a wrong column, an area0 far too large)
+    cannot identify E; the least squares would only report a singular sensitivity matrix."""
+    s = stress[window]
+    if s.size == 0:
+        return
+    peak = float(np.max(s))
+    sd = noise_sd(s)
+    sd = sd if np.isfinite(sd) else 0.0     # fewer than 5 samples: no noise estimate
+    if peak > 0 and peak > NO_LOAD_NOISE * sd:
+        return
+    rows = lines[window]
+    first = int(rows[rows > 0].min(initial=int(rows.max())))
+    raise DataError(f"{path}: no tensile load in data.window (lines {first}-{int(rows.max())}): the "
+                    f"stress is at most {peak:.4g} MPa (noise sd about {sd:.2g} MPa). Tension must be "
+                    f"positive: {source} is zero, has the compressive sign (negate it), or is the wrong "
+                    f"column; or area0 is far too large")

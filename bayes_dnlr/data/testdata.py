@@ -19,6 +19,7 @@ import numpy as np
 from bayes_dnlr.config import Config
 from bayes_dnlr.data.checks import (
     check_increasing,
+    check_load,
     first_sample_warning,
     implausible_strain,
     percent_warning,
@@ -186,6 +187,13 @@ def _prepend(x: np.ndarray | None, value: float, count: int) -> np.ndarray | Non
     return np.concatenate((np.full(count, value), x))
 
 
+def _load_source(d) -> str:
+    """The column the load comes from, for an error message."""
+    if d.observable == "stress" or d.columns.force is None:
+        return f"the stress column ({d.columns.stress!r})"
+    return f"the force column ({d.columns.force!r})"
+
+
 def load_test(cfg: Config) -> TestData:
     """Read the test that ``cfg.data`` describes (see docs/data-input.md)."""
     from bayes_dnlr.rundir import file_sha256
@@ -245,6 +253,7 @@ def load_test(cfg: Config) -> TestData:
         warn = first_sample_warning(stress, strain, int(lines[0]))
         if warn:
             notes.append(warn)
+    check_load(stress, window, lines, path, _load_source(d))
     spike = spike_warning(stress, lines, virtual)
     if spike:
         notes.append(spike)

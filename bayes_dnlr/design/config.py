@@ -11,7 +11,6 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from bayes_dnlr.config import (
@@ -272,11 +271,11 @@ def parse_design(raw: Any, source: Path | None = None) -> DesignConfig:
 
 def load_design(path: str | Path) -> DesignConfig:
     """Read and validate a design.yaml. Errors name the file and the key."""
+    from bayes_dnlr.yamlio import YamlError, load_yaml
+
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"{path}: design file not found")
     try:
-        raw = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as err:
-        raise ConfigError(f"{path}: not valid YAML: {err}") from None
+        raw = load_yaml(path, "design file")
+    except YamlError as err:
+        raise ConfigError(str(err)) from None
     return parse_design(raw, source=path.resolve())

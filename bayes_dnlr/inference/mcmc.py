@@ -28,6 +28,7 @@ from bayes_dnlr.config import ConfigError
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.inference.progress import EssProgress
 from bayes_dnlr.inference.store import ChainWriter, SamplerState
+from bayes_dnlr.interrupt import Interrupted, deferred_interrupt
 
 START_SCALE = 1.0       # walkers start as a draw of the linearized (Laplace) posterior
 MIN_STEPS_FOR_TAU = 20  # shorter chains: no τ estimate, no stopping decision
@@ -369,8 +370,8 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
     evals_start = getattr(log_prob, "n_evals", 0)
     meter = EssProgress(rule.target_ess, rule.min_tau_multiple)
     bar = _progress_bar(progress, meter.total)
-    with bar:
-        while True:
+    with bar, deferred_interrupt() as ctrl_c:
+        while not ctrl_c.requested:
             n = chain.n
             if n % every == 0 or n >= rule.max_steps:
                 conv = (convergence(chain.array, rule.burn_in_tau, rule.min_tau_multiple,
@@ -398,6 +399,8 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
                     done = i + 1
                     bar.set_postfix_str(_steps_text(n + done, rule, conv), refresh=False)
                     bar.update(0)
+                    if ctrl_c.requested:    # Ctrl-C: commit what is done, stop outside emcee
+                        break
             finally:
                 if done:
                     state = SamplerState(block[done - 1].copy(), block_lp[done - 1].copy(),
@@ -406,5 +409,7 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
                     evals = evals0 + getattr(log_prob, "n_evals", 0) - evals_start
                     writer.append(block[:done], block_lp[:done], block_acc[:done], state,
                                   elapsed0 + time.perf_counter() - t_session, evals)
+    if ctrl_c.requested:
+        raise Interrupted(f"stopped at step {chain.n}")
     return RunOutcome(chain.array, conv, reason, state, time.perf_counter() - t_session,
                       getattr(log_prob, "n_evals", 0) - evals_start)

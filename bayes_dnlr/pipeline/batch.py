@@ -34,9 +34,9 @@ from typing import Any
 
 from bayes_dnlr.config import DISCREPANCY_PARAMETERS, PARAMETER_NAMES
 from bayes_dnlr.errors import BayesDnlrError
-from bayes_dnlr.lockfile import LockBusy, exclusive_lock
 from bayes_dnlr.pipeline.manifest import BatchError, Job
 from bayes_dnlr.rundir import digest, jsonable, write_atomic, write_json
+from bayes_dnlr.runlock import run_lock
 
 ROWS_DIR = "rows"
 TABLE_CSV = "results.csv"
@@ -226,16 +226,12 @@ def current_row(job: Job, out: Path, want_report: bool) -> dict[str, Any] | None
     return {**row, "reused": True, "origin": job.origin}
 
 
-@contextmanager
-def _batch_lock(out: Path) -> Iterator[None]:
-    """One batch per output folder at a time (bayes_dnlr/lockfile.py: released even on SIGKILL, and
-    no lock file left behind)."""
-    try:
-        with exclusive_lock(out / LOCK_FILE):
-            yield
-    except LockBusy:
-        raise BatchError(f"{out}: another batch is running into this folder; wait for it or stop "
-                         "it (finished tests are kept and the next run resumes)") from None
+def _batch_lock(out: Path):
+    """One batch per output folder at a time (bayes_dnlr/runlock.py: released even on SIGKILL,
+    removed when the batch ends)."""
+    out.mkdir(parents=True, exist_ok=True)
+    return run_lock(out, LOCK_FILE, f"{out}: another batch is running into this folder; wait for it "
+                    "or stop it (finished tests are kept and the next run resumes)", BatchError)
 
 
 def _dask_client(scheduler: str):

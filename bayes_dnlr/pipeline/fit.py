@@ -19,10 +19,13 @@ from bayes_dnlr.errors import RunError
 from bayes_dnlr.inference.joint_fit import JointFitResult, fit_joint
 from bayes_dnlr.inference.lsq import FitResult, fit_test
 from bayes_dnlr.rundir import (
+    check_output_dir,
     config_digest,
     digest,
+    discard_if_empty,
     file_sha256,
     prepare_run_dir,
+    resolved_config_path,
     section_digests,
     write_json,
 )
@@ -139,6 +142,8 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
     tests) or other data is never replaced silently: RunError unless ``overwrite`` (CLI ``--force``).
     """
     t0 = time.perf_counter()
+    if write:
+        check_output_dir(cfg.run_dir, writable=True)
     if test is None:
         test = load_tests(cfg)
     path = _fit_path(cfg.run_dir)
@@ -157,6 +162,13 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
     result.data_sha256 = test.sha256
     result.wall_time_s = time.perf_counter() - t0
     if write:
-        prepare_run_dir(cfg)
-        write_json(path, result.to_dict())
+        created = not cfg.run_dir.exists()
+        try:
+            prepare_run_dir(cfg)
+            write_json(path, result.to_dict())
+        except BaseException:
+            if created:     # leave no half-made run directory (a config without its fit.json)
+                resolved_config_path(cfg).unlink(missing_ok=True)
+                discard_if_empty(cfg.run_dir)
+            raise
     return result

@@ -34,6 +34,7 @@ import yaml
 
 from bayes_dnlr.config import Config, ConfigError, load_config, parse_config
 from bayes_dnlr.errors import BayesDnlrError
+from bayes_dnlr.yamlio import YamlError, load_yaml
 
 RUNS_FOLDER = "runs"
 NAME_OK = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
@@ -107,7 +108,7 @@ def jobs_from_configs(paths: list[Path]) -> list[Job]:
         origin = str(p)
         try:
             cfg = load_config(p)
-            raw = yaml.safe_load(p.read_text())
+            raw = load_yaml(p)          # as load_config read it (YAML 1.2 floats)
             jobs.append(Job(cfg.name, origin, str(p.resolve()), raw, str(cfg.run_dir)))
         except ConfigError as err:
             name = _name_of_broken(p)
@@ -118,9 +119,9 @@ def jobs_from_configs(paths: list[Path]) -> list[Job]:
 
 def _name_of_broken(p: Path) -> str:
     try:
-        raw = yaml.safe_load(p.read_text())
+        raw = load_yaml(p)
         name = raw.get("name") if isinstance(raw, dict) else None
-    except (OSError, yaml.YAMLError):
+    except YamlError:
         name = None
     if isinstance(name, str) and NAME_OK.match(name):
         return name
@@ -208,12 +209,10 @@ def read_manifest(path: Path) -> tuple[list[str], list[tuple[int, dict[str, str]
 
 def jobs_from_manifest(template: Path, manifest: Path, out: Path) -> list[Job]:
     """One job per manifest row: the template with the row's overrides, in ``<out>/runs/<name>/``."""
-    if not template.is_file():
-        raise BatchError(f"{template}: template config not found")
     try:
-        base = yaml.safe_load(template.read_text())
-    except yaml.YAMLError as err:
-        raise BatchError(f"{template}: not valid YAML: {err}") from None
+        base = load_yaml(template, "template config")
+    except YamlError as err:
+        raise BatchError(str(err)) from None
     if not isinstance(base, dict):
         raise BatchError(f"{template}: expected a mapping of config keys")
     _, rows = read_manifest(manifest)

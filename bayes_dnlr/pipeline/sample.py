@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import json
 import sys
-from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -25,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config import Config, ConfigError
-from bayes_dnlr.errors import RunError
+from bayes_dnlr.errors import BayesDnlrError, RunError
 from bayes_dnlr.inference.mcmc import (
     MIN_STEPS_FOR_TAU,
     MOVES,
@@ -51,11 +50,21 @@ from bayes_dnlr.inference.posterior import (
 )
 from bayes_dnlr.inference.priors import build_priors, sampled_names
 from bayes_dnlr.inference.store import ChainWriter, SamplerState, StoredRun, read_attrs, read_run
-from bayes_dnlr.lockfile import LockBusy, exclusive_lock
+from bayes_dnlr.interrupt import Interrupted
 from bayes_dnlr.pipeline.fit import load_tests, sections
 from bayes_dnlr.pipeline.noise import joint_noise_block, noise_block, residual_warnings
 from bayes_dnlr.pipeline.target import joint_target, single_target
-from bayes_dnlr.rundir import digest, jsonable, prepare_run_dir, resolved_config_text, section_digests
+from bayes_dnlr.rundir import (
+    check_output_dir,
+    digest,
+    discard_if_empty,
+    jsonable,
+    make_dir,
+    prepare_run_dir,
+    resolved_config_text,
+    section_digests,
+)
+from bayes_dnlr.runlock import run_lock
 
 CHAINS_FILE = "chains.h5"
 LOCK_FILE = "sample.lock"
@@ -142,21 +151,23 @@ def sample(cfg: Config, *, restart: bool = False, progress: bool = True) -> Post
         check_sampler(cfg, names)
     build_priors(cfg)               # validate the model priors early
     make_moves(cfg.sampler.moves)
+    check_output_dir(cfg.run_dir, writable=False)
     test = load_tests(cfg)
-    with _run_lock(cfg.run_dir):
-        return _sample(cfg, test, names, restart=restart, progress=progress)
-
-
-@contextmanager
-def _run_lock(run_dir: Path):
-    """One ``sample`` per run directory at a time (bayes_dnlr/lockfile.py: released even on SIGKILL,
-    and no lock file left behind)."""
+    created = make_dir(cfg.run_dir)
     try:
-        with exclusive_lock(run_dir / LOCK_FILE):
-            yield
-    except LockBusy:
-        raise RunError(f"{run_dir}: another `sample` is running on this run directory; wait for it "
-                       "or stop it (its chain is kept and resumes)") from None
+        with _run_lock(cfg.run_dir):
+            return _sample(cfg, test, names, restart=restart, progress=progress)
+    except BaseException:
+        if created:
+            discard_if_empty(cfg.run_dir)   # nothing half-made is left by a failed first command
+        raise
+
+
+def _run_lock(run_dir: Path):
+    """One ``sample`` per run directory at a time (bayes_dnlr/runlock.py: released even on SIGKILL,
+    removed when the command ends)."""
+    return run_lock(run_dir, LOCK_FILE, f"{run_dir}: another `sample` is running on this run "
+                    "directory; wait for it or stop it (its chain is kept and resumes)")
 
 
 def _current_fit(cfg: Config, test, *, replace: bool, progress: bool) -> dict[str, Any]:
@@ -256,12 +267,14 @@ def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: boo
     try:
         out = run_ensemble(post, priors.to_physical, sc.moves, state, chain0, writer, rule,
                            fresh=fresh, elapsed0=elapsed0, evals0=evals0, progress=progress)
-    except BaseException:
+    except BaseException as err:
         steps = writer.steps
         writer.close()
-        if progress:
-            print(f"\nstopped at step {steps}; the chain is saved in {chains}: run `sample` again "
-                  "to continue", file=sys.stderr)
+        kept = f"stopped at step {steps}; the chain is saved in {chains}: run `sample` again to continue"
+        if isinstance(err, KeyboardInterrupt):
+            raise Interrupted(kept) from None
+        if progress and not isinstance(err, BayesDnlrError):
+            print(f"\n{kept}", file=sys.stderr)
         raise
     conv, reason = out.convergence, out.reason
     elapsed = elapsed0 + out.sampling_time
