@@ -22,6 +22,16 @@ from bayes_dnlr import __version__
 from bayes_dnlr.errors import BayesDnlrError
 
 
+def _positive_int(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return n
+
+
 def _config(path: str):
     from bayes_dnlr.config import load_config
 
@@ -45,7 +55,8 @@ def cmd_fit(args: argparse.Namespace) -> None:
 def cmd_sample(args: argparse.Namespace) -> None:
     from bayes_dnlr.pipeline.sample import sample
 
-    post = sample(_config(args.config), restart=args.restart, progress=not args.quiet)
+    post = sample(_config(args.config), restart=args.restart, progress=not args.quiet,
+                  threads=args.threads)
     print(post.table())
 
 
@@ -114,6 +125,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--restart", action="store_true",
                    help="discard an existing chain (from another config or data) and start again")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--threads", type=_positive_int, default=None, metavar="N",
+                   help="threads for the likelihood (default: config sampler.threads, else "
+                        "NUMBA_NUM_THREADS / OMP_NUM_THREADS, which also cap N); the chain does "
+                        "not depend on it")
     p.set_defaults(func=cmd_sample)
 
     p = sub.add_parser("report", help="report.html and figures/*.png for a finished run")

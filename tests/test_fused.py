@@ -121,3 +121,35 @@ def test_one_or_two_threads_give_the_same_chain(disc) -> None:
         set_threads(None)
     assert np.any(one[-1] != one[0])          # the walkers moved
     np.testing.assert_array_equal(one, two)
+
+
+def test_thread_setting_is_capped_by_the_environment(monkeypatch) -> None:
+    from bayes_dnlr.model.threads import use_threads
+
+    try:
+        monkeypatch.setenv("OMP_NUM_THREADS", "1")
+        assert use_threads(2) == 1 and get_threads() == 1
+        assert use_threads(None) == 1
+        monkeypatch.delenv("OMP_NUM_THREADS")
+        assert use_threads(None) == available_threads()
+        assert use_threads(1) == 1 and get_threads() == 1
+    finally:
+        set_threads(None)
+
+
+def test_thread_setting_in_config_and_cli() -> None:
+    from pydantic import ValidationError
+
+    from bayes_dnlr.cli import build_parser
+
+    raw = {"name": "t", "data": {"file": "x.csv", "columns": {"time": "t", "strain": "e",
+                                                             "stress": "s"},
+                                 "observable": "stress"}}
+    assert parse_config(raw).sampler.threads is None
+    assert parse_config({**raw, "sampler": {"threads": 2}}).sampler.threads == 2
+    with pytest.raises((ValidationError, ValueError), match="threads"):
+        parse_config({**raw, "sampler": {"threads": 0}})
+    assert build_parser().parse_args(["sample", "c.yaml", "--threads", "1"]).threads == 1
+    with pytest.raises(SystemExit) as exc:
+        build_parser().parse_args(["sample", "c.yaml", "--threads", "0"])
+    assert exc.value.code == 2

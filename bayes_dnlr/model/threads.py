@@ -58,6 +58,15 @@ def set_threads(n: int | None = None) -> int:
     return n
 
 
+def use_threads(n: int | None = None) -> int:
+    """Threads for a run: ``n`` (a user setting, e.g. config ``sampler.threads``) capped at
+    ``default_threads()``, so that ``NUMBA_NUM_THREADS`` and ``OMP_NUM_THREADS`` are upper limits
+    a setting cannot exceed (batch workers started with 1 thread stay at 1); None: the default.
+    Returns the number in use."""
+    limit = default_threads()
+    return set_threads(limit if n is None else min(int(n), limit))
+
+
 def get_threads() -> int:
     """The number of threads the batch functions use now."""
     ensure_configured()

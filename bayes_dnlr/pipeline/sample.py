@@ -134,8 +134,16 @@ def _remove_outputs(run_dir: Path) -> None:
 
 # ---------------------------------------------------------------- sampling
 
-def sample(cfg: Config, *, restart: bool = False, progress: bool = True) -> Posterior:
-    """Sample the posterior of ``cfg`` to convergence (or max_steps); resumable. See the module doc."""
+def sample(cfg: Config, *, restart: bool = False, progress: bool = True,
+           threads: int | None = None) -> Posterior:
+    """Sample the posterior of ``cfg`` to convergence (or max_steps); resumable. See the module doc.
+
+    ``threads``: threads of the compiled likelihood, instead of config ``sampler.threads``; both
+    are capped by NUMBA_NUM_THREADS and OMP_NUM_THREADS (``model.threads.use_threads``). The chain
+    does not depend on it."""
+    from bayes_dnlr.model.threads import use_threads
+
+    use_threads(threads if threads is not None else cfg.sampler.threads)
     names = sampled_names(cfg)
     if not cfg.is_joint:             # a joint run knows its names after the fit
         check_sampler(cfg, names)
@@ -311,6 +319,12 @@ def _sigma0_attr(sigma0: Any) -> Any:
     return float("nan") if sigma0 is None else float(sigma0)
 
 
+def _threads_in_use() -> int:
+    from bayes_dnlr.model.threads import get_threads
+
+    return get_threads()
+
+
 def _version() -> str:
     from bayes_dnlr import __version__
 
@@ -373,7 +387,8 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
                         if cfg.is_joint else fit.get("deborah_max")),
         "name": cfg.name, "stop_reason": reason, "converged": reason == "converged",
         "burn_in": int(burn), "target_ess": sc.target_ess, "moves": MOVES.get(sc.moves, sc.moves),
-        "seed": sc.seed, "acceptance_fraction": acc, "sigma0_source": sigma0_source,
+        "seed": sc.seed, "threads": _threads_in_use(), "acceptance_fraction": acc,
+        "sigma0_source": sigma0_source,
         "storage_time_s": store_time, "storage_overhead": store_time / sampling,
         "log_prob_evals": int(evals), "log_prob_evals_per_s": evals / sampling,
         "settings": _settings(cfg), "fingerprint": fp, "data_sha256": test.sha256,
