@@ -9,7 +9,8 @@ estimated on the chain after a burn-in of ``burn_in_tau`` τ; the run stops when
 ESS = kept steps × walkers / τ >= ``target_ess``, the kept chain is >= ``min_tau_multiple`` τ long
 and ArviZ's bulk/tail ESS and R-hat agree ("converged"), or at ``max_steps`` ("max_steps").
 
-emcee and ArviZ are imported inside the functions that need them.
+emcee is imported inside the functions that need them, without scipy.stats (emcee_import.py);
+the ESS and R-hat of the stopping rule come from inference/ess.py, not ArviZ.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ import numpy as np
 
 from bayes_dnlr.config import ConfigError
 from bayes_dnlr.errors import RunError
+from bayes_dnlr.inference.emcee_import import load_emcee
 from bayes_dnlr.inference.store import ChainWriter, SamplerState
 
 START_SCALE = 1.0       # walkers start as a draw of the linearized (Laplace) posterior
@@ -41,7 +43,7 @@ MOVES = {
 
 def make_moves(kind: str) -> Any:
     """emcee moves for ``sampler.moves`` (benchmarks/moves.py compares them)."""
-    import emcee
+    emcee = load_emcee()
 
     if kind == "stretch":
         return emcee.moves.StretchMove()
@@ -86,8 +88,7 @@ def _tau(chain: np.ndarray) -> np.ndarray:
     A walker that stays at one point has no autocorrelation function (emcee divides 0 by 0 and
     the average over walkers becomes NaN): it is left out, and a parameter in which no walker
     moves gets τ = inf. Never NaN."""
-    from emcee.autocorr import integrated_time
-
+    integrated_time = load_emcee().autocorr.integrated_time
     moving = _moving(chain)
     tau = np.full(chain.shape[2], math.inf)
     for j in range(chain.shape[2]):
@@ -326,8 +327,9 @@ class RunOutcome:
     convergence: Convergence | None
     reason: str | None              # converged | max_steps
     state: SamplerState
-    sampling_time: float            # s, this session, storage included
+    sampling_time: float            # s, this session's loop: steps, checks and storage
     evals: int                      # log-density evaluations this session
+    check_time: float = 0.0         # s, this session, checking the stopping rule
 
 
 def _progress_bar(progress: bool, initial: int, total: int):
@@ -335,6 +337,24 @@ def _progress_bar(progress: bool, initial: int, total: int):
 
     return tqdm(total=total, initial=initial, unit="step", desc="sampling", disable=not progress,
                 dynamic_ncols=True, file=sys.stderr, leave=True)
+
+
+CHECK_FRACTION = 0.02   # convergence is checked every 2 % of the chain's length (at least 1 step)
+
+
+def next_check(n: int, conv: Convergence | None, every: int) -> int:
+    """The step at which to check the stopping rule next, after a check at step ``n``.
+
+    Every ``CHECK_FRACTION`` of the chain (ESS grows in proportion to the kept steps, so a run stops
+    at most ~2-3 % past the step where the rule first holds, kept steps counted from the burn-in),
+    and not before the step the last τ estimate says is needed (``conv.needed_steps``), but at least
+    once per checkpoint block."""
+    step = max(1, math.ceil(CHECK_FRACTION * n))
+    if n < MIN_STEPS_FOR_TAU:
+        return MIN_STEPS_FOR_TAU
+    if conv is not None and not conv.stuck and conv.needed_steps > n + step:
+        step = conv.needed_steps - n
+    return n + min(step, every)
 
 
 def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Callable, moves: str,
@@ -345,10 +365,16 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
 
     Every ``rule.checkpoint_every`` steps the block is committed to ``writer`` with the state after
     its last step, so an interruption (Ctrl-C, SIGKILL) loses at most one block and a later call
-    continues the same chain bit-exactly. ``chain0``: the steps already done (physical units).
-    ``log_prob.n_evals`` (when present) counts model evaluations.
+    continues the same chain bit-exactly. The stopping rule is checked more often, at the steps of
+    ``next_check``; a run that stops inside a block commits the steps it did.
+    ``chain0``: the steps already done (physical units). ``log_prob.n_evals`` (when present)
+    counts model evaluations.
+
+    ``sampling_time`` (summary.json ``wall_time_s``) is the time of this loop only: the emcee
+    steps, the likelihood, the checks of the stopping rule and the checkpoints; the imports, the
+    start of the ensemble and the outputs are outside it.
     """
-    import emcee
+    emcee = load_emcee()
 
     walkers, ndim = state.coords.shape
     chain = _Growing(chain0)
@@ -356,22 +382,29 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
     every = rule.checkpoint_every
     conv = None
     reason = None
-    t_session = time.perf_counter()
     evals_start = getattr(log_prob, "n_evals", 0)
     bar = _progress_bar(progress, chain.n, rule.max_steps)
+    check_time = 0.0
+
+    def check(full: np.ndarray) -> None:
+        nonlocal conv, reason, check_time
+        t0 = time.perf_counter()
+        n = full.shape[0]
+        conv = (convergence(full, rule.burn_in_tau, rule.min_tau_multiple, rule.target_ess)
+                if n >= MIN_STEPS_FOR_TAU else None)
+        reason = stop_reason(conv, n, rule.max_steps)
+        if conv is not None:
+            bar.total = int(min(rule.max_steps, max(conv.needed_steps, n + 1)))
+            bar.set_postfix_str(f"ESS {conv.min_ess:.0f}/{rule.target_ess:.0f}, "
+                                f"tau {conv.tau.max():.1f}", refresh=False)
+        check_time += time.perf_counter() - t0
+
+    t_session = time.perf_counter()
     with bar:
-        while True:
+        check(chain.array)
+        check_at = next_check(chain.n, conv, every)
+        while reason is None:
             n = chain.n
-            if n % every == 0 or n >= rule.max_steps:
-                conv = (convergence(chain.array, rule.burn_in_tau, rule.min_tau_multiple,
-                                    rule.target_ess) if n >= MIN_STEPS_FOR_TAU else None)
-                reason = stop_reason(conv, n, rule.max_steps)
-                if conv is not None:
-                    bar.total = int(min(rule.max_steps, max(conv.needed_steps, n + every)))
-                    bar.set_postfix_str(f"ESS {conv.min_ess:.0f}/{rule.target_ess:.0f}, "
-                                        f"tau {conv.tau.max():.1f}", refresh=False)
-                if reason is not None:
-                    break
             m = min(every - n % every, rule.max_steps - n)
             block = np.empty((m, walkers, ndim))
             block_lp = np.empty((m, walkers))
@@ -389,6 +422,11 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
                     last = st
                     done = i + 1
                     bar.update(1)
+                    if n + done >= check_at and done < m:
+                        check(np.concatenate([chain.array, to_physical(block[:done])]))
+                        check_at = next_check(n + done, conv, every)
+                        if reason is not None:
+                            break
             finally:
                 if done:
                     state = SamplerState(block[done - 1].copy(), block_lp[done - 1].copy(),
@@ -397,5 +435,9 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
                     evals = evals0 + getattr(log_prob, "n_evals", 0) - evals_start
                     writer.append(block[:done], block_lp[:done], block_acc[:done], state,
                                   elapsed0 + time.perf_counter() - t_session, evals)
-    return RunOutcome(chain.array, conv, reason, state, time.perf_counter() - t_session,
-                      getattr(log_prob, "n_evals", 0) - evals_start)
+            if reason is None:
+                check(chain.array)
+                check_at = next_check(chain.n, conv, every)
+    elapsed = time.perf_counter() - t_session
+    return RunOutcome(chain.array, conv, reason, state, elapsed,
+                      getattr(log_prob, "n_evals", 0) - evals_start, check_time)

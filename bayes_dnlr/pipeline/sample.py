@@ -268,6 +268,8 @@ def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: boo
 
     rule = StopRule(sc.burn_in_tau, sc.min_tau_multiple, sc.target_ess, sc.max_steps,
                     sc.checkpoint_every)
+    # storage inside the loop only: creating or re-publishing the file happened before it
+    store_before, store_prev = writer.store_time, (stored.store_time if stored is not None else 0.0)
     try:
         out = run_ensemble(post, priors.to_physical, sc.moves, state, chain0, writer, rule,
                            fresh=fresh, elapsed0=elapsed0, evals0=evals0, progress=progress)
@@ -280,12 +282,13 @@ def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: boo
         raise
     conv, reason = out.convergence, out.reason
     elapsed = elapsed0 + out.sampling_time
-    store_time = writer.store_time
+    store_time = store_prev + writer.store_time - store_before
     writer.finish({"stop_reason": reason, "steps": int(out.chain.shape[0]),
                    "finished": datetime.now(UTC).isoformat(timespec="seconds")})
     run = read_run(chains)
     return _write_result(cfg, run, fit, conv, reason, fp, test, sigma0_source,
-                         wall_time=elapsed, store_time=store_time, evals=evals0 + out.evals)
+                         wall_time=elapsed, store_time=store_time, evals=evals0 + out.evals,
+                         check_time=out.check_time)
 
 
 def _json_attr(v: Any) -> Any:
@@ -361,8 +364,10 @@ def _finished_result(cfg: Config, test, stored: StoredRun, fp: str) -> Posterior
 
 def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Convergence | None,
                   reason: str | None, fp: str, test, sigma0_source: str, *, wall_time: float,
-                  store_time: float, evals: int) -> Posterior:
-    """posterior.nc and summary.json from the stored chain."""
+                  store_time: float, evals: int, check_time: float | None = None) -> Posterior:
+    """posterior.nc and summary.json from the stored chain. ``wall_time``: the sampling loops
+    (all sessions), ``store_time`` the checkpoint writes inside them, ``check_time`` the checks of
+    the stopping rule in the last session (None: not measured)."""
     sc = cfg.sampler
     names = run.names
     if conv is None:
@@ -391,6 +396,7 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
         "sigma0_source": sigma0_source,
         "storage_time_s": store_time, "storage_overhead": store_time / sampling,
         "log_prob_evals": int(evals), "log_prob_evals_per_s": evals / sampling,
+        "check_time_s": check_time,
         "settings": _settings(cfg), "fingerprint": fp, "data_sha256": test.sha256,
         "version": _version(),
     }
