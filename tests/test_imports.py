@@ -10,7 +10,8 @@ import sys
 import pytest
 from sampling_support import write_case
 
-HEAVY = ("matplotlib", "arviz", "arviz_plots", "arviz_stats", "scipy.stats", "distributed", "corner")
+HEAVY = ("matplotlib", "arviz", "arviz_plots", "arviz_stats", "scipy.stats", "distributed", "corner",
+         "xarray", "pandas")
 RUN = ("import json, sys\n"
        "from bayes_dnlr.cli import main\n"
        "status = main(sys.argv[1:])\n"

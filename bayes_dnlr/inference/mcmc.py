@@ -330,6 +330,7 @@ class RunOutcome:
     sampling_time: float            # s, this session's loop: steps, checks and storage
     evals: int                      # log-density evaluations this session
     check_time: float = 0.0         # s, this session, checking the stopping rule
+    cpu_time: float = 0.0           # s, CPU time of the process (all threads) during the loop
 
 
 def _progress_bar(progress: bool, initial: int, total: int):
@@ -400,6 +401,7 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
         check_time += time.perf_counter() - t0
 
     t_session = time.perf_counter()
+    cpu0 = time.process_time()
     with bar:
         check(chain.array)
         check_at = next_check(chain.n, conv, every)
@@ -440,4 +442,5 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
                 check_at = next_check(chain.n, conv, every)
     elapsed = time.perf_counter() - t_session
     return RunOutcome(chain.array, conv, reason, state, elapsed,
-                      getattr(log_prob, "n_evals", 0) - evals_start, check_time)
+                      getattr(log_prob, "n_evals", 0) - evals_start, check_time,
+                      time.process_time() - cpu0)

@@ -179,11 +179,16 @@ def _none(*args: Any, **kwargs: Any) -> None:
 def write_outputs(run_dir: Path, datatree, summary: dict[str, Any]) -> None:
     """posterior.nc and summary.json, each replaced atomically (rundir.write_atomic).
 
-    posterior.nc is serialised in memory first: HDF5 never writes to the disk itself, so a full disk
-    is met by a plain file write (a one-line DiskFullError, the temporary removed) and never inside
-    HDF5 (whose failed writes can crash the process when it exits)."""
+    ``datatree``: an xarray DataTree (``build_datatree``), or the draws themselves
+    (``netcdf.PosteriorDraws``: the same file without importing xarray and ArviZ, what ``sample``
+    uses). posterior.nc is serialised in memory first: HDF5 never writes to the disk itself, so a
+    full disk is met by a plain file write (a one-line DiskFullError, the temporary removed) and
+    never inside HDF5 (whose failed writes can crash the process when it exits)."""
+    from bayes_dnlr.inference.netcdf import PosteriorDraws
+
     run_dir = Path(run_dir)
-    write_atomic(run_dir / POSTERIOR_FILE, _netcdf_bytes(datatree))
+    data = datatree.to_netcdf() if isinstance(datatree, PosteriorDraws) else _netcdf_bytes(datatree)
+    write_atomic(run_dir / POSTERIOR_FILE, data)
     write_json(run_dir / SUMMARY_FILE, summary)
 
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import sys
+import time
 from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
@@ -38,11 +39,11 @@ from bayes_dnlr.inference.mcmc import (
     start_ensemble,
     stop_reason,
 )
+from bayes_dnlr.inference.netcdf import PosteriorDraws
 from bayes_dnlr.inference.posterior import (
     POSTERIOR_FILE,
     SUMMARY_FILE,
     Posterior,
-    build_datatree,
     gauss_newton_block,
     load_posterior,
     read_summary,
@@ -143,6 +144,7 @@ def sample(cfg: Config, *, restart: bool = False, progress: bool = True,
     does not depend on it."""
     from bayes_dnlr.model.threads import use_threads
 
+    t0 = time.perf_counter()
     use_threads(threads if threads is not None else cfg.sampler.threads)
     names = sampled_names(cfg)
     if not cfg.is_joint:             # a joint run knows its names after the fit
@@ -151,7 +153,10 @@ def sample(cfg: Config, *, restart: bool = False, progress: bool = True,
     make_moves(cfg.sampler.moves)
     test = load_tests(cfg)
     with _run_lock(cfg.run_dir):
-        return _sample(cfg, test, names, restart=restart, progress=progress)
+        post = _sample(cfg, test, names, restart=restart, progress=progress)
+    timing = post.extras.setdefault("timing", {})
+    timing["total_s"] = time.perf_counter() - t0
+    return post
 
 
 @contextmanager
@@ -227,7 +232,9 @@ def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: boo
         if done is not None:
             return done
 
+    t_fit = time.perf_counter()
     fit = _current_fit(cfg, test, replace=restart, progress=progress)
+    t_fit = time.perf_counter() - t_fit
     prepare_run_dir(cfg)
     target = (joint_target(cfg, test.tests, fit, stored) if cfg.is_joint
               else single_target(cfg, test, fit, stored))
@@ -283,12 +290,21 @@ def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: boo
     conv, reason = out.convergence, out.reason
     elapsed = elapsed0 + out.sampling_time
     store_time = store_prev + writer.store_time - store_before
+    t_finish = time.perf_counter()
     writer.finish({"stop_reason": reason, "steps": int(out.chain.shape[0]),
                    "finished": datetime.now(UTC).isoformat(timespec="seconds")})
+    t_finish = time.perf_counter() - t_finish
+    t_out = time.perf_counter()
     run = read_run(chains)
-    return _write_result(cfg, run, fit, conv, reason, fp, test, sigma0_source,
+    post = _write_result(cfg, run, fit, conv, reason, fp, test, sigma0_source,
                          wall_time=elapsed, store_time=store_time, evals=evals0 + out.evals,
                          check_time=out.check_time)
+    # where a call's time went (benchmarks/sample_command.py): the fit (or reading fit.json), the
+    # sampling loop, and the outputs (finishing chains.h5, statistics, posterior.nc, summary.json)
+    post.extras["timing"] = {"fit_s": t_fit, "loop_s": out.sampling_time,
+                             "loop_cpu_s": out.cpu_time, "loop_steps": int(out.chain.shape[0]),
+                             "output_s": time.perf_counter() - t_out + t_finish}
+    return post
 
 
 def _json_attr(v: Any) -> Any:
@@ -405,7 +421,7 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
              "sampling_coordinates": json.dumps({k: ("log" if ls else "linear") for k, ls in
                                                  zip(names, run.attrs.get("log_space", []),
                                                      strict=False)})}
-    dt = build_datatree(names, draws, lp, attrs)
+    dt = PosteriorDraws(names, draws, lp, attrs)     # posterior.nc without importing xarray
     summary = summarize(names, draws, fit=fit, tau=conv.tau, extra=extra)
     if cfg.is_joint:
         summary["noise"] = jsonable(joint_noise_block(cfg, fit, summary, sigma0, sigma0_source,
@@ -421,4 +437,4 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
     if summary["noise"]["model"] == "white" and summary["noise"].get("fit_residuals_white") is False:
         summary["warnings"].append(summary["noise"]["verdict"])
     write_outputs(cfg.run_dir, dt, summary)
-    return Posterior(cfg.run_dir, summary, dt)
+    return Posterior(cfg.run_dir, summary)          # its DataTree is read from posterior.nc on use
