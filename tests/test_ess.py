@@ -60,3 +60,10 @@ def _smooth(j: int) -> bool:
         while j % p == 0:
             j //= p
     return j == 1
+
+
+def test_normal_quantile_equals_scipy() -> None:
+    special = pytest.importorskip("scipy.special")
+    p = np.concatenate([np.linspace(1e-12, 1 - 1e-12, 20001), 10.0 ** -np.arange(1, 300),
+                        1 - 10.0 ** -np.arange(1, 16)])
+    np.testing.assert_allclose(ess.ndtri(p), special.ndtri(p), rtol=1e-14, atol=1e-15)

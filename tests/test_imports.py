@@ -11,7 +11,8 @@ import pytest
 from sampling_support import write_case
 
 HEAVY = ("matplotlib", "arviz", "arviz_plots", "arviz_stats", "scipy.stats", "distributed", "corner",
-         "xarray", "pandas")
+         "xarray", "pandas", "scipy.optimize", "scipy.special")
+FIT_NEEDS = ("scipy.optimize", "scipy.special")     # the fit optimises; sample reads fit.json
 RUN = ("import json, sys\n"
        "from bayes_dnlr.cli import main\n"
        "status = main(sys.argv[1:])\n"
@@ -32,7 +33,7 @@ def test_fit_and_sample_import_no_plotting(tmp_path, discrepancy) -> None:
     cfg = write_case(tmp_path, n=400, discrepancy=discrepancy, error=error,
                      sampler={"max_steps": 60, "target_ess": 50, "checkpoint_every": 30})
     fit = _run("fit", str(cfg), "--quiet")
-    assert fit["status"] == 0 and fit["heavy"] == []
+    assert fit["status"] == 0 and set(fit["heavy"]) <= set(FIT_NEEDS)
     sample = _run("sample", str(cfg), "--quiet")
     assert sample["status"] == 0 and sample["emcee"]     # it did sample
     assert sample["heavy"] == []
