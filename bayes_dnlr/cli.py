@@ -15,8 +15,12 @@ Heavy modules are imported inside each command so that ``--help`` stays instant.
 from __future__ import annotations
 
 import argparse
+import atexit
+import os
 import sys
+import threading
 from pathlib import Path
+from typing import NoReturn
 
 from bayes_dnlr import __version__
 from bayes_dnlr.errors import BayesDnlrError
@@ -187,6 +191,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_batch)
     return parser
+
+
+def exit_now(status: int) -> NoReturn:
+    """End the process with ``status`` once a command has finished, skipping the interpreter's
+    finalization: with numba and LLVM loaded, tearing the modules down took 0.2-0.9 s and does
+    nothing a finished command needs. The handlers registered with ``atexit`` still run and the
+    standard streams are flushed. A normal exit when a non-daemon thread is still running."""
+    others = [t for t in threading.enumerate()
+              if t is not threading.main_thread() and t.is_alive() and not t.daemon]
+    if others:
+        sys.exit(status)
+    try:
+        atexit._run_exitfuncs()
+        sys.stdout.flush()
+        sys.stderr.flush()
+    except BaseException:            # e.g. a closed pipe: leave it to the normal exit
+        sys.exit(status)
+    os._exit(status)
 
 
 def main(argv: list[str] | None = None) -> int:

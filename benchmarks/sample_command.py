@@ -49,7 +49,7 @@ from bayes_dnlr.config import load_config
 from bayes_dnlr.pipeline.sample import sample
 from bayes_dnlr.inference.emcee_import import load_emcee
 load_emcee()
-import h5py, tqdm.auto, xarray, arviz_base, h5netcdf   # what the command imports inside functions
+import h5py, tqdm.auto, h5netcdf   # what the command imports inside functions
 t_imp = time.perf_counter() - t_start
 post = sample(load_config(sys.argv[1]), progress=False)
 t = post.extras["timing"]
@@ -200,7 +200,7 @@ def split(run: Path, repeats: int) -> None:
     print(f"  split of the fastest of {repeats} fresh processes ({wall:.2f} s wall):")
     for label, v in (("interpreter start and exit", wall - t["in_process_s"]),
                      ("imports", t["imports_s"]), ("fit (fit.json current: read and checked)", t["fit_s"]),
-                     ("data and start of the ensemble (numba cache load)", rest),
+                     ("data and start (numba's first call: init + cache load)", rest),
                      ("sampling loop", t["loop_s"]), ("outputs", t["output_s"])):
         print(f"    {label:<52s} {v:6.3f} s")
     print(f"    (a bare `python -c pass`: {bare:.3f} s)")
