@@ -45,7 +45,7 @@ def test_constant_and_short_chains() -> None:
 
 def test_fast_fft_length() -> None:
     for n in (1, 2, 7, 11, 97, 600, 1001, 4097):
-        m = ess._next_fast_len(n)
+        m = ess.next_fast_len(n)
         assert m >= n
         k = m
         for p in (2, 3, 5):

@@ -67,3 +67,21 @@ def test_resume_after_an_early_stop_gives_the_same_chain(tmp_path, ess_bound_run
     run = read_run(other.parent / "chains.h5")
     assert again.summary["steps"] == post.summary["steps"] == run.steps
     np.testing.assert_array_equal(run.chain, ref.chain)
+
+
+def test_tau_equals_emcee() -> None:
+    from emcee.autocorr import integrated_time
+
+    from bayes_dnlr.inference.mcmc import _tau
+
+    rng = np.random.default_rng(0)
+    for n in (20, 57, 401):
+        x = np.cumsum(rng.normal(size=(n, 16, 3)), axis=0) * 0.1 + rng.normal(size=(n, 16, 3))
+        x[:, 3, 2] = 1.0                                   # a stuck walker is left out
+        x[:, :, 1] = x[:1, :, 1]                           # no walker moves: tau = inf
+        ours = _tau(x)
+        for j in (0, 2):
+            moving = np.ptp(x[:, :, j], axis=0) > 0
+            ref = integrated_time(x[:, moving, j][:, :, None], c=5, tol=0, quiet=True)[0]
+            assert ours[j] == pytest.approx(ref, rel=1e-12)
+        assert ours[1] == np.inf

@@ -93,7 +93,7 @@ def _split(x: np.ndarray) -> np.ndarray:
     return np.vstack((x[:, :half], x[:, x.shape[1] - half:]))
 
 
-def _next_fast_len(n: int) -> int:
+def next_fast_len(n: int) -> int:
     """The smallest 2^a 3^b 5^c >= n (a fast FFT length)."""
     best = 1 << max(n - 1, 0).bit_length()
     p5 = 1
@@ -112,7 +112,7 @@ def _next_fast_len(n: int) -> int:
 def _autocov(x: np.ndarray) -> np.ndarray:
     """Autocovariance of each row at every lag (FFT), divided by the row length."""
     n = x.shape[1]
-    m = _next_fast_len(2 * n)
+    m = next_fast_len(2 * n)
     d = x - x.mean(axis=1, keepdims=True)
     f = np.fft.rfft(d, n=m, axis=1)
     f *= np.conjugate(f)
