@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit, prange
 
 from bayes_dnlr.inference import gp
-from bayes_dnlr.model import kernel
+from bayes_dnlr.model import kernel, threads
 
 _LOG_2PI = math.log(2.0 * math.pi)
 GROUP = gp.LANE_GROUP
@@ -36,9 +36,59 @@ _stress_into = kernel.stress_into
 _lanes = gp.loglike_lanes
 
 
+@njit(cache=True)
+def _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out, lo, hi):
+    """Walkers lo..hi-1 of ``loglike_walkers`` (one group, one thread)."""
+    n = y.shape[0]
+    q = grid[0].shape[0] + 1
+    m = hi - lo
+    stress = np.empty(q)
+    rt = np.empty((n if use_gp else 0, m))
+    bad = np.zeros(m, dtype=np.bool_)
+    for w in range(m):
+        r = lo + w
+        ok = _stress_into(theta[r, 0], theta[r, 1], theta[r, 2], theta[r, 3], theta[r, 4],
+                          grid, stress)
+        if not ok:
+            bad[w] = True
+            continue
+        if use_gp:
+            finite = True
+            for i in range(n):
+                v = y[i] - stress[idx[i]]
+                rt[i, w] = v
+                finite = finite and math.isfinite(v)
+            if not finite:
+                bad[w] = True
+            continue
+        s = sig[r]
+        if not (s > 0.0 and math.isfinite(s)):
+            bad[w] = True
+            continue
+        rss = 0.0
+        for i in range(n):
+            v = y[i] - stress[idx[i]]
+            rss += v * v
+        ll = -0.5 * rss / (s * s) - n * (math.log(s) + 0.5 * _LOG_2PI)
+        if math.isfinite(ll):
+            out[r] = ll
+        else:
+            bad[w] = True
+    if use_gp:
+        for w in range(m):
+            if bad[w]:
+                for i in range(n):
+                    rt[i, w] = 0.0
+        _lanes(x, rt, 0, m, sig[lo:hi], amp[lo:hi], length[lo:hi], kind, gap, out[lo:hi])
+    for w in range(m):
+        if bad[w]:
+            out[lo + w] = -np.inf
+
+
 @njit(cache=True, parallel=True)
 def loglike_walkers(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out):
     """log-likelihood of every row of theta into ``out`` (k,); -inf where it is not defined.
+    Groups of GROUP walkers in parallel (numba threads).
 
     theta (k, 5): E, G, σ_inf, tau_max, tau_max_R (model units; the last two ignored without a
     relaxation phase, but must then be positive anyway); sig, amp, length (k,): σ0 and the
@@ -48,54 +98,31 @@ def loglike_walkers(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp,
     (inf: stationary) of inference/gp.py.
     """
     k = theta.shape[0]
-    n = y.shape[0]
-    q = grid[0].shape[0] + 1
     groups = (k + GROUP - 1) // GROUP
     for g in prange(groups):
         lo = g * GROUP
-        hi = min(k, lo + GROUP)
-        m = hi - lo
-        stress = np.empty(q)
-        rt = np.empty((n if use_gp else 0, m))
-        bad = np.zeros(m, dtype=np.bool_)
-        for w in range(m):
-            r = lo + w
-            ok = _stress_into(theta[r, 0], theta[r, 1], theta[r, 2], theta[r, 3], theta[r, 4],
-                              grid, stress)
-            if not ok:
-                bad[w] = True
-                continue
-            if use_gp:
-                finite = True
-                for i in range(n):
-                    v = y[i] - stress[idx[i]]
-                    rt[i, w] = v
-                    finite = finite and math.isfinite(v)
-                if not finite:
-                    bad[w] = True
-                continue
-            s = sig[r]
-            if not (s > 0.0 and math.isfinite(s)):
-                bad[w] = True
-                continue
-            rss = 0.0
-            for i in range(n):
-                v = y[i] - stress[idx[i]]
-                rss += v * v
-            ll = -0.5 * rss / (s * s) - n * (math.log(s) + 0.5 * _LOG_2PI)
-            if math.isfinite(ll):
-                out[r] = ll
-            else:
-                bad[w] = True
-        if use_gp:
-            for w in range(m):
-                if bad[w]:
-                    for i in range(n):
-                        rt[i, w] = 0.0
-            _lanes(x, rt, 0, m, sig[lo:hi], amp[lo:hi], length[lo:hi], kind, gap, out[lo:hi])
-        for w in range(m):
-            if bad[w]:
-                out[lo + w] = -np.inf
+        _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out, lo,
+               min(k, lo + GROUP))
+
+
+@njit(cache=True)
+def loglike_walkers_serial(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out):
+    """``loglike_walkers`` in the calling thread, the same groups one after the other (the same
+    values): for one thread, and in a process forked from one whose numba threads run on GNU
+    OpenMP, where numba terminates a child that starts a parallel region."""
+    k = theta.shape[0]
+    for lo in range(0, k, GROUP):
+        _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out, lo,
+               min(k, lo + GROUP))
+
+
+def evaluate(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out) -> None:
+    """``loglike_walkers`` when threads may run, else ``loglike_walkers_serial``
+    (``model.threads.parallel_allowed``)."""
+    if threads.parallel_allowed():
+        loglike_walkers(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out)
+    else:
+        loglike_walkers_serial(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out)
 
 
 def _file_digest(module: ModuleType) -> bytes:
@@ -113,4 +140,5 @@ def _depend_on(dispatcher, *modules: ModuleType) -> None:
         pass
 
 
-_depend_on(loglike_walkers, kernel, gp)
+for _f in (_group, loglike_walkers, loglike_walkers_serial):
+    _depend_on(_f, kernel, gp)

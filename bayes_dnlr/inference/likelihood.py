@@ -33,7 +33,7 @@ from bayes_dnlr.inference import fused as fused_kernel
 from bayes_dnlr.inference import gp
 from bayes_dnlr.inference.discrepancy import AMPLITUDE, LENGTH, Axis, is_white, test_axis
 from bayes_dnlr.inference.priors import PriorSet, build_priors
-from bayes_dnlr.model import DNLR, threads
+from bayes_dnlr.model import DNLR
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
@@ -179,10 +179,9 @@ class LogPosterior:
         else:
             amp = length = sig
         out = np.empty(k)
-        threads.ensure_configured()
-        fused_kernel.loglike_walkers(sets, sig, amp, length, self.model.kernel_args, self._y_axis,
-                                     self._idx, self._x, self._kind, self._gap,
-                                     self.discrepancy is not None, out)
+        fused_kernel.evaluate(sets, sig, amp, length, self.model.kernel_args, self._y_axis,
+                              self._idx, self._x, self._kind, self._gap,
+                              self.discrepancy is not None, out)
         return out
 
     def log_likelihood_reference(self, theta: np.ndarray) -> np.ndarray:

@@ -22,6 +22,25 @@ import numpy as np
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 _configured = False
+_forked = False
+
+
+def _after_fork_in_child() -> None:
+    global _forked
+    _forked = True
+
+
+os.register_at_fork(after_in_child=_after_fork_in_child)
+
+
+def parallel_allowed() -> bool:
+    """Whether a compiled function may start numba threads here: more than one thread is set,
+    and this is not a process forked from one that imported this module. numba terminates a forked
+    child that starts a parallel region when its parent used GNU OpenMP (numba's "omp" layer, the
+    fastest here), so forked children (multiprocessing's fork start method, fork servers) compute
+    in one thread, with the same results."""
+    ensure_configured()
+    return not _forked and numba.get_num_threads() > 1
 
 
 def available_threads() -> int:
