@@ -1,7 +1,5 @@
 """``python -m bayes_dnlr``: see ``bayes_dnlr.cli``."""
 
-import sys
+from bayes_dnlr.cli import exit_now, main
 
-from bayes_dnlr.cli import main
-
-sys.exit(main())
+exit_now(main())

@@ -440,6 +440,10 @@ class SamplerConfig(_Strict):
         default="de", description="emcee moves; DEMove alone mixes best here (benchmarks/moves.py)")
     burn_in_tau: float = Field(default=5.0, ge=0, description="burn-in, in autocorrelation times")
     min_tau_multiple: float = Field(default=50.0, gt=0, description="chain length >= this many tau")
+    threads: int | None = Field(
+        default=None, ge=1, description="threads of the compiled likelihood (walkers in parallel); "
+                                         "null: NUMBA_NUM_THREADS lowered to OMP_NUM_THREADS, which "
+                                         "also cap a number given here; the chain does not depend on it")
 
 
 class FitConfig(_Strict):

@@ -89,3 +89,23 @@ def test_every_subcommand_help_describes_its_arguments_and_names_its_docs_page()
         assert text.endswith("every command: docs/cli.md."), name
         for page in re.findall(r"docs/[a-z-]+\.md", p.epilog):
             assert (REPO / page).is_file(), f"{name}: {page} does not exist"
+
+
+def test_fast_exit_flushes_runs_atexit_and_keeps_the_status(tmp_path):
+    marker = tmp_path / "atexit.txt"
+    code = ("import atexit, sys, threading, time\n"
+            "from bayes_dnlr.cli import exit_now\n"
+            f"atexit.register(lambda: open({str(marker)!r}, 'w').write('ran'))\n"
+            "if len(sys.argv) > 1:\n"
+            "    threading.Thread(target=lambda: (time.sleep(0.3), print('thread done'))).start()\n"
+            "print('x' * 200000)\n"
+            "sys.stderr.write('err line')\n"
+            "exit_now(3)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 3
+    assert out.stdout == "x" * 200000 + "\n" and out.stderr == "err line"
+    assert marker.read_text() == "ran"
+    # a running non-daemon thread: the normal exit, which waits for it
+    out = subprocess.run([sys.executable, "-c", code, "thread"], capture_output=True, text=True,
+                         timeout=60)
+    assert out.returncode == 3 and out.stdout.endswith("thread done\n")

@@ -151,3 +151,17 @@ def test_sampled_sigma0_prior_kinds() -> None:
                         key="noise.sigma0")
     assert p.log_space and p.low == 0.01 and p.high == 10.0
     assert p.logpdf(np.array([0.005]))[0] == -np.inf
+
+
+def test_log_ndtr_equals_scipy() -> None:
+    from scipy.special import log_ndtr as reference
+
+    from bayes_dnlr.inference.priors import log_ndtr
+
+    x = np.concatenate([np.linspace(-80.0, 20.0, 20001), [-1e3, -1e5, 0.0, -37.0, -36.999]])
+    ours = np.array([log_ndtr(v) for v in x])
+    # libm's erfc is good to ~1e-13 relative in the far right tail (log Φ ~ -1e-80 there)
+    np.testing.assert_allclose(ours, reference(x), rtol=5e-13, atol=0)
+    middle = np.abs(x) < 8.0
+    np.testing.assert_allclose(ours[middle], reference(x[middle]), rtol=2e-14, atol=1e-300)
+    assert log_ndtr(-np.inf) == -np.inf and log_ndtr(np.inf) == 0.0 and np.isnan(log_ndtr(np.nan))

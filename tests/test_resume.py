@@ -18,8 +18,10 @@ from bayes_dnlr.config import load_config
 from bayes_dnlr.inference.store import read_run
 from bayes_dnlr.pipeline.sample import sample
 
-# never converges (target_ess huge): stops at max_steps; checkpoints every 50 steps
-SAMPLER = {"max_steps": 1000, "target_ess": 1.0e9, "checkpoint_every": 50, "walkers": 32}
+# never converges (target_ess huge): stops at max_steps; checkpoints every 50 steps. Long enough
+# that the signal, sent once 150 steps are committed, arrives mid-run: the compiled all-walker
+# likelihood (issue 14) did 1000 steps in under a second, before the signal.
+SAMPLER = {"max_steps": 4000, "target_ess": 1.0e9, "checkpoint_every": 50, "walkers": 32}
 
 
 @pytest.fixture(scope="module")

@@ -22,6 +22,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from bayes_dnlr.data.brent import fminbound
+
 SMOOTH_MIN_POINTS = 5       # fewer samples: a least-squares line (2: the samples themselves)
 LOG_LAMBDA = (-3.0, 14.0)   # GCV search range of log10 λ, λ in (median step)³
 RATE_CHANGE = 3.0           # a sampling interval that changes by this factor starts a new segment
@@ -122,18 +124,16 @@ def _gcv(u: np.ndarray, z: np.ndarray, log_lam: float, fit: np.ndarray) -> float
 
 
 def _search(u: np.ndarray, z: np.ndarray) -> float:
-    """log10 λ (λ in step³) minimising GCV: a grid of decades, then a bounded Brent refinement."""
-    from scipy.optimize import minimize_scalar
-
+    """log10 λ (λ in step³) minimising GCV: a grid of decades, then a bounded Brent refinement
+    (scipy's algorithm, data/brent.py)."""
     fit = np.empty_like(z)
     lo, hi = LOG_LAMBDA
     grid = np.arange(lo, hi + 0.5, 1.0)
     scores = np.array([_gcv(u, z, g, fit) for g in grid])
     k = int(np.argmin(scores))
     a, b = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
-    est = minimize_scalar(lambda g: _gcv(u, z, g, fit), bounds=(a, b), method="bounded",
-                          options={"xatol": 1e-3})
-    return float(est.x) if est.fun <= scores[k] else float(grid[k])
+    x, fun = fminbound(lambda g: _gcv(u, z, g, fit), float(a), float(b), xatol=1e-3)
+    return float(x) if fun <= scores[k] else float(grid[k])
 
 
 def gcv_lambda(x: np.ndarray, y: np.ndarray) -> float:

@@ -22,7 +22,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.optimize import minimize
 
 from bayes_dnlr.config import DiscrepancyConfig, ParameterSpec
 from bayes_dnlr.errors import BayesDnlrError
@@ -253,6 +252,8 @@ def maximum_likelihood(problem: LsqProblem, beta0: np.ndarray, axis: Axis, kind:
         rw = problem.residuals(params)
         value = 0.5 * float(rw @ rw) + 0.5 * w.logdet
         return value if math.isfinite(value) else math.inf
+
+    from scipy.optimize import minimize  # here: `sample` reads fit.json, never optimises
 
     lo = np.concatenate([problem.u_lower[nl], [bounds[k][0] for k in names]])
     hi = np.concatenate([problem.u_upper[nl], [bounds[k][1] for k in names]])

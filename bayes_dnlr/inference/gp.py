@@ -318,19 +318,29 @@ def loglike_lanes(x, Rt, lo, hi, sigma0, amplitude, length, kind, gap, out):
                     p00[w] = b00 * f00 + b01 * f01 + q0[w]
                     p01[w] = b00 * f10 + b01 * f11
                     p11[w] = b10 * f10 + b11 * f11 + q1[w]
-        for w in range(k):
-            s = p00[w] + s2[w]
-            inv = 1.0 / s
-            v = Rt[i, lo + w] - m0[w]
-            quad[w] += v * v * inv
-            prod[w] *= s
-            k0 = p00[w] * inv
-            k1 = p01[w] * inv
-            m0[w] += k0 * v
-            m1[w] += k1 * v
-            p11[w] = p11[w] - p01[w] * k1
-            p01[w] = p01[w] * s2[w] * inv
-            p00[w] = p00[w] * s2[w] * inv
+        if kind == 0:                  # one state: no slope terms
+            for w in range(k):
+                s = p00[w] + s2[w]
+                inv = 1.0 / s
+                v = Rt[i, lo + w] - m0[w]
+                quad[w] += v * v * inv
+                prod[w] *= s
+                m0[w] += p00[w] * inv * v
+                p00[w] = p00[w] * s2[w] * inv
+        else:
+            for w in range(k):
+                s = p00[w] + s2[w]
+                inv = 1.0 / s
+                v = Rt[i, lo + w] - m0[w]
+                quad[w] += v * v * inv
+                prod[w] *= s
+                k0 = p00[w] * inv
+                k1 = p01[w] * inv
+                m0[w] += k0 * v
+                m1[w] += k1 * v
+                p11[w] = p11[w] - p01[w] * k1
+                p01[w] = p01[w] * s2[w] * inv
+                p00[w] = p00[w] * s2[w] * inv
         if i % 64 == 63:                                 # log det K, without a log per sample
             for w in range(k):
                 logdet[w] += math.log(prod[w])

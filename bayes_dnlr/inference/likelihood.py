@@ -11,10 +11,12 @@ over the n samples of the identification window, with r = y - σ_model(θ):
   O(n) (inference/gp.py), all walkers of a call at once. The hyperparameters ``disc_amplitude`` and
   ``disc_length`` are sampled with the others, or fixed.
 
-The model is linear in E, G and σ_inf for fixed time constants (eq. 18 and section 4.1), so each
-walker costs one basis integration (``DNLR.basis``) and a (n, 3) matrix-vector product. Outside the
-prior support the model is not run and the result is ``-inf``; a model failure (non-finite stress)
-also gives ``-inf``: the function never returns NaN and never raises for a bad point.
+All walkers of a call are evaluated by one compiled call, in parallel over walkers
+(inference/fused.py: the stress by the exponential integrator, the residual and the likelihood,
+white or discrepancy, without Python per walker); ``fused=False`` keeps the reference path, one
+basis integration (``DNLR.basis``) and a (n, 3) matrix-vector product per walker in Python. Outside
+the prior support the model is not run and the result is ``-inf``; a model failure (non-finite
+stress) also gives ``-inf``: the function never returns NaN and never raises for a bad point.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ import numpy as np
 
 from bayes_dnlr.config import DISCREPANCY_PARAMETERS, Config, ParameterSpec
 from bayes_dnlr.data import TestData
+from bayes_dnlr.inference import fused as fused_kernel
 from bayes_dnlr.inference import gp
 from bayes_dnlr.inference.discrepancy import AMPLITUDE, LENGTH, Axis, is_white, test_axis
 from bayes_dnlr.inference.priors import PriorSet, build_priors
@@ -54,11 +57,13 @@ class LogPosterior:
     """Callable ``z (k, ndim) -> (k,)`` log-posterior in sampling coordinates (emcee vectorize=True).
 
     ``sigma0``: the fixed noise sd (MPa), or None when ``sigma0`` is one of the sampled parameters.
+    ``fused``: evaluate the likelihood by one compiled parallel call per batch of walkers
+    (default), or walker by walker in Python (the reference, ``log_likelihood_reference``).
     """
 
     def __init__(self, model: DNLR, observed: np.ndarray, rows: slice | np.ndarray,
                  priors: PriorSet, fixed: Mapping[str, float], sigma0: float | None,
-                 discrepancy: Discrepancy | None = None) -> None:
+                 discrepancy: Discrepancy | None = None, fused: bool = True) -> None:
         self.model = model
         self.rows = rows
         self.y = np.ascontiguousarray(observed, dtype=float)
@@ -97,6 +102,25 @@ class LogPosterior:
                 self._source[k] = float(fixed[k])
         self.has_relaxation = model.has_relaxation
         self.n_evals = 0  # model evaluations (points inside the prior support)
+        self.fused = fused
+        self._prepare_fused()
+
+    def _prepare_fused(self) -> None:
+        """The compiled call's data: observed values and their model samples in the order of the
+        discrepancy's axis (window order when white), the axis, the kernel and its start."""
+        idx = np.arange(self.model.n_points, dtype=np.int64)[self.rows]
+        y = self.y
+        d = self.discrepancy
+        if d is not None and d.axis.order is not None:
+            idx, y = idx[d.axis.order], y[d.axis.order]
+        self._idx = np.ascontiguousarray(idx, dtype=np.int64)
+        self._y_axis = np.ascontiguousarray(y, dtype=float)
+        if d is None:
+            self._x, self._kind, self._gap = np.zeros(0), 0, math.inf
+        else:
+            self._x = np.ascontiguousarray(d.axis.values, dtype=float)
+            self._kind = gp.kernel_code(d.kernel)
+            self._gap = gp._gap(self._x, d.axis.origin)
 
     def _col(self, theta: np.ndarray, name: str) -> np.ndarray:
         src = self._source[name]
@@ -140,6 +164,29 @@ class LogPosterior:
 
     def log_likelihood(self, theta: np.ndarray) -> np.ndarray:
         """log-likelihood (k,) of physical parameters theta (k, ndim); -inf on failure."""
+        if not self.fused:
+            return self.log_likelihood_reference(theta)
+        theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        k = theta.shape[0]
+        e, g, t, s, tr = self._linear_and_times(theta)
+        sets = np.empty((k, 5))
+        sets[:, 0], sets[:, 1], sets[:, 2], sets[:, 3] = e, g, s, t
+        sets[:, 4] = tr if self.has_relaxation else t
+        sig = np.ascontiguousarray(self._col(theta, "sigma0"), dtype=float)
+        if self.discrepancy is not None:
+            amp = np.ascontiguousarray(self._col(theta, AMPLITUDE), dtype=float)
+            length = np.ascontiguousarray(self._col(theta, LENGTH), dtype=float)
+        else:
+            amp = length = sig
+        out = np.empty(k)
+        fused_kernel.evaluate(sets, sig, amp, length, self.model.kernel_args, self._y_axis,
+                              self._idx, self._x, self._kind, self._gap,
+                              self.discrepancy is not None, out)
+        return out
+
+    def log_likelihood_reference(self, theta: np.ndarray) -> np.ndarray:
+        """``log_likelihood`` walker by walker in Python through the basis (the reference the
+        compiled call is tested against; also the baseline of benchmarks/sample_command.py)."""
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         sig = self._col(theta, "sigma0")
         if self.discrepancy is not None:

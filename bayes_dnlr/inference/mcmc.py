@@ -10,7 +10,8 @@ ESS = kept steps × walkers / τ >= ``target_ess``, the kept chain is >= ``min_t
 and ArviZ's bulk/tail ESS and R-hat agree ("converged"), or at ``max_steps`` ("max_steps").
 
 The progress bar counts the ESS this rule credits, toward target_ess (inference/progress.py).
-emcee and ArviZ are imported inside the functions that need them.
+emcee is imported inside the functions that need them, without scipy.stats (emcee_import.py);
+the ESS and R-hat of the stopping rule come from inference/ess.py, not ArviZ.
 """
 
 from __future__ import annotations
@@ -26,6 +27,8 @@ import numpy as np
 
 from bayes_dnlr.config import ConfigError
 from bayes_dnlr.errors import RunError
+from bayes_dnlr.inference.emcee_import import load_emcee
+from bayes_dnlr.inference.ess import next_fast_len
 from bayes_dnlr.inference.progress import EssProgress
 from bayes_dnlr.inference.store import ChainWriter, SamplerState
 from bayes_dnlr.interrupt import Interrupted, deferred_interrupt
@@ -33,6 +36,7 @@ from bayes_dnlr.interrupt import Interrupted, deferred_interrupt
 START_SCALE = 1.0       # walkers start as a draw of the linearized (Laplace) posterior
 MIN_STEPS_FOR_TAU = 20  # shorter chains: no τ estimate, no stopping decision
 RHAT_MAX = 1.01         # convergence also needs R-hat (4 walker groups) <= this
+TAU_WINDOW_C = 5.0      # Sokal's window constant of emcee's integrated_time
 MOVES = {
     "de-snooker": "DEMove (0.8) + DESnookerMove (0.2)",
     "de": "DEMove",
@@ -44,7 +48,7 @@ MOVES = {
 
 def make_moves(kind: str) -> Any:
     """emcee moves for ``sampler.moves`` (benchmarks/moves.py compares them)."""
-    import emcee
+    emcee = load_emcee()
 
     if kind == "stretch":
         return emcee.moves.StretchMove()
@@ -88,16 +92,26 @@ def _tau(chain: np.ndarray) -> np.ndarray:
 
     A walker that stays at one point has no autocorrelation function (emcee divides 0 by 0 and
     the average over walkers becomes NaN): it is left out, and a parameter in which no walker
-    moves gets τ = inf. Never NaN."""
-    from emcee.autocorr import integrated_time
-
+    moves gets τ = inf. Never NaN. emcee's estimator (``emcee.autocorr.integrated_time``, c = 5:
+    the walkers' normalised autocorrelation functions averaged, Sokal's window), computed with one
+    FFT over all walkers at once instead of one per walker: the stopping rule is checked every
+    2 % of the chain, and emcee's loop over walkers made the checks a fifth of a long run."""
     moving = _moving(chain)
+    n = chain.shape[0]
+    size = next_fast_len(2 * n)     # any length >= 2n - 1 is exact; emcee pads to 2 × a power of 2
     tau = np.full(chain.shape[2], math.inf)
     for j in range(chain.shape[2]):
         m = moving[:, j]
-        if m.any():
-            t = float(integrated_time(chain[:, m, j][:, :, None], c=5, tol=0, quiet=True)[0])
-            tau[j] = t if math.isfinite(t) and t > 0 else math.inf
+        if not m.any():
+            continue
+        x = chain[:, m, j]
+        f = np.fft.rfft(x - x.mean(axis=0), n=size, axis=0)
+        acf = np.fft.irfft(f * np.conjugate(f), n=size, axis=0)[:n]
+        acf /= acf[0]
+        taus = 2.0 * np.cumsum(acf.mean(axis=1)) - 1.0
+        inside = np.arange(n) < TAU_WINDOW_C * taus
+        t = float(taus[int(np.argmin(inside)) if inside.any() else n - 1])
+        tau[j] = t if math.isfinite(t) and t > 0 else math.inf
     return tau
 
 
@@ -329,8 +343,10 @@ class RunOutcome:
     convergence: Convergence | None
     reason: str | None              # converged | max_steps
     state: SamplerState
-    sampling_time: float            # s, this session, storage included
+    sampling_time: float            # s, this session's loop: steps, checks and storage
     evals: int                      # log-density evaluations this session
+    check_time: float = 0.0         # s, this session, checking the stopping rule
+    cpu_time: float = 0.0           # s, CPU time of the process (all threads) during the loop
 
 
 def _progress_bar(progress: bool, total: int):
@@ -347,6 +363,24 @@ def _steps_text(n: int, rule: StopRule, conv: Convergence | None) -> str:
     return f"step {n}/{rule.max_steps}{tau}"
 
 
+CHECK_FRACTION = 0.02   # convergence is checked every 2 % of the chain's length (at least 1 step)
+
+
+def next_check(n: int, conv: Convergence | None, every: int) -> int:
+    """The step at which to check the stopping rule next, after a check at step ``n``.
+
+    Every ``CHECK_FRACTION`` of the chain (ESS grows in proportion to the kept steps, so a run stops
+    at most ~2-3 % past the step where the rule first holds, kept steps counted from the burn-in),
+    and not before the step the last τ estimate says is needed (``conv.needed_steps``), but at least
+    once per checkpoint block."""
+    step = max(1, math.ceil(CHECK_FRACTION * n))
+    if n < MIN_STEPS_FOR_TAU:
+        return MIN_STEPS_FOR_TAU
+    if conv is not None and not conv.stuck and conv.needed_steps > n + step:
+        step = conv.needed_steps - n
+    return n + min(step, every)
+
+
 def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Callable, moves: str,
                  state: SamplerState, chain0: np.ndarray, writer: ChainWriter, rule: StopRule, *,
                  fresh: bool, elapsed0: float = 0.0, evals0: int = 0,
@@ -355,10 +389,16 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
 
     Every ``rule.checkpoint_every`` steps the block is committed to ``writer`` with the state after
     its last step, so an interruption (Ctrl-C, SIGKILL) loses at most one block and a later call
-    continues the same chain bit-exactly. ``chain0``: the steps already done (physical units).
-    ``log_prob.n_evals`` (when present) counts model evaluations.
+    continues the same chain bit-exactly. The stopping rule is checked more often, at the steps of
+    ``next_check``; a run that stops inside a block commits the steps it did.
+    ``chain0``: the steps already done (physical units). ``log_prob.n_evals`` (when present)
+    counts model evaluations.
+
+    ``sampling_time`` (summary.json ``wall_time_s``) is the time of this loop only: the emcee
+    steps, the likelihood, the checks of the stopping rule and the checkpoints; the imports, the
+    start of the ensemble and the outputs are outside it.
     """
-    import emcee
+    emcee = load_emcee()
 
     walkers, ndim = state.coords.shape
     chain = _Growing(chain0)
@@ -366,21 +406,29 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
     every = rule.checkpoint_every
     conv = None
     reason = None
-    t_session = time.perf_counter()
     evals_start = getattr(log_prob, "n_evals", 0)
     meter = EssProgress(rule.target_ess, rule.min_tau_multiple)
     bar = _progress_bar(progress, meter.total)
+    check_time = 0.0
+
+    def check(full: np.ndarray) -> None:
+        nonlocal conv, reason, check_time
+        t0 = time.perf_counter()
+        n = full.shape[0]
+        conv = (convergence(full, rule.burn_in_tau, rule.min_tau_multiple, rule.target_ess)
+                if n >= MIN_STEPS_FOR_TAU else None)
+        reason = stop_reason(conv, n, rule.max_steps)
+        bar.set_postfix_str(_steps_text(n, rule, conv), refresh=False)
+        bar.update(meter.check(conv) - bar.n)
+        check_time += time.perf_counter() - t0
+
+    t_session = time.perf_counter()
+    cpu0 = time.process_time()
     with bar, deferred_interrupt() as ctrl_c:
-        while not ctrl_c.requested:
+        check(chain.array)
+        check_at = next_check(chain.n, conv, every)
+        while reason is None and not ctrl_c.requested:
             n = chain.n
-            if n % every == 0 or n >= rule.max_steps:
-                conv = (convergence(chain.array, rule.burn_in_tau, rule.min_tau_multiple,
-                                    rule.target_ess) if n >= MIN_STEPS_FOR_TAU else None)
-                reason = stop_reason(conv, n, rule.max_steps)
-                bar.set_postfix_str(_steps_text(n, rule, conv), refresh=False)
-                bar.update(meter.check(conv) - bar.n)
-                if reason is not None:
-                    break
             m = min(every - n % every, rule.max_steps - n)
             block = np.empty((m, walkers, ndim))
             block_lp = np.empty((m, walkers))
@@ -401,6 +449,11 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
                     bar.update(0)
                     if ctrl_c.requested:    # Ctrl-C: commit what is done, stop outside emcee
                         break
+                    if n + done >= check_at and done < m:
+                        check(np.concatenate([chain.array, to_physical(block[:done])]))
+                        check_at = next_check(n + done, conv, every)
+                        if reason is not None:
+                            break
             finally:
                 if done:
                     state = SamplerState(block[done - 1].copy(), block_lp[done - 1].copy(),
@@ -409,7 +462,12 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
                     evals = evals0 + getattr(log_prob, "n_evals", 0) - evals_start
                     writer.append(block[:done], block_lp[:done], block_acc[:done], state,
                                   elapsed0 + time.perf_counter() - t_session, evals)
-    if ctrl_c.requested:
+            if reason is None and not ctrl_c.requested:
+                check(chain.array)
+                check_at = next_check(chain.n, conv, every)
+    if ctrl_c.requested and reason is None:
         raise Interrupted(f"stopped at step {chain.n}")
-    return RunOutcome(chain.array, conv, reason, state, time.perf_counter() - t_session,
-                      getattr(log_prob, "n_evals", 0) - evals_start)
+    elapsed = time.perf_counter() - t_session
+    return RunOutcome(chain.array, conv, reason, state, elapsed,
+                      getattr(log_prob, "n_evals", 0) - evals_start, check_time,
+                      time.process_time() - cpu0)

@@ -14,9 +14,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from bayes_dnlr.inference.problem import LsqProblem
+
+
+def least_squares(*args, **kwargs):
+    """scipy.optimize.least_squares, imported on first use (``sample`` imports this module but
+    does not optimise, and scipy costs it 0.2-0.5 s)."""
+    from scipy.optimize import least_squares as solve
+
+    return solve(*args, **kwargs)
 
 STEP_TOL = 1.0e-6       # converged when every step is below this fraction of the linearized sd
 REL_TOL = 1.0e-12       # ... or below this relative change (noise-free data: sd = 0)

@@ -1,12 +1,16 @@
 """The sampled posterior as a result: ArviZ DataTree (posterior.nc), summary.json, console table.
 
 Statistics of the kept draws (after burn-in), in physical units:
-- mean, sd, median, 90 % highest-density interval (ArviZ ``hdi``);
-- ``ess_bulk`` and ``ess_tail`` (ArviZ, every walker taken as a chain; tail = min of the 5 % and 95 %
-  quantile ESS, Vehtari et al. 2021);
-- ``r_hat``: rank-normalised split R-hat (ArviZ) with the walkers split into 4 groups, each group
+- mean, sd, median, 90 % highest-density interval (ArviZ's "nearest" ``hdi``);
+- ``ess_bulk`` and ``ess_tail`` (ArviZ's estimators, every walker taken as a chain; tail = min of
+  the 5 % and 95 % quantile ESS, Vehtari et al. 2021);
+- ``r_hat``: rank-normalised split R-hat (ArviZ's) with the walkers split into 4 groups, each group
   one "chain" whose draws run step by step (so the split halves compare early and late steps, and
   the groups compare disjoint sets of walkers);
+
+ESS, R-hat and HDI are computed by inference/ess.py (numpy, the same estimators as ArviZ, tested
+against it): importing ArviZ costs seconds (scipy.stats, matplotlib) that ``sample`` does not need.
+The DataTree is built and read with arviz_base only.
 - emcee's integrated autocorrelation time τ and the ESS it implies, (kept steps × walkers) / τ.
 
 summary.json keys are a contract (DESIGN.md); extra keys are documented in docs/sampling.md.
@@ -17,6 +21,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -24,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config import UNITS
+from bayes_dnlr.inference import ess
 from bayes_dnlr.numbers import interval, pm
 from bayes_dnlr.rundir import jsonable, write_atomic, write_json
 
@@ -39,15 +45,15 @@ def build_datatree(names: list[str], draws: np.ndarray, log_prob: np.ndarray,
 
     draws: (steps, walkers, ndim) physical units; every walker is a chain: dims (chain, draw).
     """
-    import arviz as az
+    from arviz_base import from_dict
 
     post = {k: np.ascontiguousarray(draws[:, :, j].T) for j, k in enumerate(names)}
     stats = {"lp": np.ascontiguousarray(log_prob.T)}
     flat_attrs = {k: (json.dumps(v) if isinstance(v, dict | list) else v)
                   for k, v in (attrs or {}).items() if v is not None}
     # 32 walkers may outnumber the draws of a short run: that is not a naming mistake
-    dt = az.from_dict({"posterior": post, "sample_stats": stats},
-                      attrs={"posterior": flat_attrs}, check_conventions=False)
+    dt = from_dict({"posterior": post, "sample_stats": stats},
+                   attrs={"posterior": flat_attrs}, check_conventions=False)
     for k in names:
         dt["posterior"][k].attrs["units"] = UNITS.get(k.split("[", 1)[0], "")
     return dt
@@ -67,22 +73,18 @@ def walker_groups(x: np.ndarray, groups: int = RHAT_GROUPS) -> np.ndarray:
 def diagnostics(draws: np.ndarray) -> dict[str, float]:
     """ArviZ ess_bulk, ess_tail (every walker a chain) and R-hat (4 walker groups) of one
     parameter's draws (steps, walkers)."""
-    import arviz as az
-
     by_walker = np.ascontiguousarray(draws.T)     # (chain = walker, draw = step)
     return {
-        "ess_bulk": float(az.ess(by_walker, method="bulk")),
-        "ess_tail": float(az.ess(by_walker, method="tail", prob=0.05)),
-        "r_hat": float(az.rhat(walker_groups(draws))),
+        "ess_bulk": ess.ess_bulk(by_walker),
+        "ess_tail": ess.ess_tail(by_walker, 0.05),
+        "r_hat": ess.rhat(walker_groups(draws)),
     }
 
 
 def parameter_stats(draws: np.ndarray) -> dict[str, float | list[float]]:
     """Summary statistics of one parameter's kept draws (steps, walkers)."""
-    import arviz as az
-
     flat = draws.ravel()
-    lo, hi = (float(v) for v in np.asarray(az.hdi(flat, prob=HDI_PROB)))
+    lo, hi = ess.hdi(flat, HDI_PROB)
     return {
         "mean": float(flat.mean()),
         "sd": float(flat.std(ddof=1)),
@@ -141,23 +143,52 @@ def summarize(names: list[str], draws: np.ndarray, *, fit: dict[str, Any], tau: 
 def _netcdf_bytes(datatree) -> bytes:
     """posterior.nc in memory. Inside a Dask worker xarray would take a *distributed* write lock
     named after the target, which for an in-memory file is unknown to the scheduler: the write is
-    local, so it runs under Dask's synchronous scheduler (a plain thread lock)."""
-    if "dask" not in sys.modules:
-        return datatree.to_netcdf(engine="h5netcdf")
+    local, so it runs under Dask's synchronous scheduler (a plain thread lock). Without
+    dask.distributed in the process no distributed scheduler can run: xarray's question "which
+    scheduler?" is answered "none" without importing distributed (0.2-0.5 s); the data are numpy
+    arrays, nothing is chunked."""
+    if "distributed" not in sys.modules:
+        with _no_dask_scheduler():
+            return datatree.to_netcdf(engine="h5netcdf")
     import dask
 
     with dask.config.set(scheduler="synchronous"):
         return datatree.to_netcdf(engine="h5netcdf")
 
 
+@contextmanager
+def _no_dask_scheduler():
+    """xarray's ``get_dask_scheduler`` returns None (no scheduler) for the duration."""
+    from xarray.backends import locks, writers
+
+    patched = [(m, m.get_dask_scheduler) for m in (locks, writers)
+               if hasattr(m, "get_dask_scheduler")]
+    for m, _ in patched:
+        m.get_dask_scheduler = _none
+    try:
+        yield
+    finally:
+        for m, f in patched:
+            m.get_dask_scheduler = f
+
+
+def _none(*args: Any, **kwargs: Any) -> None:
+    return None
+
+
 def write_outputs(run_dir: Path, datatree, summary: dict[str, Any]) -> None:
     """posterior.nc and summary.json, each replaced atomically (rundir.write_atomic).
 
-    posterior.nc is serialised in memory first: HDF5 never writes to the disk itself, so a full disk
-    is met by a plain file write (a one-line DiskFullError, the temporary removed) and never inside
-    HDF5 (whose failed writes can crash the process when it exits)."""
+    ``datatree``: an xarray DataTree (``build_datatree``), or the draws themselves
+    (``netcdf.PosteriorDraws``: the same file without importing xarray and ArviZ, what ``sample``
+    uses). posterior.nc is serialised in memory first: HDF5 never writes to the disk itself, so a
+    full disk is met by a plain file write (a one-line DiskFullError, the temporary removed) and
+    never inside HDF5 (whose failed writes can crash the process when it exits)."""
+    from bayes_dnlr.inference.netcdf import PosteriorDraws
+
     run_dir = Path(run_dir)
-    write_atomic(run_dir / POSTERIOR_FILE, _netcdf_bytes(datatree))
+    data = datatree.to_netcdf() if isinstance(datatree, PosteriorDraws) else _netcdf_bytes(datatree)
+    write_atomic(run_dir / POSTERIOR_FILE, data)
     write_json(run_dir / SUMMARY_FILE, summary)
 
 
@@ -196,9 +227,9 @@ class Posterior:
     def datatree(self):
         """ArviZ DataTree of the kept draws (loaded from posterior.nc when needed)."""
         if self._datatree is None:
-            import arviz as az
+            from xarray import open_datatree  # what arviz.from_netcdf is
 
-            dt = az.from_netcdf(self.run_dir / POSTERIOR_FILE)
+            dt = open_datatree(self.run_dir / POSTERIOR_FILE)
             self._datatree = dt.load()
             dt.close()
         return self._datatree

@@ -15,7 +15,6 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
-from scipy.optimize import lsq_linear
 
 from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.inference.sensitivity import LINEAR_COLUMN, TIME_CONSTANTS, log_sensitivity
@@ -170,5 +169,7 @@ def bounded_lstsq(A: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) 
     scale[scale == 0] = 1.0
     c = np.linalg.lstsq(A / scale, b, rcond=None)[0] / scale
     if np.any(c < lo) or np.any(c > hi):
+        from scipy.optimize import lsq_linear  # here: scipy costs `sample` 0.2-0.5 s to import
+
         c = lsq_linear(A / scale, b, bounds=(lo * scale, hi * scale)).x / scale
     return c

@@ -22,6 +22,25 @@ import numpy as np
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 _configured = False
+_forked = False
+
+
+def _after_fork_in_child() -> None:
+    global _forked
+    _forked = True
+
+
+os.register_at_fork(after_in_child=_after_fork_in_child)
+
+
+def parallel_allowed() -> bool:
+    """Whether a compiled function may start numba threads here: more than one thread is set,
+    and this is not a process forked from one that imported this module. numba terminates a forked
+    child that starts a parallel region when its parent used GNU OpenMP (numba's "omp" layer, the
+    fastest here), so forked children (multiprocessing's fork start method, fork servers) compute
+    in one thread, with the same results."""
+    ensure_configured()
+    return not _forked and numba.get_num_threads() > 1
 
 
 def available_threads() -> int:
@@ -56,6 +75,15 @@ def set_threads(n: int | None = None) -> int:
     numba.set_num_threads(n)
     _configured = True
     return n
+
+
+def use_threads(n: int | None = None) -> int:
+    """Threads for a run: ``n`` (a user setting, e.g. config ``sampler.threads``) capped at
+    ``default_threads()``, so that ``NUMBA_NUM_THREADS`` and ``OMP_NUM_THREADS`` are upper limits
+    a setting cannot exceed (batch workers started with 1 thread stay at 1); None: the default.
+    Returns the number in use."""
+    limit = default_threads()
+    return set_threads(limit if n is None else min(int(n), limit))
 
 
 def get_threads() -> int:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import sys
+import time
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -37,11 +38,11 @@ from bayes_dnlr.inference.mcmc import (
     start_ensemble,
     stop_reason,
 )
+from bayes_dnlr.inference.netcdf import PosteriorDraws
 from bayes_dnlr.inference.posterior import (
     POSTERIOR_FILE,
     SUMMARY_FILE,
     Posterior,
-    build_datatree,
     gauss_newton_block,
     load_posterior,
     read_summary,
@@ -144,8 +145,17 @@ def _remove_outputs(run_dir: Path) -> None:
 
 # ---------------------------------------------------------------- sampling
 
-def sample(cfg: Config, *, restart: bool = False, progress: bool = True) -> Posterior:
-    """Sample the posterior of ``cfg`` to convergence (or max_steps); resumable. See the module doc."""
+def sample(cfg: Config, *, restart: bool = False, progress: bool = True,
+           threads: int | None = None) -> Posterior:
+    """Sample the posterior of ``cfg`` to convergence (or max_steps); resumable. See the module doc.
+
+    ``threads``: threads of the compiled likelihood, instead of config ``sampler.threads``; both
+    are capped by NUMBA_NUM_THREADS and OMP_NUM_THREADS (``model.threads.use_threads``). The chain
+    does not depend on it."""
+    from bayes_dnlr.model.threads import use_threads
+
+    t0 = time.perf_counter()
+    use_threads(threads if threads is not None else cfg.sampler.threads)
     names = sampled_names(cfg)
     if not cfg.is_joint:             # a joint run knows its names after the fit
         check_sampler(cfg, names)
@@ -156,11 +166,14 @@ def sample(cfg: Config, *, restart: bool = False, progress: bool = True) -> Post
     created = make_dir(cfg.run_dir)
     try:
         with _run_lock(cfg.run_dir):
-            return _sample(cfg, test, names, restart=restart, progress=progress)
+            post = _sample(cfg, test, names, restart=restart, progress=progress)
     except BaseException:
         if created:
             discard_if_empty(cfg.run_dir)   # nothing half-made is left by a failed first command
         raise
+    timing = post.extras.setdefault("timing", {})
+    timing["total_s"] = time.perf_counter() - t0
+    return post
 
 
 def _run_lock(run_dir: Path):
@@ -223,7 +236,9 @@ def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: boo
         if done is not None:
             return done
 
+    t_fit = time.perf_counter()
     fit = _current_fit(cfg, test, replace=restart, progress=progress)
+    t_fit = time.perf_counter() - t_fit
     prepare_run_dir(cfg)
     target = (joint_target(cfg, test.tests, fit, stored) if cfg.is_joint
               else single_target(cfg, test, fit, stored))
@@ -264,6 +279,8 @@ def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: boo
 
     rule = StopRule(sc.burn_in_tau, sc.min_tau_multiple, sc.target_ess, sc.max_steps,
                     sc.checkpoint_every)
+    # storage inside the loop only: creating or re-publishing the file happened before it
+    store_before, store_prev = writer.store_time, (stored.store_time if stored is not None else 0.0)
     try:
         out = run_ensemble(post, priors.to_physical, sc.moves, state, chain0, writer, rule,
                            fresh=fresh, elapsed0=elapsed0, evals0=evals0, progress=progress)
@@ -278,12 +295,22 @@ def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: boo
         raise
     conv, reason = out.convergence, out.reason
     elapsed = elapsed0 + out.sampling_time
-    store_time = writer.store_time
+    store_time = store_prev + writer.store_time - store_before
+    t_finish = time.perf_counter()
     writer.finish({"stop_reason": reason, "steps": int(out.chain.shape[0]),
                    "finished": datetime.now(UTC).isoformat(timespec="seconds")})
+    t_finish = time.perf_counter() - t_finish
+    t_out = time.perf_counter()
     run = read_run(chains)
-    return _write_result(cfg, run, fit, conv, reason, fp, test, sigma0_source,
-                         wall_time=elapsed, store_time=store_time, evals=evals0 + out.evals)
+    post = _write_result(cfg, run, fit, conv, reason, fp, test, sigma0_source,
+                         wall_time=elapsed, store_time=store_time, evals=evals0 + out.evals,
+                         check_time=out.check_time)
+    # where a call's time went (benchmarks/sample_command.py): the fit (or reading fit.json), the
+    # sampling loop, and the outputs (finishing chains.h5, statistics, posterior.nc, summary.json)
+    post.extras["timing"] = {"fit_s": t_fit, "loop_s": out.sampling_time,
+                             "loop_cpu_s": out.cpu_time, "loop_steps": int(out.chain.shape[0]),
+                             "output_s": time.perf_counter() - t_out + t_finish}
+    return post
 
 
 def _json_attr(v: Any) -> Any:
@@ -315,6 +342,12 @@ def _sigma0_attr(sigma0: Any) -> Any:
     if isinstance(sigma0, dict):
         return json.dumps({t: (None if v is None else float(v)) for t, v in sigma0.items()})
     return float("nan") if sigma0 is None else float(sigma0)
+
+
+def _threads_in_use() -> int:
+    from bayes_dnlr.model.threads import get_threads
+
+    return get_threads()
 
 
 def _version() -> str:
@@ -353,8 +386,10 @@ def _finished_result(cfg: Config, test, stored: StoredRun, fp: str) -> Posterior
 
 def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Convergence | None,
                   reason: str | None, fp: str, test, sigma0_source: str, *, wall_time: float,
-                  store_time: float, evals: int) -> Posterior:
-    """posterior.nc and summary.json from the stored chain."""
+                  store_time: float, evals: int, check_time: float | None = None) -> Posterior:
+    """posterior.nc and summary.json from the stored chain. ``wall_time``: the sampling loops
+    (all sessions), ``store_time`` the checkpoint writes inside them, ``check_time`` the checks of
+    the stopping rule in the last session (None: not measured)."""
     sc = cfg.sampler
     names = run.names
     if conv is None:
@@ -379,9 +414,11 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
                         if cfg.is_joint else fit.get("deborah_max")),
         "name": cfg.name, "stop_reason": reason, "converged": reason == "converged",
         "burn_in": int(burn), "target_ess": sc.target_ess, "moves": MOVES.get(sc.moves, sc.moves),
-        "seed": sc.seed, "acceptance_fraction": acc, "sigma0_source": sigma0_source,
+        "seed": sc.seed, "threads": _threads_in_use(), "acceptance_fraction": acc,
+        "sigma0_source": sigma0_source,
         "storage_time_s": store_time, "storage_overhead": store_time / sampling,
         "log_prob_evals": int(evals), "log_prob_evals_per_s": evals / sampling,
+        "check_time_s": check_time,
         "settings": _settings(cfg), "fingerprint": fp, "data_sha256": test.sha256,
         "version": _version(),
     }
@@ -390,7 +427,7 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
              "sampling_coordinates": json.dumps({k: ("log" if ls else "linear") for k, ls in
                                                  zip(names, run.attrs.get("log_space", []),
                                                      strict=False)})}
-    dt = build_datatree(names, draws, lp, attrs)
+    dt = PosteriorDraws(names, draws, lp, attrs)     # posterior.nc without importing xarray
     summary = summarize(names, draws, fit=fit, tau=conv.tau, extra=extra)
     if cfg.is_joint:
         summary["noise"] = jsonable(joint_noise_block(cfg, fit, summary, sigma0, sigma0_source,
@@ -406,4 +443,4 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
     if summary["noise"]["model"] == "white" and summary["noise"].get("fit_residuals_white") is False:
         summary["warnings"].append(summary["noise"]["verdict"])
     write_outputs(cfg.run_dir, dt, summary)
-    return Posterior(cfg.run_dir, summary, dt)
+    return Posterior(cfg.run_dir, summary)          # its DataTree is read from posterior.nc on use

@@ -1,4 +1,4 @@
-"""The report's figures (matplotlib, corner, ArviZ). Arrays in, a PNG file out; every figure is closed.
+"""The report's figures (matplotlib, corner). Arrays in, a PNG file out; every figure is closed.
 
 - ``corner_plot``: posterior pairs with the Gauss-Newton estimate and its linearized 1σ/2σ ellipses
   (eq. 32) and the true values of a synthetic test.
@@ -6,13 +6,18 @@
 - ``sensitivity_plot``: normalised sensitivities X̃_j = β_j ∂σ/∂β_j (eq. 37) against strain (Fig. 11).
 - ``sensitivity_xy_plot``: X̃(E) against X̃(tau_max) (Fig. 12).
 - ``trace_plot``: the walkers' draws and marginal densities (names and units on every panel).
-- ``rank_plot``: ArviZ rank plot (Δ-ECDF of fractional ranks and the multi-chain uniformity test).
+- ``rank_plot``: ArviZ's rank plot (Δ-ECDF of fractional ranks and the multi-chain uniformity test),
+  computed by report/rank.py.
+
+Figures are rendered once (``_save`` crops the canvas instead of savefig's second, measuring
+rendering for bbox_inches="tight"); neither ArviZ nor xarray is imported (docs/report.md).
 - ``acf_plot``: autocorrelation of the residuals (white fit, and whitened by the discrepancy).
 """
 
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -39,10 +44,57 @@ def _plt():
     return plt
 
 
+def _corner_impl():
+    """corner's plotting function for arrays, imported without ArviZ: ``import corner`` imports
+    corner.arviz_corner, which imports all of ArviZ (1-2 s) for DataTree input we never pass. That
+    module is reported missing while corner loads (corner's own fallback when ArviZ is absent) and
+    restored after, so corner.corner still accepts a DataTree in this process (ArviZ then loads on
+    that first call)."""
+    if "corner" not in sys.modules and "arviz" not in sys.modules:
+        sys.modules["corner.arviz_corner"] = None       # `from corner.arviz_corner import` fails
+        try:
+            import corner.corner as front
+        finally:
+            if sys.modules.get("corner.arviz_corner", 0) is None:
+                del sys.modules["corner.arviz_corner"]
+        if getattr(front, "arviz_corner", 0) is None:
+            front.arviz_corner = _arviz_corner
+    from corner.core import corner_impl
+
+    return corner_impl
+
+
+def _arviz_corner(*args, **kwargs):
+    from corner.arviz_corner import arviz_corner
+
+    return arviz_corner(*args, **kwargs)
+
+
+PAD_INCHES = 0.1      # matplotlib's pad around a bbox_inches="tight" figure
+
+
 def _save(fig, path: Path) -> Path:
+    """Write the figure as PNG, cropped to its content plus PAD_INCHES like bbox_inches="tight",
+    from a single rendering: savefig(bbox_inches="tight") renders the figure twice (once to measure
+    it). Content reaching beyond the canvas (the crop could not hold it) falls back to savefig."""
+    import matplotlib.image as mimage
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=DPI, bbox_inches="tight")
+    fig.set_dpi(DPI)
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    bbox = fig.get_tightbbox(renderer)
+    w, h = fig.canvas.get_width_height()
+    x0, x1 = (bbox.x0 - PAD_INCHES) * DPI, (bbox.x1 + PAD_INCHES) * DPI
+    y0, y1 = (bbox.y0 - PAD_INCHES) * DPI, (bbox.y1 + PAD_INCHES) * DPI
+    if x0 >= 0 and y0 >= 0 and x1 <= w and y1 <= h:
+        rgba = np.asarray(renderer.buffer_rgba())
+        top, bottom = int(math.floor(h - y1)), int(math.ceil(h - y0))
+        crop = rgba[max(top, 0):min(bottom, h), max(int(math.floor(x0)), 0):min(int(math.ceil(x1)), w)]
+        mimage.imsave(path, crop, format="png", dpi=DPI)
+    else:
+        fig.savefig(path, dpi=DPI, bbox_inches="tight")
     _plt().close(fig)
     return path
 
@@ -80,8 +132,7 @@ def corner_plot(samples: np.ndarray, names: Sequence[str], path: Path,
     The posterior contours are drawn at the same two probability levels (39 % and 86 %), so a
     posterior contour on top of its ellipse means the linearization holds.
     """
-    import corner
-
+    corner_impl = _corner_impl()
     plt = _plt()
     samples = np.asarray(samples, dtype=float)
     p = samples.shape[1]
@@ -92,7 +143,7 @@ def corner_plot(samples: np.ndarray, names: Sequence[str], path: Path,
     ranges = _ranges(samples, est, sd, truths if has_truth else None)
     levels = (1 - math.exp(-0.5), 1 - math.exp(-2.0))
     fig = plt.figure(figsize=(2.3 * p + 1.0, 2.3 * p + 1.0))
-    corner.corner(samples, fig=fig, labels=[LABELS.get(n, n) for n in names], range=ranges,
+    corner_impl(samples, fig=fig, labels=[LABELS.get(n, n) for n in names], range=ranges,
                   truths=[t if t is not None else None for t in truths] if has_truth else None,
                   truth_color=C_TRUTH, levels=levels, color="0.2", bins=30, smooth=1.0,
                   plot_datapoints=False, fill_contours=True, hist_kwargs={"density": True},
@@ -356,15 +407,13 @@ def sensitivity_xy_plot(x_tau: np.ndarray, x_e: np.ndarray, colour: np.ndarray, 
     return _save(fig, path)
 
 
-def _posterior_tree(draws: Mapping[str, np.ndarray], max_chains: int | None, max_draws: int,
-                    thin: int = 1):
-    """A DataTree (chain, draw) for ArviZ from {name: (chain, draw)} arrays.
+def _pooled(draws: Mapping[str, np.ndarray], max_chains: int | None, max_draws: int,
+            thin: int = 1) -> dict[str, np.ndarray]:
+    """{name: (chain, draw)} arrays for the rank plot from {name: (walker, draw)} arrays.
 
     Each walker is thinned by ``thin`` (e.g. its autocorrelation time); with ``max_chains``, walkers
     are then pooled into that many groups (the rank ECDF of a group does not depend on the order of
     its draws); at most ``max_draws`` draws per chain are kept, evenly spaced."""
-    import arviz as az
-
     out = {}
     for k, v in draws.items():
         v = np.asarray(v, dtype=float)[:, :: max(1, int(thin))]
@@ -374,7 +423,15 @@ def _posterior_tree(draws: Mapping[str, np.ndarray], max_chains: int | None, max
             v = np.stack([v[g].T.reshape(-1)[:n] for g in groups])
         step = max(1, int(math.ceil(v.shape[1] / max_draws)))
         out[k] = v[:, ::step]
-    return az.from_dict({"posterior": out})
+    return out
+
+
+def _posterior_tree(draws: Mapping[str, np.ndarray], max_chains: int | None, max_draws: int,
+                    thin: int = 1):
+    """The pooled draws (``_pooled``) as an ArviZ DataTree (chain, draw)."""
+    import arviz as az
+
+    return az.from_dict({"posterior": _pooled(draws, max_chains, max_draws, thin)})
 
 
 def trace_plot(draws: Mapping[str, np.ndarray], path: Path, max_draws: int = 1000, groups: int = 8,
@@ -427,16 +484,39 @@ def trace_plot(draws: Mapping[str, np.ndarray], path: Path, max_draws: int = 100
 
 def rank_plot(draws: Mapping[str, np.ndarray], path: Path, groups: int = 8, max_draws: int = 400,
               thin: int = 1) -> Path:
-    """ArviZ rank plot: per walker group, the ECDF of the fractional ranks minus the uniform one,
-    with ArviZ's multi-chain uniformity test (its p-value against α, and the ranks that deviate
-    most marked). Walkers are thinned by ``thin`` (pass the autocorrelation time), pooled into
-    ``groups`` groups, and at most ``max_draws`` draws per group are kept (the test costs seconds
-    per thousand draws)."""
-    import arviz as az
+    """Rank plot (ArviZ's ``plot_rank``, computed by report/rank.py without importing ArviZ): per
+    walker group, the ECDF of the fractional ranks minus the uniform one, with ArviZ's multi-chain
+    uniformity test (its p-value against α, and the ranks that deviate most marked). Walkers are
+    thinned by ``thin`` (pass the autocorrelation time), pooled into ``groups`` groups, and at most
+    ``max_draws`` draws per group are kept."""
+    from bayes_dnlr.report import rank
 
     plt = _plt()
-    dt = _posterior_tree(draws, groups, max_draws, thin)
-    pc = az.plot_rank(dt, sample_dims=["chain", "draw"], visuals={"remove_axis": False})
-    pc.savefig(str(path), dpi=DPI, bbox_inches="tight")
-    plt.close("all")
-    return Path(path)
+    pooled = _pooled(draws, groups, max_draws, thin)
+    names = list(pooled)
+    cols = min(4, len(names))
+    rows = math.ceil(len(names) / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 2.9 * rows + 0.3), squeeze=False,
+                             sharex=True)
+    cmap = plt.get_cmap("tab10")
+    alpha = 1.0 - rank.ENVELOPE_PROB
+    for ax, name in zip(axes.ravel(), names, strict=False):
+        ranks = rank.fractional_ranks(pooled[name])
+        n = ranks.shape[1]
+        x, d = rank.delta_ecdf(ranks, n)
+        p, b_sh, w_sh = rank.mchain_uniformity_test(ranks)
+        marked = rank.suspicious(p, b_sh, w_sh)
+        for j in range(d.shape[0]):
+            ax.plot(x, d[j], color=cmap(j % 10), lw=1.0)
+            if marked[:, j].any():
+                ax.plot(x[marked[:, j]], d[j][marked[:, j]], ls="", marker="o", ms=3, color="0.15")
+        # ArviZ's y-range: the Dvoretzky-Kiefer-Wolfowitz bound plus padding, or the data
+        eps = max(math.sqrt(math.log(2.0 / alpha) / (2.0 * n)) * 1.3, float(np.max(np.abs(d))))
+        ax.set_ylim(-eps, eps)
+        ax.text(0.0, 0.85 * eps, f"p={p:.2f}(α={alpha:.2f}) ", ha="left", va="center", fontsize=9)
+        ax.set_title(name, fontsize=10)
+        ax.set_xlabel("Fractional ranks")
+        ax.grid(alpha=0.3)
+    for ax in axes.ravel()[len(names):]:
+        ax.set_visible(False)
+    return _save(fig, path)

@@ -427,12 +427,13 @@ def build_report(run_dir: Path | str) -> Path:
         thin = max(1, int(np.ceil(max(taus)))) if taus else 1
         p = figs.rank_plot(model_draws, figdir / "rank.png", thin=thin)
         sec.append(_img(p, "rank plot", (
-            f"ArviZ rank plot: walkers thinned by their autocorrelation time ({thin} steps) and pooled "
-            "into 8 groups; each line is the ECDF of one group's fractional ranks minus the uniform "
-            "one (flat near zero when the groups sample the same distribution). Above each panel, "
-            "ArviZ's multi-chain uniformity test: p above α means no evidence that the groups differ "
-            "(the ranks that drive a deviation are marked, when there are any). emcee walkers are not "
-            "independent chains, so read a small p as a hint, not a proof.")))
+            f"Rank plot (ArviZ's plot_rank): walkers thinned by their autocorrelation time ({thin} "
+            "steps) and pooled into 8 groups; each line is the ECDF of one group's fractional "
+            "ranks minus the uniform one (flat near zero when the groups sample the same "
+            "distribution). Above each panel, ArviZ's multi-chain uniformity test: p above α means "
+            "no evidence that the groups differ (the ranks that drive a deviation are marked, when "
+            "there are any). emcee walkers are not independent chains, so read a small p as a hint, "
+            "not a proof.")))
 
     elapsed = time.perf_counter() - t0
     files = ", ".join(f for f in ("config.yaml", "fit.json", "summary.json", "posterior.nc", "chains.h5")

@@ -1,0 +1,102 @@
+"""Time of ``python -m bayes_dnlr report RUN_DIR`` (issue 14: <= 3 s on the shipped example).
+
+1. The command itself from a fresh process, min (and median) of ``--repeats`` runs.
+2. The split, in one more fresh process: imports, loading the run (config, data, fit.json,
+   summary.json, posterior.nc), the model curves (posterior draws through the model), and each
+   figure (every ``report.figures`` function timed where it is called), the rest of the page.
+
+The run directory is copied to a temporary folder (the shipped one is not touched); it must hold a
+finished ``sample`` (run ``python -m bayes_dnlr sample runs/hdpe-a-5e-3/config.yaml`` first).
+
+    .venv/bin/python benchmarks/report_command.py [runs/hdpe-a-5e-3] [--repeats 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+SPLIT = r"""
+import json, sys, time
+t0 = time.perf_counter()
+from bayes_dnlr.report import figures, html, tables
+import matplotlib.pyplot  # noqa: F401  (the figures' import, counted here)
+t_imp = time.perf_counter() - t0
+split = {}
+
+cpu = {}
+
+def timed(label, f):
+    def g(*a, **k):
+        t, c = time.perf_counter(), time.process_time()
+        try:
+            return f(*a, **k)
+        finally:
+            split[label] = split.get(label, 0.0) + time.perf_counter() - t
+            cpu[label] = cpu.get(label, 0.0) + time.process_time() - c
+    return g
+
+for name in dir(figures):
+    if name.endswith("_plot"):
+        setattr(figures, name, timed("figure " + name, getattr(figures, name)))
+html.load_run = timed("load run (config, data, fit, summary, posterior.nc)", html.load_run)
+html.model_curves = timed("model curves (posterior draws through the model)", html.model_curves)
+t1, c1 = time.perf_counter(), time.process_time()
+html.build_report(sys.argv[1])
+total, total_cpu = time.perf_counter() - t1, time.process_time() - c1
+split["rest of the page (tables, standards, HTML)"] = total - sum(split.values())
+cpu["rest of the page (tables, standards, HTML)"] = total_cpu - sum(cpu.values())
+print(json.dumps({"imports": t_imp, "imports_cpu": c1, "build": total, "build_cpu": total_cpu,
+                  "split": split, "cpu": cpu}))
+"""
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("run_dir", nargs="?", default=str(ROOT / "runs/hdpe-a-5e-3"))
+    ap.add_argument("--repeats", type=int, default=5)
+    args = ap.parse_args()
+    src = Path(args.run_dir)
+    if not (src / "summary.json").is_file():
+        sys.exit(f"error: {src} has no finished sample (summary.json); run sample first")
+    print(f"load: {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} {os.getloadavg()[2]:.2f} "
+          f"(1/5/15 min), {os.cpu_count()} CPUs")
+    with tempfile.TemporaryDirectory() as tmp:
+        run = Path(tmp) / src.name
+        shutil.copytree(src, run, ignore=shutil.ignore_patterns("figures", "report.html"))
+        env = {**os.environ, "MPLBACKEND": "Agg"}
+        cmd = [sys.executable, "-m", "bayes_dnlr", "report", str(run)]
+        subprocess.run(cmd, check=True, capture_output=True, env=env, cwd=ROOT)    # warm caches
+        walls, cpus = [], []
+        for _ in range(args.repeats):
+            r0 = os.times()
+            t = time.perf_counter()
+            subprocess.run(cmd, check=True, capture_output=True, env=env, cwd=ROOT)
+            walls.append(time.perf_counter() - t)
+            r1 = os.times()
+            cpus.append((r1.children_user - r0.children_user) + (r1.children_system - r0.children_system))
+        print(f"report, fresh process: min {min(walls):.2f} s, median {statistics.median(walls):.2f} s "
+              f"wall over {args.repeats} runs (CPU {min(cpus):.2f}-{max(cpus):.2f} s); target <= 3 s: "
+              + ("met" if min(walls) <= 3.0 else "NOT met"))
+        out = subprocess.run([sys.executable, "-c", SPLIT, str(run)], check=True, capture_output=True,
+                             text=True, env=env, cwd=ROOT)
+        res = json.loads(out.stdout.strip().splitlines()[-1])
+        print(f"split (one more fresh process), wall (CPU): imports {res['imports']:.2f} s "
+              f"({res['imports_cpu']:.2f} s), build {res['build']:.2f} s ({res['build_cpu']:.2f} s)")
+        for label, v in sorted(res["split"].items(), key=lambda kv: -kv[1]):
+            print(f"  {label:<60s} {v:6.3f} s  ({res['cpu'][label]:.3f} s CPU)")
+    print(f"load after: {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()
