@@ -46,9 +46,8 @@ def config_file(arg: str | Path, command: str) -> Path:
         if own.is_file() and not _is_written_copy(p):
             return own
         what = (f"{own} is the copy that fit/sample wrote (the config as resolved), not the config "
-                "you wrote: give that one" if own.is_file() else f"there is no {own}")
-        raise ConfigError(f"{p}: is a directory, and {command} takes the config file, e.g. {example}; "
-                          f"{what}")
+                "you wrote: give that one" if own.is_file() else f"{p} is a directory with no config.yaml")
+        raise ConfigError(f"{p}: {command} takes the config file, e.g. {example}; {what}")
     raise ConfigError(f"{p}: config file not found ({command} takes the config file, e.g. {example})")
 
 

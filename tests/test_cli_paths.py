@@ -79,7 +79,7 @@ def test_a_run_folder_without_a_written_config(finished, tmp_path, capsys):
     empty.mkdir()
     assert main(["fit", str(empty)]) == 2
     assert capsys.readouterr().err == (f"error: {empty}: fit takes the config file, e.g. "
-                                       f"{empty}/config.yaml; there is no {empty}/config.yaml\n")
+                                       f"{empty}/config.yaml; {empty} is a directory with no config.yaml\n")
 
 
 def test_report_of_a_config_not_run_yet(tmp_path, capsys):
