@@ -118,9 +118,9 @@ def figure(pr: PopulationRun, path: Path) -> Path:
 
 
 def population_report(run_dirs: list[Path | str], *, parameter: str = "E", out: Path | str | None = None,
-                      force: bool = False) -> PopulationRun:
+                      force: bool = False, made_by: str = "population") -> PopulationRun:
     """population.json, population.md and population.png of the finished runs ``run_dirs``."""
-    pr = run_population(run_dirs, parameter=parameter, out=out, force=force)
+    pr = run_population(run_dirs, parameter=parameter, out=out, force=force, made_by=made_by)
     md = pr.out_dir / MARKDOWN
     write_atomic(md, markdown(pr))
     pr.written += [md, figure(pr, pr.out_dir / FIGURE)]
