@@ -37,10 +37,10 @@ class PopulationStep:
 
     def line(self) -> str:
         """One line for the console summary."""
-        head = f"population ({self.status}): {self.note}"
+        head = f"population ({self.status}): {self.note.rstrip('.')}"
         if self.excluded and self.status in ("done", "reused"):
             head += f"; left out: {', '.join(self.excluded)}"
-        return head
+        return head + "."
 
 
 def _excluded_reason(row: dict[str, Any]) -> str | None:

@@ -74,8 +74,9 @@ def population_step(result: BatchResult, enabled: bool = True) -> PopulationStep
     step.note = f"{len(used)} tests pooled in {time.perf_counter() - t0:.1f} s."
     if old and done is None:
         before = [str(n) for n in old.get("specimens") or []]
-        step.note += (f" It replaces the batch's earlier {POPULATION_FILE} (made from {len(before)} "
-                      f"tests: {', '.join(before)}, or from other posteriors of them).")
+        what = ("from other posteriors of these tests" if before == list(used) else
+                f"from {len(before)} tests: {', '.join(before)}")
+        step.note += f" It replaces the batch's earlier {POPULATION_FILE}, made {what}."
     step.wall_time_s = time.perf_counter() - t0
     return step
 
