@@ -11,7 +11,8 @@ from pathlib import Path
 from batch_support import tiny_campaign
 
 from bayes_dnlr.cli import main
-from bayes_dnlr.pipeline.batch_population import select
+from bayes_dnlr.pipeline.batch_population import PopulationStep, select
+from bayes_dnlr.report.batch_population import section
 
 
 def _batch(template: Path, manifest: Path, out: Path, *extra: str) -> int:
@@ -132,3 +133,11 @@ def test_a_joint_run_and_unfinished_tests_are_left_out_by_name(tmp_path):
     assert used == {}
     assert excluded == {"joint": "a run with tests: (one E shared by several tests, not one specimen)",
                         "late": "not run", "bad": "failed (DataError: x.csv row 3)"}
+
+
+def test_an_unreadable_population_json_is_a_note_not_a_broken_page():
+    step = PopulationStep("reused", "made earlier", {"a": "x"}, {"b": "failed (x)"},
+                          data={"parameter": "E", "specimens": ["a"]})       # no mu, s, shrunk
+    page = section(step, lambda *a: "")
+    assert "Population failed" in page and "population.json could not be shown (KeyError" in page
+    assert "<b>b</b>: failed (x)" in page

@@ -104,10 +104,20 @@ def _excluded_html(step: PopulationStep) -> str:
 
 
 def section(step: PopulationStep | None, img) -> str:
-    """The batch page's "Population" section; ``img(path, alt, caption)`` embeds a figure."""
-    head = "<h2>Population of the tests (two-stage)</h2>"
+    """The batch page's "Population" section; ``img(path, alt, caption)`` embeds a figure. A
+    population.json it cannot read becomes a note: the page is always written."""
     if step is None:
         return ""
+    try:
+        return _section(step, img)
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError, OSError) as err:
+        note = PopulationStep("failed", f"{POPULATION_FILE} could not be shown ({type(err).__name__}: "
+                              f"{err}); run the batch again with it moved away", excluded=step.excluded)
+        return _section(note, img)
+
+
+def _section(step: PopulationStep, img) -> str:
+    head = "<h2>Population of the tests (two-stage)</h2>"
     if step.data is None:
         cls = " warn" if step.status == "failed" else ""
         label = {"off": "not run", "skipped": "skipped", "failed": "failed"}.get(step.status, step.status)
