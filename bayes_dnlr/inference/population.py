@@ -45,7 +45,7 @@ class Population:
     specimens: dict[str, dict[str, Any]]   # own (mean, sd) and shrunk (mean, sd, hdi_90)
     effective_draws: dict[str, float]  # at the posterior mean of (mu, s)
     log_l_variance: float              # Monte Carlo variance of ln L at the posterior mean of (mu, s)
-    grid: dict[str, np.ndarray]        # mu, s, posterior (N_MU, N_S)
+    grid: dict[str, np.ndarray]        # mu, s, posterior (N_MU, N_S): the density at the points
     parameter: str = "E"
     s_prior_scale: float = 0.0
     warnings: list[str] = field(default_factory=list)
@@ -70,15 +70,16 @@ class Population:
                 "warnings": self.warnings}
 
 
-def _stats_from_grid(x: np.ndarray, p: np.ndarray) -> dict[str, Any]:
-    """Mean, sd, median and the 90 % HDI of a 1-D density on a grid."""
+def _stats_from_grid(x: np.ndarray, p: np.ndarray, width: np.ndarray | None = None) -> dict[str, Any]:
+    """Mean, sd, median and the 90 % HDI of a 1-D distribution given as masses ``p`` on the grid
+    points ``x`` (cells of ``width``, for the HDI's ordering by density; None: equal cells)."""
     p = np.maximum(p, 0.0)
     w = p / p.sum()
     mean = float(w @ x)
     sd = float(math.sqrt(max(w @ (x - mean) ** 2, 0.0)))
     cdf = np.cumsum(w)
     median = float(np.interp(0.5, cdf, x))
-    order = np.argsort(p)[::-1]
+    order = np.argsort(w if width is None else w / width)[::-1]
     keep = order[: int(np.searchsorted(np.cumsum(w[order]), 0.9) + 1)]
     return {"mean": mean, "sd": sd, "median": median, "hdi_90": [float(x[keep].min()), float(x[keep].max())]}
 
@@ -156,8 +157,13 @@ def population(draws: Mapping[str, np.ndarray], priors: Mapping[str, Any], param
         mu_grid, s_grid = zoom
         post = _grid_posterior(x, logpi, mu_grid, s_grid, scale)
     ess_at = {}
-    mu_stats = _stats_from_grid(mu_grid, post.sum(axis=1))
-    s_stats = _stats_from_grid(s_grid, post.sum(axis=0))
+    # masses: the density at each point times its cell (the first grid's s cells are not equal:
+    # treating its points as equal masses would put a factor s^(-1/2) on the prior of s)
+    ds = np.gradient(s_grid)
+    mass = post * ds[None, :]
+    mass /= mass.sum()
+    mu_stats = _stats_from_grid(mu_grid, mass.sum(axis=1))
+    s_stats = _stats_from_grid(s_grid, mass.sum(axis=0), ds)
     # Monte Carlo check at the posterior mean of (mu, s)
     mu_hat, s_hat = mu_stats["mean"], max(s_stats["mean"], s_grid[0])
     warnings = []
@@ -178,7 +184,7 @@ def population(draws: Mapping[str, np.ndarray], priors: Mapping[str, Any], param
                         "posterior): sample them longer (sampler.target_ess) for a stable answer")
     # shrunk estimates: reweight each specimen's draws by E_{mu,s}[N(x | mu, s)] / pi(x), the
     # expectation over (mu, s) drawn from the grid posterior
-    flat = rng.choice(post.size, N_HYPER_DRAWS, p=post.ravel())
+    flat = rng.choice(mass.size, N_HYPER_DRAWS, p=mass.ravel())
     mus, ss = mu_grid[flat // N_S], s_grid[flat % N_S]
     specimens = {}
     for k in names:

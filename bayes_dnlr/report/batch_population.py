@@ -2,7 +2,8 @@
 
 ``population_step`` runs the ``population`` command's code (report/population.py: population.json,
 .md and .png) over the batch's usable tests (pipeline/batch_population.py) into the batch folder; a
-re-run with the same runs and posteriors reuses population.json (the command's currency check).
+re-run with the same runs and posteriors (and package version) reuses population.json (the
+command's currency check).
 It never raises: a failure is a note on the page. ``section`` is the page's HTML for it.
 """
 
@@ -13,6 +14,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from bayes_dnlr import __version__
 from bayes_dnlr.numbers import fmt, interval, pm
 from bayes_dnlr.pipeline.batch import BatchResult
 from bayes_dnlr.pipeline.batch_population import MIN_TESTS, PARAMETER, PopulationStep, select
@@ -54,7 +56,8 @@ def population_step(result: BatchResult, enabled: bool = True) -> PopulationStep
     dirs = list(used.values())
     try:
         done = current_population(dirs, parameter=PARAMETER, out=out)
-        if done is not None and all(f.is_file() for f in files):
+        if (done is not None and done.get("version") == __version__
+                and all(f.is_file() for f in files)):
             step.status, step.data, step.files = "reused", done, files
             step.note = (f"{len(used)} tests, made earlier from these very runs and posteriors "
                          f"({POPULATION_FILE} is current).")

@@ -109,7 +109,9 @@ def figure(pr: PopulationRun, path: Path) -> Path:
     b.set_ylabel("s (MPa)")
     b.set_title("posterior of (μ, s)")
     b.legend(loc="upper right", fontsize=8)
-    scum, mcum = np.cumsum(post.sum(axis=0)), np.cumsum(post.sum(axis=1))
+    mass = post * np.gradient(g["s"])[None, :]           # the density times each s cell
+    scum, mcum = np.cumsum(mass.sum(axis=0)), np.cumsum(mass.sum(axis=1))
+    scum, mcum = scum / scum[-1], mcum / mcum[-1]
     if top > 0:
         b.set_ylim(0, 1.15 * g["s"][min(np.searchsorted(scum, 0.995), g["s"].size - 1)])
         m_lo = g["mu"][np.searchsorted(mcum, 0.003)]
