@@ -47,6 +47,29 @@ def test_monte_carlo_check_fails_with_too_few_draws():
     assert min(pop.effective_draws.values()) < 60
 
 
+def test_grid_posterior_of_s_matches_the_exact_one():
+    """Normal specimens (own sd 25 MPa, flat prior): L(μ, s) = Π N(c_k | μ, s² + 25²) exactly. The
+    grid's posterior mean and HDI of s agree with that posterior's on a fine uniform grid (the
+    first grid's s points are not equally spaced: each is weighted by its cell)."""
+    from bayes_dnlr.inference.population import population
+
+    rng = np.random.default_rng(21)
+    centres = rng.normal(MU, 100.0, 6)
+    draws = {f"s{k}": rng.normal(c, 25.0, 1000) for k, c in enumerate(centres)}
+    pop = population(draws, dict.fromkeys(draws, PRIOR))
+    mu = np.linspace(MU - 600, MU + 600, 1201)[:, None]
+    s = np.linspace(0.05, 800.0, 4000)[None, :]
+    v = s * s + 25.0 ** 2
+    logp = sum(-0.5 * (c - mu) ** 2 / v - 0.5 * np.log(v) for c in centres)
+    logp = logp - 0.5 * (s / pop.s_prior_scale) ** 2
+    ps = np.exp(logp - logp.max()).sum(axis=0)
+    ps /= ps.sum()
+    exact_mean = float(ps @ s[0])
+    assert pop.s["mean"] == pytest.approx(exact_mean, rel=0.03)
+    cdf = np.cumsum(ps)
+    assert pop.s["median"] == pytest.approx(float(np.interp(0.5, cdf, s[0])), rel=0.03)
+
+
 def test_many_specimens_get_a_grid_fine_enough_for_their_narrow_posterior(tmp_path):
     """A batch of 150 specimens: μ's sd (about 8 MPa) is below the first grid's step (about 13 MPa);
     the second, zoomed grid resolves it: μ's 90 % HDI is 2 × 1.645 sd wide, as for a normal."""
