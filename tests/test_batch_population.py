@@ -72,6 +72,14 @@ def test_batch_population_uses_the_ok_tests_only_and_is_reused(tmp_path, capsys)
     assert {n: (out / n).stat().st_mtime_ns for n in stamp} == stamp
     assert "made earlier from these very runs and posteriors" in (out / "batch.html").read_text()
 
+    # made by another version of the package: redone
+    old = json.loads((out / "population.json").read_text())
+    (out / "population.json").write_text(json.dumps({**old, "version": "0.0.1"}))
+    assert _batch(template, manifest, out) == 1
+    assert "population (done)" in capsys.readouterr().out
+    assert "made by bayes_dnlr 0.0.1" in (out / "batch.html").read_text()
+    assert json.loads((out / "population.json").read_text())["version"] != "0.0.1"
+
     # t3 fixed: four specimens now, the batch replaces its own earlier population.json
     (tmp_path / "data" / "t3.csv").write_bytes(good)
     assert _batch(template, manifest, out) == 0

@@ -75,9 +75,10 @@ def population_step(result: BatchResult, enabled: bool = True) -> PopulationStep
         return step
     step.status, step.data, step.files = "done", pr.to_dict(), pr.written
     step.note = f"{len(used)} tests pooled in {time.perf_counter() - t0:.1f} s."
-    if old and done is None:
+    if old and (done is None or done.get("version") != __version__):
         before = [str(n) for n in old.get("specimens") or []]
-        what = ("from other posteriors of these tests" if before == list(used) else
+        what = (f"by bayes_dnlr {old.get('version')}" if done is not None else
+                "from other posteriors of these tests" if before == list(used) else
                 f"from {len(before)} tests: {', '.join(before)}")
         step.note += f" It replaces the batch's earlier {POPULATION_FILE}, made {what}."
     step.wall_time_s = time.perf_counter() - t0
