@@ -146,7 +146,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
     from bayes_dnlr.report.batch import run_campaign
 
     result = run_campaign(args.inputs, manifest=args.manifest, out=args.out, n_jobs=args.jobs,
-                          scheduler=args.scheduler, report=args.report, progress=not args.quiet)
+                          scheduler=args.scheduler, report=args.report, progress=not args.quiet,
+                          population=args.population)
     print(result.summary())
     return 1 if result.failed else 0
 
@@ -279,6 +280,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "(the Dask config's scheduler-address)")
     p.add_argument("--no-report", dest="report", action="store_false",
                    help="skip the per-test report.html (the batch page is still written)")
+    p.add_argument("--no-population", dest="population", action="store_false",
+                   help="skip the population of the tests (population.json/.md/.png and its section "
+                        "of the batch page; docs/population.md)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_batch)
     return parser

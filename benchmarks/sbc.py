@@ -176,8 +176,9 @@ def main() -> None:
             sys.exit(job.error)
         simulate_test(job.config())
     t_sim = time.perf_counter() - t0
+    # the simulations' E come from the prior, not a population of specimens: no population step
     result = run_campaign([str(tpl)], manifest=man, out=out, n_jobs=args.jobs,
-                          scheduler=args.scheduler, report=False)
+                          scheduler=args.scheduler, report=False, population=False)
     wall = time.perf_counter() - t0
     print(result.summary())
     names = list(PRIOR) + (["disc_amplitude", "disc_length"] if args.likelihood == "discrepancy" else [])

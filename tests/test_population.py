@@ -47,6 +47,56 @@ def test_monte_carlo_check_fails_with_too_few_draws():
     assert min(pop.effective_draws.values()) < 60
 
 
+def test_grid_posterior_of_s_matches_the_exact_one():
+    """Normal specimens (own sd 25 MPa, flat prior): L(μ, s) = Π N(c_k | μ, s² + 25²) exactly. The
+    grid's posterior mean and HDI of s agree with that posterior's on a fine uniform grid (the
+    first grid's s points are not equally spaced: each is weighted by its cell)."""
+    from bayes_dnlr.inference.population import population
+
+    rng = np.random.default_rng(21)
+    centres = rng.normal(MU, 100.0, 6)
+    draws = {f"s{k}": rng.normal(c, 25.0, 1000) for k, c in enumerate(centres)}
+    pop = population(draws, dict.fromkeys(draws, PRIOR))
+    mu = np.linspace(MU - 600, MU + 600, 1201)[:, None]
+    s = np.linspace(0.05, 800.0, 4000)[None, :]
+    v = s * s + 25.0 ** 2
+    logp = sum(-0.5 * (c - mu) ** 2 / v - 0.5 * np.log(v) for c in centres)
+    logp = logp - 0.5 * (s / pop.s_prior_scale) ** 2
+    ps = np.exp(logp - logp.max()).sum(axis=0)
+    ps /= ps.sum()
+    exact_mean = float(ps @ s[0])
+    assert pop.s["mean"] == pytest.approx(exact_mean, rel=0.03)
+    cdf = np.cumsum(ps)
+    assert pop.s["median"] == pytest.approx(float(np.interp(0.5, cdf, s[0])), rel=0.03)
+
+
+def test_many_specimens_get_a_grid_fine_enough_for_their_narrow_posterior(tmp_path):
+    """A batch of 150 specimens: μ's sd (about 8 MPa) is below the first grid's step (about 13 MPa);
+    the second, zoomed grid resolves it: μ's 90 % HDI is 2 × 1.645 sd wide, as for a normal."""
+    from bayes_dnlr.inference.population import population
+
+    rng = np.random.default_rng(11)
+    centres = rng.normal(MU, 100.0, 150)
+    draws = {f"s{k}": rng.normal(c, 25.0, 400) for k, c in enumerate(centres)}
+    pop = population(draws, dict.fromkeys(draws, PRIOR))
+    step = float(np.diff(pop.grid["mu"])[0])
+    expected_sd = float(np.hypot(centres.std(ddof=1), 25.0) / np.sqrt(centres.size))
+    assert step < pop.mu["sd"] / 5
+    assert pop.mu["sd"] == pytest.approx(expected_sd, rel=0.15)
+    lo, hi = pop.mu["hdi_90"]
+    assert hi - lo == pytest.approx(2 * 1.645 * pop.mu["sd"], rel=0.1)
+    assert abs(pop.mu["median"] - pop.mu["mean"]) < 0.2 * pop.mu["sd"]
+    assert pop.s["hdi_90"][0] < 100.0 < pop.s["hdi_90"][1]
+    # the figure of a batch this size keeps a readable height (rows narrower past 40 specimens)
+    from PIL import Image
+
+    from bayes_dnlr.pipeline.population import PopulationRun
+    from bayes_dnlr.report.population import figure
+
+    png = figure(PopulationRun(pop, {k: k for k in draws}, dict.fromkeys(draws, "")), tmp_path / "p.png")
+    assert Image.open(png).size[1] < 3000                  # 70 inches (7700 px) with 8 specimens' rows
+
+
 @pytest.fixture(scope="module")
 def specimens(tmp_path_factory):
     """Three finished single-test runs with different true E (tiny chains)."""

@@ -33,6 +33,8 @@ MAX_LOG_L_VARIANCE = 1.0
 N_MU, N_S = 120, 100
 MAX_DRAWS = 1000        # per specimen for the grid (thinned at random): an MCMC run's worth of ESS
 N_HYPER_DRAWS = 400     # (mu, s) draws from the grid posterior for the shrunk estimates
+ZOOM_CELLS = 40         # a posterior over fewer cells of mu or s than this gets a second, finer grid
+ZOOM_FLOOR = 1e-6       # ... over the cells above this fraction of its peak
 
 
 @dataclass
@@ -43,7 +45,7 @@ class Population:
     specimens: dict[str, dict[str, Any]]   # own (mean, sd) and shrunk (mean, sd, hdi_90)
     effective_draws: dict[str, float]  # at the posterior mean of (mu, s)
     log_l_variance: float              # Monte Carlo variance of ln L at the posterior mean of (mu, s)
-    grid: dict[str, np.ndarray]        # mu, s, posterior (N_MU, N_S)
+    grid: dict[str, np.ndarray]        # mu, s, posterior (N_MU, N_S): the density at the points
     parameter: str = "E"
     s_prior_scale: float = 0.0
     warnings: list[str] = field(default_factory=list)
@@ -68,15 +70,16 @@ class Population:
                 "warnings": self.warnings}
 
 
-def _stats_from_grid(x: np.ndarray, p: np.ndarray) -> dict[str, Any]:
-    """Mean, sd, median and the 90 % HDI of a 1-D density on a grid."""
+def _stats_from_grid(x: np.ndarray, p: np.ndarray, width: np.ndarray | None = None) -> dict[str, Any]:
+    """Mean, sd, median and the 90 % HDI of a 1-D distribution given as masses ``p`` on the grid
+    points ``x`` (cells of ``width``, for the HDI's ordering by density; None: equal cells)."""
     p = np.maximum(p, 0.0)
     w = p / p.sum()
     mean = float(w @ x)
     sd = float(math.sqrt(max(w @ (x - mean) ** 2, 0.0)))
     cdf = np.cumsum(w)
     median = float(np.interp(0.5, cdf, x))
-    order = np.argsort(p)[::-1]
+    order = np.argsort(w if width is None else w / width)[::-1]
     keep = order[: int(np.searchsorted(np.cumsum(w[order]), 0.9) + 1)]
     return {"mean": mean, "sd": sd, "median": median, "hdi_90": [float(x[keep].min()), float(x[keep].max())]}
 
@@ -89,6 +92,40 @@ def _weighted_stats(x: np.ndarray, w: np.ndarray) -> dict[str, Any]:
     mean = float(w @ x)
     return {"mean": mean, "sd": float(math.sqrt(max(w @ (x - mean) ** 2, 0.0))),
             "interval_90": [float(lo), float(hi)]}
+
+
+def _grid_posterior(x: Mapping[str, np.ndarray], logpi: Mapping[str, np.ndarray], mu_grid: np.ndarray,
+                    s_grid: np.ndarray, scale: float) -> np.ndarray:
+    """The posterior of (μ, s) on the grid (normalized to sum 1): L(μ, s) above times the
+    half-normal prior of s."""
+    logL = np.zeros((mu_grid.size, s_grid.size))
+    for k in x:
+        # (N_MU, N_S, N) is too big at once for long chains: loop over s
+        for j, s in enumerate(s_grid):
+            z = (x[k][None, :] - mu_grid[:, None]) / s
+            logw = -0.5 * z * z - math.log(s) - 0.5 * math.log(2 * math.pi) - logpi[k][None, :]
+            m = logw.max(axis=1, keepdims=True)
+            logL[:, j] += (m[:, 0] + np.log(np.mean(np.exp(logw - m), axis=1)))
+    log_prior_s = -0.5 * (s_grid / scale) ** 2
+    logpost = logL + log_prior_s[None, :]
+    logpost[~np.isfinite(logpost)] = -np.inf
+    post = np.exp(logpost - np.max(logpost))
+    return post / post.sum()
+
+
+def _zoom(mu_grid: np.ndarray, s_grid: np.ndarray, post: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """A finer grid over where the posterior is (cells above ZOOM_FLOOR of its peak, one cell more on
+    each side), when that region spans fewer than ZOOM_CELLS cells of μ or of s: with a batch of
+    many specimens, μ's sd falls below the first grid's step (200 specimens: sd 7 MPa, step 13 MPa).
+    None when the first grid resolves the posterior already."""
+    mu_idx = np.flatnonzero(post.max(axis=1) >= ZOOM_FLOOR * post.max())
+    s_idx = np.flatnonzero(post.max(axis=0) >= ZOOM_FLOOR * post.max())
+    if mu_idx.size >= ZOOM_CELLS and s_idx.size >= ZOOM_CELLS:
+        return None
+    m0, m1 = max(mu_idx[0] - 1, 0), min(mu_idx[-1] + 1, mu_grid.size - 1)
+    j0, j1 = max(s_idx[0] - 1, 0), min(s_idx[-1] + 1, s_grid.size - 1)
+    return (np.linspace(mu_grid[m0], mu_grid[m1], mu_grid.size),
+            np.linspace(s_grid[j0], s_grid[j1], s_grid.size))
 
 
 def population(draws: Mapping[str, np.ndarray], priors: Mapping[str, Any], parameter: str = "E",
@@ -114,22 +151,19 @@ def population(draws: Mapping[str, np.ndarray], priors: Mapping[str, Any], param
     mu_grid = np.linspace(means.min() - 4 * width, means.max() + 4 * width, N_MU)
     # s: dense near 0, out to well past the spread
     s_grid = np.linspace(0.0, 1.0, N_S + 1)[1:] ** 2 * (5.0 * width)
-    logL = np.zeros((N_MU, N_S))
+    post = _grid_posterior(x, logpi, mu_grid, s_grid, scale)
+    zoom = _zoom(mu_grid, s_grid, post)
+    if zoom is not None:            # many specimens: the posterior is narrower than a few cells
+        mu_grid, s_grid = zoom
+        post = _grid_posterior(x, logpi, mu_grid, s_grid, scale)
     ess_at = {}
-    for k in names:
-        # (N_MU, N_S, N) is too big at once for long chains: loop over s
-        for j, s in enumerate(s_grid):
-            z = (x[k][None, :] - mu_grid[:, None]) / s
-            logw = -0.5 * z * z - math.log(s) - 0.5 * math.log(2 * math.pi) - logpi[k][None, :]
-            m = logw.max(axis=1, keepdims=True)
-            logL[:, j] += (m[:, 0] + np.log(np.mean(np.exp(logw - m), axis=1)))
-    log_prior_s = -0.5 * (s_grid / scale) ** 2
-    logpost = logL + log_prior_s[None, :]
-    logpost[~np.isfinite(logpost)] = -np.inf
-    post = np.exp(logpost - np.max(logpost))
-    post /= post.sum()
-    mu_stats = _stats_from_grid(mu_grid, post.sum(axis=1))
-    s_stats = _stats_from_grid(s_grid, post.sum(axis=0))
+    # masses: the density at each point times its cell (the first grid's s cells are not equal:
+    # treating its points as equal masses would put a factor s^(-1/2) on the prior of s)
+    ds = np.gradient(s_grid)
+    mass = post * ds[None, :]
+    mass /= mass.sum()
+    mu_stats = _stats_from_grid(mu_grid, mass.sum(axis=1))
+    s_stats = _stats_from_grid(s_grid, mass.sum(axis=0), ds)
     # Monte Carlo check at the posterior mean of (mu, s)
     mu_hat, s_hat = mu_stats["mean"], max(s_stats["mean"], s_grid[0])
     warnings = []
@@ -150,7 +184,7 @@ def population(draws: Mapping[str, np.ndarray], priors: Mapping[str, Any], param
                         "posterior): sample them longer (sampler.target_ess) for a stable answer")
     # shrunk estimates: reweight each specimen's draws by E_{mu,s}[N(x | mu, s)] / pi(x), the
     # expectation over (mu, s) drawn from the grid posterior
-    flat = rng.choice(post.size, N_HYPER_DRAWS, p=post.ravel())
+    flat = rng.choice(mass.size, N_HYPER_DRAWS, p=mass.ravel())
     mus, ss = mu_grid[flat // N_S], s_grid[flat % N_S]
     specimens = {}
     for k in names:

@@ -59,6 +59,7 @@ class BatchResult:
     backend: str
     elapsed_s: float
     written: list[Path] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)      # further lines of the summary (population)
 
     def count(self, status: str) -> int:
         return sum(r.get("status") == status for r in self.rows)
@@ -78,6 +79,7 @@ class BatchResult:
                  f"{self.count('failed')} failed, {self.count('pending')} not run; "
                  f"{self.elapsed_s:.1f} s"]
         lines += [f"  failed: {r['name']}: {r.get('error')}" for r in self.failed]
+        lines += [f"  {n}" for n in self.notes]
         lines += [f"  wrote {p}" for p in self.written]
         return "\n".join(lines)
 

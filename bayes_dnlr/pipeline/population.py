@@ -39,12 +39,14 @@ class PopulationRun:
     out_dir: Path = Path(".")
     wall_time_s: float = 0.0
     written: list[Path] = field(default_factory=list)
+    made_by: str = "population"           # or "batch": a batch may replace its own population.json
 
     def to_dict(self) -> dict[str, Any]:
         from bayes_dnlr import __version__
 
         return {**self.result.to_dict(), "runs": self.runs, "fingerprints": self.fingerprints,
-                "truth": self.truth or None, "wall_time_s": self.wall_time_s, "version": __version__}
+                "truth": self.truth or None, "wall_time_s": self.wall_time_s, "made_by": self.made_by,
+                "version": __version__}
 
 
 def default_out_dir(run_dirs: list[Path]) -> Path:
@@ -73,10 +75,7 @@ def _specimen(run_dir: Path, parameter: str) -> tuple[str, Any, Prior, str, floa
         draws.summary.get("fingerprint") or ""), truth)
 
 
-def run_population(run_dirs: list[Path | str], *, parameter: str = "E", out: Path | str | None = None,
-                   force: bool = False, write: bool = True) -> PopulationRun:
-    """Pool the finished runs ``run_dirs`` (≥ 2 specimens); write ``out/population.json``."""
-    dirs = [Path(d) for d in run_dirs]
+def _check_dirs(dirs: list[Path]) -> None:
     if len(dirs) < 2:
         raise RunError(f"population needs at least two specimens' run directories, got {len(dirs)}")
     seen: dict[Path, Path] = {}
@@ -85,6 +84,13 @@ def run_population(run_dirs: list[Path | str], *, parameter: str = "E", out: Pat
         if r in seen:
             raise RunError(f"population: {d} is given twice (as {seen[r]} too)")
         seen[r] = d
+
+
+def run_population(run_dirs: list[Path | str], *, parameter: str = "E", out: Path | str | None = None,
+                   force: bool = False, write: bool = True, made_by: str = "population") -> PopulationRun:
+    """Pool the finished runs ``run_dirs`` (≥ 2 specimens); write ``out/population.json``."""
+    dirs = [Path(d) for d in run_dirs]
+    _check_dirs(dirs)
     t0 = time.perf_counter()
     out_dir = Path(out) if out is not None else default_out_dir(dirs)
     draws, priors, runs, fps, truth = {}, {}, {}, {}, {}
@@ -98,7 +104,7 @@ def run_population(run_dirs: list[Path | str], *, parameter: str = "E", out: Pat
         if true is not None:
             truth[name] = float(true)
     result = population(draws, priors, parameter=parameter)
-    pr = PopulationRun(result, runs, fps, truth, out_dir, time.perf_counter() - t0)
+    pr = PopulationRun(result, runs, fps, truth, out_dir, time.perf_counter() - t0, made_by=made_by)
     if write:
         path = out_dir / POPULATION_FILE
         _check_replace(path, pr, force)
@@ -108,17 +114,49 @@ def run_population(run_dirs: list[Path | str], *, parameter: str = "E", out: Pat
     return pr
 
 
+def read_existing(path: Path) -> dict[str, Any]:
+    """The population.json at ``path`` ({} when missing or unreadable)."""
+    try:
+        old = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError, UnicodeDecodeError):
+        return {}
+    return old if isinstance(old, dict) else {}
+
+
+def same_inputs(old: dict[str, Any], runs: dict[str, str], fingerprints: dict[str, str],
+                parameter: str) -> bool:
+    """Was ``old`` (a population.json) made from these runs, these posteriors of them, this
+    parameter? Then a new one would be the same."""
+    return (bool(old) and old.get("fingerprints") == fingerprints and old.get("parameter") == parameter
+            and old.get("runs") == runs)
+
+
+def current_population(run_dirs: list[Path | str], *, parameter: str = "E",
+                       out: Path | str | None = None) -> dict[str, Any] | None:
+    """The population.json in ``out`` when it was made from exactly these finished runs (the same
+    posteriors: their fingerprints in summary.json), else None. Reads summary.json only, no draws."""
+    dirs = [Path(d) for d in run_dirs]
+    out_dir = Path(out) if out is not None else default_out_dir(dirs)
+    old = read_existing(out_dir / POPULATION_FILE)
+    if not old:
+        return None
+    runs, fps = {}, {}
+    for d in dirs:
+        try:
+            summary = json.loads((d / "summary.json").read_text())
+            name = str(summary.get("name") or load_config(find_config(d)).name)
+        except (OSError, ValueError, FileNotFoundError, ConfigError):
+            return None
+        runs[name] = os.path.relpath(d.resolve(), out_dir.resolve())
+        fps[name] = str(summary.get("fingerprint") or "")
+    return old if same_inputs(old, runs, fps, parameter) else None
+
+
 def _check_replace(path: Path, pr: PopulationRun, force: bool) -> None:
     """A population.json made from other runs (or other posteriors of them) is replaced only with
     ``force``."""
     if force or not path.exists():
         return
-    try:
-        old = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError, UnicodeDecodeError):
-        old = {}
-    same = (old.get("fingerprints") == pr.fingerprints and old.get("parameter") == pr.result.parameter
-            and old.get("runs") == pr.runs)
-    if not same:
+    if not same_inputs(read_existing(path), pr.runs, pr.fingerprints, pr.result.parameter):
         raise RunError(f"{path} exists and was made from other runs or other posteriors of them; pass "
                        "--force to replace it, or --out to write elsewhere")

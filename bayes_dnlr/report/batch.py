@@ -23,6 +23,7 @@ import numpy as np
 from bayes_dnlr import __version__
 from bayes_dnlr.numbers import fmt, pm
 from bayes_dnlr.pipeline.batch import BatchResult, run_batch
+from bayes_dnlr.pipeline.batch_population import PopulationStep
 from bayes_dnlr.pipeline.manifest import (
     BatchError,
     default_out,
@@ -30,6 +31,7 @@ from bayes_dnlr.pipeline.manifest import (
     jobs_from_configs,
     jobs_from_manifest,
 )
+from bayes_dnlr.report.batch_population import population_step, section
 from bayes_dnlr.report.html import CSS
 
 PAGE = "batch.html"
@@ -40,9 +42,10 @@ PARAMS = ("E", "G", "tau_max", "sigma_inf", "tau_max_R")
 
 def run_campaign(inputs: list[str], *, manifest: Path | None = None, out: Path | None = None,
                  n_jobs: int = -1, scheduler: str | None = None, report: bool = True,
-                 progress: bool = True) -> BatchResult:
+                 progress: bool = True, population: bool = True) -> BatchResult:
     """Configs (paths or globs), or one template config plus a manifest: run the batch, write the
-    results table and the batch page. See docs/batch.md."""
+    results table, the population of its tests (unless ``population`` is False) and the batch page.
+    See docs/batch.md."""
     if manifest is not None:
         if len(inputs) != 1:
             raise BatchError(f"--manifest takes exactly one template config, got {len(inputs)}: "
@@ -59,7 +62,10 @@ def run_campaign(inputs: list[str], *, manifest: Path | None = None, out: Path |
 
     result = run_batch(jobs, out, n_jobs=n_jobs, scheduler=scheduler,
                        report=build_report if report else None, progress=progress)
-    result.written.append(write_page(result))
+    step = population_step(result, enabled=population)
+    result.notes.append(step.line())
+    result.written += [f for f in step.files if step.status == "done"]
+    result.written.append(write_page(result, step))
     return result
 
 
@@ -167,8 +173,9 @@ def _population_text(pop: dict[str, float] | None) -> str:
             "within-test uncertainty is too small (model error: see docs/model-error.md).</p>")
 
 
-def write_page(result: BatchResult) -> Path:
-    """Write ``<out>/batch.html`` (figures embedded) and return its path."""
+def write_page(result: BatchResult, step: PopulationStep | None = None) -> Path:
+    """Write ``<out>/batch.html`` (figures embedded; the population step's section when given) and
+    return its path."""
     out = result.out
     rows = result.rows
     fig = e_figure(rows, out / "figures" / FIGURE)
@@ -191,6 +198,7 @@ def write_page(result: BatchResult) -> Path:
         sec.append(_img(fig, "E across tests", "Left: histogram of the posterior means of E (one tick "
                         "per test). Right (up to 80 tests): each test's posterior mean (dot) and 90 % "
                         "HDI (bar), sorted; crosses mark the true E of synthetic tests."))
+    sec.append(section(step, _img))
     sec.append("<h2>Failing tests</h2>")
     if failed or pending:
         body = "".join(f"<tr><th>{_e(r['name'])}</th><td class='text'>{_e(r.get('origin'))}</td>"
