@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bayes_dnlr.numbers import fmt, fmt_at
+from bayes_dnlr.numbers import fmt, interval, pm
 from bayes_dnlr.pipeline.population import PopulationRun, run_population
 from bayes_dnlr.report.tables import Table
 from bayes_dnlr.rundir import write_atomic
@@ -16,8 +16,8 @@ FIGURE = "population.png"
 MARKDOWN = "population.md"
 
 
-def _interval(v: list[float]) -> str:
-    return f"[{fmt(v[0])}, {fmt(v[1])}]"
+def _interval(v: list[float], sd: float) -> str:
+    return interval(v[0], v[1], sd)
 
 
 def markdown(pr: PopulationRun) -> str:
@@ -25,9 +25,9 @@ def markdown(pr: PopulationRun) -> str:
     p = r.parameter
     mu, s = r.mu, r.s
     lines = [f"# Population of {len(r.names)} specimens: {p}", "",
-             f"**{p} of the material: μ = {fmt_at(mu['mean'], mu['sd'])} ± {fmt(mu['sd'], 2)} MPa** "
-             f"(90 % HDI {_interval(mu['hdi_90'])}); specimen-to-specimen sd **s = "
-             f"{fmt_at(s['mean'], s['sd'])} ± {fmt(s['sd'], 2)} MPa** (90 % HDI {_interval(s['hdi_90'])}).",
+             f"**{p} of the material: μ = {pm(mu['mean'], mu['sd'])} MPa** "
+             f"(90 % HDI {_interval(mu['hdi_90'], mu['sd'])}); specimen-to-specimen sd **s = "
+             f"{pm(s['mean'], s['sd'])} MPa** (90 % HDI {_interval(s['hdi_90'], s['sd'])}).",
              "",
              f"Method: {r.to_dict()['method']}; priors: μ flat over the grid, s half-normal with scale "
              f"{fmt(r.s_prior_scale)} MPa. Stage 1: each specimen's own posterior (its run); stage 2: "
@@ -36,8 +36,8 @@ def markdown(pr: PopulationRun) -> str:
     for k in r.names:
         sp = r.specimens[k]
         own, shr = sp["own"], sp["shrunk"]
-        row = [k, f"{fmt_at(own['mean'], own['sd'])} ± {fmt(own['sd'], 2)}",
-               f"{fmt_at(shr['mean'], shr['sd'])} ± {fmt(shr['sd'], 2)}", _interval(shr["interval_90"]),
+        row = [k, pm(own["mean"], own["sd"]), pm(shr["mean"], shr["sd"]),
+               _interval(shr["interval_90"], shr["sd"]),
                f"{r.effective_draws[k]:.0f}"]
         if pr.truth:
             row.append(fmt(pr.truth.get(k)))
