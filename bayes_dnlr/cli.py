@@ -147,7 +147,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
     result = run_campaign(args.inputs, manifest=args.manifest, out=args.out, n_jobs=args.jobs,
                           scheduler=args.scheduler, report=args.report, progress=not args.quiet,
-                          population=args.population)
+                          population=args.population, restart=args.restart)
     print(result.summary())
     return 1 if result.failed else 0
 
@@ -280,6 +280,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "(the Dask config's scheduler-address)")
     p.add_argument("--no-report", dest="report", action="store_false",
                    help="skip the per-test report.html (the batch page is still written)")
+    p.add_argument("--restart", action="store_true",
+                   help="a test whose fit or chain was made from another config or data starts again "
+                        "(its old fit and chain are discarded, as sample --restart); finished and "
+                        "interrupted current tests are kept")
     p.add_argument("--no-population", dest="population", action="store_false",
                    help="skip the population of the tests (population.json/.md/.png and its section "
                         "of the batch page; docs/population.md)")

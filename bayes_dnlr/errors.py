@@ -9,6 +9,11 @@ class RunError(BayesDnlrError):
     """A run directory is in a state that forbids the action (e.g. a result would be overwritten)."""
 
 
+class StaleRunError(RunError):
+    """A run directory holds a fit or a chain made from another config or data (or one that cannot
+    be continued): ``sample --restart`` (``batch --restart``) discards it and starts again."""
+
+
 class StorageError(BayesDnlrError):
     """A file could not be written (I/O error, read-only or full file system); nothing committed
     before was lost."""

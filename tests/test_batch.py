@@ -159,3 +159,25 @@ def test_killed_batch_resumes_and_recomputes_nothing_finished(tmp_path):
     assert all((out / "runs" / f"t{i}" / "report.html").is_file() for i in range(4))
     row3 = json.loads((out / "rows" / "t3.json").read_text())
     assert row3["steps"] == 1500 and row3["converged"] is False
+
+
+def test_restart_redoes_only_the_tests_whose_chain_is_stale(tmp_path, capsys):
+    """A test sampled from other data fails with a pointer to `batch --restart`; with it, that test
+    starts again and the current ones are reused untouched."""
+    template, manifest = tiny_campaign(tmp_path, 3)
+    out = tmp_path / "out"
+    assert _batch(template, manifest, out, "--jobs", "1", "--no-report", "--no-population") == 0
+    other = (tmp_path / "data" / "t0.csv").read_bytes()
+    (tmp_path / "data" / "t1.csv").write_bytes(other)                  # t1's data changed
+    before = {i: (out / "runs" / f"t{i}" / "summary.json").stat().st_mtime_ns for i in (0, 2)}
+    assert _batch(template, manifest, out, "--jobs", "1", "--no-report", "--no-population") == 1
+    pq = pd.read_parquet(out / "results.parquet")
+    assert list(pq["status"]) == ["ok", "failed", "ok"]
+    assert "StaleRunError" in pq.loc[1, "error"] and "batch --restart" in pq.loc[1, "error"]
+    capsys.readouterr()
+    assert _batch(template, manifest, out, "--jobs", "1", "--no-report", "--no-population",
+                  "--restart") == 0
+    pq = pd.read_parquet(out / "results.parquet")
+    assert list(pq["status"]) == ["ok"] * 3 and list(pq["reused"]) == [True, False, True]
+    assert {i: (out / "runs" / f"t{i}" / "summary.json").stat().st_mtime_ns for i in before} == before
+    assert read_run(out / "runs" / "t1" / "chains.h5").finished

@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from bayes_dnlr.config import DISCREPANCY_PARAMETERS, PARAMETER_NAMES
-from bayes_dnlr.errors import BayesDnlrError
+from bayes_dnlr.errors import BayesDnlrError, StaleRunError
 from bayes_dnlr.pipeline.manifest import BatchError, Job
 from bayes_dnlr.rundir import digest, jsonable, write_atomic, write_json
 from bayes_dnlr.runlock import run_lock
@@ -119,7 +119,12 @@ def run_job(job: Job, report: Reporter | None = None) -> dict[str, Any]:
             from bayes_dnlr.pipeline.sample import sample
 
             cfg = job.config()
-            sample(cfg, progress=False)
+            try:
+                sample(cfg, progress=False)
+            except StaleRunError:
+                if not job.restart:
+                    raise
+                sample(cfg, progress=False, restart=True)   # batch --restart: only stale runs
             if report is not None and _stale_report(cfg.run_dir):
                 report(cfg.run_dir)
             row.update(result_row(job, cfg))
@@ -127,6 +132,8 @@ def run_job(job: Job, report: Reporter | None = None) -> dict[str, Any]:
     except Exception as err:  # noqa: BLE001 - one failing test must not stop the batch
         row["status"] = "failed"
         row["error"] = f"{type(err).__name__}: {err}"
+        if isinstance(err, StaleRunError):
+            row["error"] += " (in a batch: `batch --restart` restarts such tests and keeps the others)"
         if not isinstance(err, BayesDnlrError):
             row["traceback"] = "".join(traceback.format_exception(err)[-6:])
     row["elapsed_s"] = time.perf_counter() - t0

@@ -56,6 +56,7 @@ class Job:
     run_dir: str | None
     inputs: dict[str, str] = field(default_factory=dict)   # the manifest cells of this row
     error: str | None = None         # the config did not validate: the job is recorded, not run
+    restart: bool = False            # batch --restart: a stale fit or chain is discarded, not an error
 
     def config(self) -> Config:
         """The validated config (raises ConfigError)."""

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config import Config, ConfigError
-from bayes_dnlr.errors import BayesDnlrError, RunError
+from bayes_dnlr.errors import BayesDnlrError, StaleRunError
 from bayes_dnlr.inference.mcmc import (
     MIN_STEPS_FOR_TAU,
     MOVES,
@@ -196,7 +196,7 @@ def _current_fit(cfg: Config, test, *, replace: bool, progress: bool) -> dict[st
             config = cfg.source if cfg.source is not None else "<config.yaml>"
             chain = ("the chain in chains.h5 still matches the config and is kept"
                      if (cfg.run_dir / CHAINS_FILE).exists() else "nothing is lost")
-            raise RunError(
+            raise StaleRunError(
                 f"{path} was made from {reason}, and `sample` does not replace a fit silently. Redo "
                 f"the fit with `python -m bayes_dnlr fit --force {config}`, then run `sample` again "
                 f"({chain}); or `sample --restart`, which redoes the fit and also discards this run's "
@@ -222,16 +222,17 @@ def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: boo
             attrs = read_attrs(chains)
             reason = stale_reason(attrs, parts)
         except OSError as err:
-            raise RunError(f"{chains}: cannot read the stored chain ({err}); sample --restart "
+            raise StaleRunError(f"{chains}: cannot read the stored chain ({err}); sample --restart "
                            "(restart=True) discards it and starts again") from None
         if reason is not None:
-            raise RunError(f"{chains} was sampled from another config or data: {reason}. Refusing to "
+            raise StaleRunError(f"{chains} was sampled from another config or data: {reason}. Refusing to "
                            "mix chains; sample --restart (restart=True) discards it and starts again, "
                            "or set output.dir to sample into another run directory")
         try:
             stored = read_run(chains)
         except OSError as err:
-            raise RunError(f"{chains}: no usable checkpoint ({err}); sample --restart discards it") from None
+            raise StaleRunError(f"{chains}: no usable checkpoint ({err}); sample --restart discards "
+                                "it") from None
         done = _finished_result(cfg, test, stored, fp)
         if done is not None:
             return done
@@ -247,7 +248,7 @@ def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: boo
     check_sampler(cfg, names)
     if stored is not None and (stored.names != names or [bool(v) for v in stored.attrs.get(
             "log_space", [])] != [bool(v) for v in priors.log_space]):
-        raise RunError(f"{chains} holds parameters {stored.names} sampled in other coordinates "
+        raise StaleRunError(f"{chains} holds parameters {stored.names} sampled in other coordinates "
                        f"(made by bayes_dnlr {stored.attrs.get('version')}); it cannot be continued: "
                        "sample --restart discards it and starts again")
 

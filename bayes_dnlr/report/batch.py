@@ -12,6 +12,7 @@ warnings; and a table of every test linking to its own report.
 from __future__ import annotations
 
 import base64
+import dataclasses
 import html
 import math
 import os
@@ -42,9 +43,11 @@ PARAMS = ("E", "G", "tau_max", "sigma_inf", "tau_max_R")
 
 def run_campaign(inputs: list[str], *, manifest: Path | None = None, out: Path | None = None,
                  n_jobs: int = -1, scheduler: str | None = None, report: bool = True,
-                 progress: bool = True, population: bool = True) -> BatchResult:
+                 progress: bool = True, population: bool = True, restart: bool = False) -> BatchResult:
     """Configs (paths or globs), or one template config plus a manifest: run the batch, write the
     results table, the population of its tests (unless ``population`` is False) and the batch page.
+    ``restart``: a test whose fit or chain was made from another config or data starts again
+    (``sample --restart``) instead of failing; current and interrupted tests are kept.
     See docs/batch.md."""
     if manifest is not None:
         if len(inputs) != 1:
@@ -58,6 +61,8 @@ def run_campaign(inputs: list[str], *, manifest: Path | None = None, out: Path |
             raise BatchError("no config files given")
         out = Path(out) if out is not None else default_out(paths, None)
         jobs = jobs_from_configs(paths)
+    if restart:
+        jobs = [dataclasses.replace(job, restart=True) for job in jobs]
     from bayes_dnlr.report import build_report
 
     result = run_batch(jobs, out, n_jobs=n_jobs, scheduler=scheduler,
