@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numba import njit, prange
 
 MIN_EFFECTIVE = 50.0
 MAX_LOG_L_VARIANCE = 1.0
@@ -94,18 +95,37 @@ def _weighted_stats(x: np.ndarray, w: np.ndarray) -> dict[str, Any]:
             "interval_90": [float(lo), float(hi)]}
 
 
+@njit(cache=True, parallel=True)
+def _add_log_mean_weight(x, logpi, mu_grid, s_grid, logL):
+    """logL[i, j] += ln (1/N) Σ_n N(x_n | μ_i, s_j) / π(x_n): one specimen's factor of L(μ, s), by
+    the log-sum-exp of its draws (compiled: no (N_MU, N) temporaries, threads over μ)."""
+    n = x.size
+    half_log_2pi = 0.5 * math.log(2.0 * math.pi)
+    for i in prange(mu_grid.size):
+        mu = mu_grid[i]
+        v = np.empty(n)
+        for j in range(s_grid.size):
+            s = s_grid[j]
+            c = -math.log(s) - half_log_2pi
+            m = -np.inf
+            for t in range(n):
+                z = (x[t] - mu) / s
+                v[t] = -0.5 * z * z + c - logpi[t]
+                m = max(m, v[t])
+            acc = 0.0
+            for t in range(n):
+                acc += math.exp(v[t] - m)
+            logL[i, j] += m + math.log(acc / n)
+
+
 def _grid_posterior(x: Mapping[str, np.ndarray], logpi: Mapping[str, np.ndarray], mu_grid: np.ndarray,
                     s_grid: np.ndarray, scale: float) -> np.ndarray:
     """The posterior of (μ, s) on the grid (normalized to sum 1): L(μ, s) above times the
     half-normal prior of s."""
     logL = np.zeros((mu_grid.size, s_grid.size))
     for k in x:
-        # (N_MU, N_S, N) is too big at once for long chains: loop over s
-        for j, s in enumerate(s_grid):
-            z = (x[k][None, :] - mu_grid[:, None]) / s
-            logw = -0.5 * z * z - math.log(s) - 0.5 * math.log(2 * math.pi) - logpi[k][None, :]
-            m = logw.max(axis=1, keepdims=True)
-            logL[:, j] += (m[:, 0] + np.log(np.mean(np.exp(logw - m), axis=1)))
+        _add_log_mean_weight(np.ascontiguousarray(x[k], dtype=float),
+                             np.ascontiguousarray(logpi[k], dtype=float), mu_grid, s_grid, logL)
     log_prior_s = -0.5 * (s_grid / scale) ** 2
     logpost = logL + log_prior_s[None, :]
     logpost[~np.isfinite(logpost)] = -np.inf
