@@ -16,6 +16,7 @@ import dataclasses
 import html
 import math
 import os
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -41,6 +42,21 @@ FOREST_MAX = 80          # tests shown one by one in the forest plot
 PARAMS = ("E", "G", "tau_max", "sigma_inf", "tau_max_R")
 
 
+def _warm_up_the_end() -> None:
+    """While the workers sample, this process only waits: load what the population step and the
+    page need (matplotlib, the compiled grid likelihood, the netCDF reader) so that the end of a
+    batch does not wait for it (1.3 s after the last result of 8 tests before, 0.6 s when warm)."""
+    try:
+        from bayes_dnlr.inference.population import _add_log_mean_weight
+        from bayes_dnlr.pipeline import draws  # noqa: F401 - posterior.nc reader
+        from bayes_dnlr.report.figures import _plt
+
+        _plt()
+        _add_log_mean_weight(np.zeros(1), np.zeros(1), np.zeros(1), np.ones(1), np.zeros((1, 1)))
+    except Exception:  # noqa: BLE001 - a warm-up only: the step itself reports any real problem
+        pass
+
+
 def run_campaign(inputs: list[str], *, manifest: Path | None = None, out: Path | None = None,
                  n_jobs: int = -1, scheduler: str | None = None, report: bool = True,
                  progress: bool = True, population: bool = True, restart: bool = False) -> BatchResult:
@@ -63,6 +79,8 @@ def run_campaign(inputs: list[str], *, manifest: Path | None = None, out: Path |
         jobs = jobs_from_configs(paths)
     if restart:
         jobs = [dataclasses.replace(job, restart=True) for job in jobs]
+    if population and scheduler is None:
+        threading.Thread(target=_warm_up_the_end, daemon=True).start()
     from bayes_dnlr.report import build_report
 
     result = run_batch(jobs, out, n_jobs=n_jobs, scheduler=scheduler,
