@@ -184,3 +184,15 @@ def test_a_forked_child_computes_in_one_thread_with_the_same_values() -> None:
         set_threads(None)
     assert os.waitstatus_to_exitcode(status) == 0
     np.testing.assert_array_equal(child, parent)
+
+
+def test_the_wait_policy_spins_only_when_a_core_is_free(monkeypatch):
+    """threads._wait_policy: a short spin when no other task needs the second core, else passive
+    (a spinning thread on a busy machine took the loop from 0.46 to 1.0 s; docs/performance.md)."""
+    from bayes_dnlr.model import threads
+
+    monkeypatch.setattr(threads.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(threads, "_other_runnable", lambda: 0)
+    assert threads._wait_policy() == {"OMP_WAIT_POLICY": "ACTIVE", "GOMP_SPINCOUNT": "30000"}
+    monkeypatch.setattr(threads, "_other_runnable", lambda: 1)
+    assert threads._wait_policy() == {"OMP_WAIT_POLICY": "PASSIVE"}
