@@ -75,6 +75,8 @@ def main() -> None:
                     help="white data: sigma0 = 0.3 MPa known, or a half-normal(5) prior")
     ap.add_argument("--error", nargs="+", default=["none"],
                     help="none, or settings kind:amplitude:length (kind exp|matern32|matern52)")
+    ap.add_argument("--kernel", choices=("default", "exp", "matern32", "matern52"), default="default",
+                    help="with --error: the discrepancy kernel of the config (default: the package's)")
     ap.add_argument("--white-baseline", action=argparse.BooleanOptionalAction, default=True,
                     help="with --error: also sample with the white likelihood")
     args = ap.parse_args()
@@ -97,7 +99,8 @@ def main() -> None:
         error = parse_error(text)
         print(f"\nmodel error {error[0]}, amplitude {error[1]:g} MPa, length {error[2]:g} s, plus "
               f"white noise 0.3 MPa; {args.points} points")
-        likelihoods = [("default config (discrepancy)", "default")]
+        likelihoods = [("default config (discrepancy)", "default")] if args.kernel == "default" else [
+            (f"discrepancy with kernel {args.kernel}", {"kernel": args.kernel})]
         if args.white_baseline:
             likelihoods.append(("white likelihood", "none"))
         for label, disc in likelihoods:
