@@ -426,14 +426,6 @@ def _pooled(draws: Mapping[str, np.ndarray], max_chains: int | None, max_draws: 
     return out
 
 
-def _posterior_tree(draws: Mapping[str, np.ndarray], max_chains: int | None, max_draws: int,
-                    thin: int = 1):
-    """The pooled draws (``_pooled``) as an ArviZ DataTree (chain, draw)."""
-    import arviz as az
-
-    return az.from_dict({"posterior": _pooled(draws, max_chains, max_draws, thin)})
-
-
 def trace_plot(draws: Mapping[str, np.ndarray], path: Path, max_draws: int = 1000, groups: int = 8,
                step: float = 1.0) -> Path:
     """Trace plot of every walker (right) and the marginal density (left), one row per parameter,

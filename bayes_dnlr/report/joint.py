@@ -87,12 +87,7 @@ def test_view(run: RunResults, test: str) -> RunResults:
         draws = {k: run.draws[_joint(k, test, per_test)] for k in (*local, *NOISE_NAMES)
                  if _joint(k, test, per_test) in run.draws}
     view = RunResults(run_dir=run.run_dir, cfg=cfg, fit=vfit, summary=vsum, draws=draws)
-    try:
-        from bayes_dnlr.data import load_test
-
-        view.test = load_test(cfg)
-    except Exception as err:  # noqa: BLE001 - the report says what is missing and goes on
-        view.data_error = f"{type(err).__name__}: {err}"
+    tb.attach_test(view, cfg)
     return view
 
 

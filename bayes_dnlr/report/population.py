@@ -16,18 +16,14 @@ FIGURE = "population.png"
 MARKDOWN = "population.md"
 
 
-def _interval(v: list[float], sd: float) -> str:
-    return interval(v[0], v[1], sd)
-
-
 def markdown(pr: PopulationRun) -> str:
     r = pr.result
     p = r.parameter
     mu, s = r.mu, r.s
     lines = [f"# Population of {len(r.names)} specimens: {p}", "",
              f"**{p} of the material: μ = {pm(mu['mean'], mu['sd'])} MPa** "
-             f"(90 % HDI {_interval(mu['hdi_90'], mu['sd'])}); specimen-to-specimen sd **s = "
-             f"{pm(s['mean'], s['sd'])} MPa** (90 % HDI {_interval(s['hdi_90'], s['sd'])}).",
+             f"(90 % HDI {interval(*mu['hdi_90'], mu['sd'])}); specimen-to-specimen sd **s = "
+             f"{pm(s['mean'], s['sd'])} MPa** (90 % HDI {interval(*s['hdi_90'], s['sd'])}).",
              "",
              f"Method: {r.to_dict()['method']}; priors: μ flat over the grid, s half-normal with scale "
              f"{fmt(r.s_prior_scale)} MPa. Stage 1: each specimen's own posterior (its run); stage 2: "
@@ -37,7 +33,7 @@ def markdown(pr: PopulationRun) -> str:
         sp = r.specimens[k]
         own, shr = sp["own"], sp["shrunk"]
         row = [k, pm(own["mean"], own["sd"]), pm(shr["mean"], shr["sd"]),
-               _interval(shr["interval_90"], shr["sd"]),
+               interval(*shr["interval_90"], shr["sd"]),
                f"{r.effective_draws[k]:.0f}"]
         if pr.truth:
             row.append(fmt(pr.truth.get(k)))

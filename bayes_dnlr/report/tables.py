@@ -305,13 +305,18 @@ def load_run(run_dir: Path | str, load_data: bool = True) -> RunResults:
         except Exception as err:  # noqa: BLE001 - any reader failure becomes a note in the report
             problems.append(f"posterior.nc could not be read: {err}")
     if load_data and not cfg.is_joint:     # a joint run: each test is loaded by its view
-        try:
-            from bayes_dnlr.data import load_test
-
-            run.test = load_test(cfg)
-        except Exception as err:  # noqa: BLE001 - the report says what is missing and goes on
-            run.data_error = f"{type(err).__name__}: {err}"
+        attach_test(run, cfg)
     return run
+
+
+def attach_test(run: RunResults, cfg: Config) -> None:
+    """The run's data into ``run.test``; when it cannot be read, why into ``run.data_error``."""
+    try:
+        from bayes_dnlr.data import load_test
+
+        run.test = load_test(cfg)
+    except Exception as err:  # noqa: BLE001 - the report says what is missing and goes on
+        run.data_error = f"{type(err).__name__}: {err}"
 
 
 # ---------------------------------------------------------------------------------------------
