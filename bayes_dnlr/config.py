@@ -331,7 +331,7 @@ class SampledNoise(_Strict):
         return self
 
 
-KERNELS = ("matern32", "exp")
+KERNELS = ("auto", "exp", "matern32")
 DISCREPANCY_AXES = ("time", "strain")
 
 
@@ -344,9 +344,11 @@ class DiscrepancyConfig(_Strict):
     steps to the span of the window.
     """
 
-    kernel: Literal["matern32", "exp"] = Field(
-        default="exp", description="exp (Ornstein-Uhlenbeck): measured to keep E identified on real "
-                                   "curves where matern32 lets it drift (docs/model-error.md)")
+    kernel: Literal["auto", "exp", "matern32"] = Field(
+        default="auto", description="auto: fit chooses exp (Ornstein-Uhlenbeck) or matern32 by their "
+                                    "maximum likelihood, keeping exp when matern32 would move a "
+                                    "parameter by more than 2 sd (it absorbs the model's response, "
+                                    "as on the real ETFE curves); docs/model-error.md")
     axis: Literal["time", "strain"] = "time"
     start: Literal["pinned", "stationary"] = Field(
         default="stationary", description="pinned: δ = 0 (and, for matern32, δ' = 0) at the test's first "
@@ -391,7 +393,7 @@ def _sigma0_form(v: Any) -> str:
 class NoiseConfig(_Strict):
     """sigma0: a number (MPa), 'residuals', {baseline: {time_max: ...}} or a prior to sample it.
 
-    discrepancy: the model-error term (on by default: exp kernel on the time axis), or ``none``
+    discrepancy: the model-error term (on by default: kernel chosen from the data, time axis), or ``none``
     for the white likelihood that assumes the model is exact.
     """
 

@@ -27,6 +27,7 @@ import math
 import sys
 import tempfile
 import time
+from collections import Counter
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
@@ -46,6 +47,8 @@ def report(results: list[dict], truth: dict[str, float], band: tuple[float, floa
     loop = sorted(r["_run"]["wall_time_s"] for r in results)
     print(f"{label}: {n} replicates, {wall:.0f} s ({jobs} jobs); converged {conv}/{n}; steps median "
           f"{steps[n // 2]} (range {steps[0]}-{steps[-1]}); sampling time median {loop[n // 2]:.1f} s")
+    kernels = Counter(r["_run"].get("kernel") or "none (white)" for r in results)
+    print("  discrepancy kernel used: " + ", ".join(f"{k} in {v}" for k, v in sorted(kernels.items())))
     print(f"  {'parameter':<10} {'coverage':>9} {'z mean':>7} {'z sd':>6}  verdict")
     ok = True
     for k, c in cov.items():

@@ -35,8 +35,11 @@ REAL = REPO.parent / "shared" / "data" / "real"
 FILE = "ETFE_MD_CSR_0p1pct_per_s_T40C_3specimens.csv"
 # per specimen k the columns are 15 k + offset (README): time, Hencky axial strain (SOI), true stress
 TIME, HENCKY_SOI, TRUE_STRESS_SOI = 0, 7, 9
-LIKELIHOODS = {"default": "model discrepancy, default config (exp kernel)", "white": "discrepancy: none",
+LIKELIHOODS = {"default": "model discrepancy, default config (kernel auto)",
+               "exp": "exp kernel, maximum-likelihood hyperparameters", "white": "discrepancy: none",
                "matern32": "matern32 kernel, maximum-likelihood hyperparameters",
+               "matern32-pinned": "matern32 kernel, pinned start (delta = delta' = 0 at the first sample)",
+               "exp-pinned": "exp kernel, pinned start (delta = 0 at the first sample)",
                "matern32-2-55": "matern32 kernel, amplitude 2 MPa and length 55 s fixed"}
 
 
@@ -71,8 +74,10 @@ def one_run(args: tuple) -> dict:
         raw["data"]["window"] = {"strain_max": float(window)}
     if likelihood == "white":
         raw["noise"]["discrepancy"] = "none"
-    elif likelihood == "matern32":
-        raw["noise"]["discrepancy"] = {"kernel": "matern32"}
+    elif likelihood in ("matern32", "exp"):
+        raw["noise"]["discrepancy"] = {"kernel": likelihood}
+    elif likelihood in ("matern32-pinned", "exp-pinned"):
+        raw["noise"]["discrepancy"] = {"kernel": likelihood.split("-")[0], "start": "pinned"}
     elif likelihood == "matern32-2-55":      # the brief's first look: a = 2 MPa, l = 55 s held fixed
         raw["noise"]["discrepancy"] = {"kernel": "matern32", "amplitude": {"value": 2.0},
                                        "length": {"value": 55.0}}
@@ -87,7 +92,9 @@ def one_run(args: tuple) -> dict:
         est = (src or {}).get("estimate", r.estimate)["E"]
         sd = (src or {}).get("sd", r.sd)["E"]
         out.update(fit_E=est, fit_sd=sd, lr=(d or {}).get("likelihood_ratio"),
-                   hyper=(d or {}).get("hyperparameters"), evidence=(d or {}).get("evidence"))
+                   hyper=(d or {}).get("hyperparameters"), evidence=(d or {}).get("evidence"),
+                   kernel=(d or {}).get("kernel"),
+                   choice=((d or {}).get("kernel_choice") or {}).get("reason"))
         if not fit_only:
             s = sample(cfg, progress=False).summary
             p = s["posterior"]["E"]
@@ -167,9 +174,12 @@ def main(argv: list[str] | None = None) -> int:
                             f"; posterior amplitude {r.get('amplitude') or 0:.3g} MPa, length "
                             f"{r.get('length') or float('nan'):.3g} s, {r['steps']} steps, "
                             f"{r['loop_s']:.1f} s")
-                    print(f"  specimen {r['k']} window {r['window']}: 2 Δ log L = {r['lr']:.4g}; ML "
+                    print(f"  specimen {r['k']} window {r['window']}: {r['kernel']}; "
+                          f"2 Δ log L = {r['lr']:.4g}; ML "
                           f"sigma0 {h['sigma0']:.3g}, amplitude {h['amplitude']:.3g} MPa, length "
                           f"{h['length']:.3g} s{post}")
+                    if r.get("choice"):
+                        print(f"    kernel auto: {r['choice']}")
     return 0
 
 

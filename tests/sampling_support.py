@@ -117,7 +117,8 @@ def _replicate(args: tuple) -> dict[str, dict[str, float]]:
                "r_hat": p["r_hat"], "ess": min(p["ess_bulk"], p["ess_tail"])}
            for k, p in s["posterior"].items()}
     out["_run"] = {"steps": s["steps"], "converged": s["stop_reason"] == "converged",
-                   "wall_time_s": s["wall_time_s"]}
+                   "wall_time_s": s["wall_time_s"],
+                   "kernel": (s.get("noise") or {}).get("kernel") if s["noise"]["model"] != "white" else None}
     return out
 
 

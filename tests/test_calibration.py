@@ -46,3 +46,23 @@ def test_discrepancy_intervals_cover_the_truth_under_model_error(tmp_path: Path)
         assert cov_default[k]["coverage"] >= 22 / 30, k
         assert 0.6 <= cov_default[k]["z_sd"] <= 1.5, k
         assert cov_white[k]["coverage"] <= 0.6, k
+
+
+@pytest.mark.slow
+def test_g_is_calibrated_under_a_smooth_error_with_the_default_kernel_choice(tmp_path: Path) -> None:
+    """Issue 8's hard case at reduced size: a smooth Matérn-3/2 error (1 MPa, 50 s) plus white noise
+    0.3 MPa, 30 replicates of 1000 points. With the rough exp kernel alone G's interval held the
+    truth in 0.64 of 50 (sd of z 1.69, benchmarks/calibration.py); `kernel: auto` takes matern32
+    here, which must bring the spread of z of G near 1 and the coverage into a calibrated range
+    (Binomial(30, 0.9) falls below 20/30 with probability 0.0003)."""
+    results = calibration(30, tmp_path, jobs=2, base_seed=32_000, noise="residuals",
+                          error=("matern32", 1.0, 50.0), discrepancy="default", n=1000)
+    cov = coverage(results, TRUTH)
+    kernels = [r["_run"]["kernel"] for r in results]
+    print({k: (round(c["coverage"], 3), round(c["z_sd"], 2)) for k, c in cov.items()},
+          "matern32 in", kernels.count("matern32"))
+    assert all(r["_run"]["converged"] for r in results)
+    assert kernels.count("matern32") >= 27
+    for k in ("E", "G", "tau_max"):
+        assert cov[k]["coverage"] >= 20 / 30, k
+        assert 0.6 <= cov[k]["z_sd"] <= 1.45, k

@@ -24,7 +24,8 @@ from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.inference.diagnostics import residual_diagnostics
 from bayes_dnlr.inference.discrepancy import Hyper, discrepancy_priors, is_white, test_axis, whitener
 from bayes_dnlr.inference.joint import JointProblem, Layout, base_name, pooled_start
-from bayes_dnlr.inference.lsq import FitResult, fit_test, run_minimiser
+from bayes_dnlr.inference.lsq import FitResult, fit_test
+from bayes_dnlr.inference.optimize import run_minimiser
 from bayes_dnlr.inference.problem import LsqProblem
 from bayes_dnlr.inference.sensitivity import StochasticAnalysis, analyse, identifiability_warnings
 from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd, pm
@@ -229,8 +230,7 @@ def _joint_gls(cfg: Config, problem: JointProblem, white: dict[str, float],
         view = cfg.for_test(t)
         axis = test_axis(view.noise.discrepancy, tests[t], problem.blocks[t].mask)
         h = d["hyperparameters"]
-        used[t] = whitener(axis, Hyper(h["sigma0"], h["amplitude"], h["length"]),
-                           view.noise.discrepancy.kernel)
+        used[t] = whitener(axis, Hyper(h["sigma0"], h["amplitude"], h["length"]), d["kernel"])
         info[t]["discrepancy"] = (f"{d['kernel']}, amplitude {fmt(h['amplitude'], 3)} MPa, length "
                                   f"{fmt(h['length'], 3)} {d.get('axis_unit', 's')}")
     if not used:

@@ -242,11 +242,13 @@ class Discrepancy:
 
 def build_log_posterior(cfg: Config, test: TestData, sigma0: float | None,
                         priors: PriorSet | None = None,
-                        discrepancy_priors: Mapping[str, ParameterSpec] | None = None) -> LogPosterior:
+                        discrepancy_priors: Mapping[str, ParameterSpec] | None = None,
+                        kernel: str | None = None) -> LogPosterior:
     """The log-posterior of a config and its test data; sigma0 None when it is sampled.
 
     ``discrepancy_priors``: the resolved priors (or fixed values) of disc_amplitude and
     disc_length (fit.json's discrepancy block); needed when the config has a discrepancy.
+    ``kernel``: the kernel fit.json records (needed with ``kernel: auto``; else the config's).
     """
     model = build_model(cfg, test)
     rows = window_rows(test)
@@ -257,7 +259,10 @@ def build_log_posterior(cfg: Config, test: TestData, sigma0: float | None,
             raise ValueError("a likelihood with a discrepancy needs its resolved priors (run fit)")
     if cfg.noise.has_discrepancy and not is_white(discrepancy_priors):
         axis = test_axis(cfg.noise.discrepancy, test, rows)
-        disc = Discrepancy(cfg.noise.discrepancy.kernel, axis,
+        kernel = kernel or cfg.noise.discrepancy.kernel
+        if kernel == "auto":
+            raise ValueError("kernel: auto needs the kernel that fit chose (fit.json's discrepancy block)")
+        disc = Discrepancy(kernel, axis,
                            {k: float(v.value) for k, v in discrepancy_priors.items() if v.fixed})
     priors = priors or build_priors(cfg, discrepancy_priors)
     return LogPosterior(model, observed, rows, priors, cfg.fixed_values, sigma0, disc)

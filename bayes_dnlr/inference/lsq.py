@@ -24,20 +24,11 @@ from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.config import UNITS, Config, SampledNoise
+from bayes_dnlr.config import UNITS, Config
 from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.inference import optimize
 from bayes_dnlr.inference.diagnostics import residual_diagnostics
-from bayes_dnlr.inference.discrepancy import (
-    AMPLITUDE_FLOOR,
-    EVIDENCE_LR,
-    likelihood_ratio,
-    maximum_likelihood,
-    resolved_priors,
-    search_priors,
-    test_axis,
-    whitener,
-)
+from bayes_dnlr.inference.gls import discrepancy_analysis
 from bayes_dnlr.inference.noise import resolve_sigma0
 from bayes_dnlr.inference.plausibility import plausibility_warnings, singular_message
 from bayes_dnlr.inference.problem import LsqProblem
@@ -217,25 +208,13 @@ def _discrepancy_lines(d: dict[str, Any], white_sd: dict[str, float]) -> list[st
     if moved:
         lines.append("  generalized vs white estimate, in generalized sd: " + ", ".join(moved))
     lines.append(f"  whitened residuals: {d['whitened_residuals']['verdict']}")
+    choice = d.get("kernel_choice")
+    if choice and not choice.get("warning"):       # a kept exp is said among the warnings
+        lines.append(f"  kernel auto: {choice['reason']}")
     return lines
 
 
 # ---------------------------------------------------------------- the fit itself (no files)
-
-def run_minimiser(problem: LsqProblem, method: str, beta0: np.ndarray,
-                  max_iterations: int) -> optimize.Optimum:
-    """``fit.method`` from beta0: the paper's Gauss-Newton, or variable projection then a joint
-    trust-region polish (lm)."""
-    if method == "gauss-newton":
-        return optimize.gauss_newton(problem, beta0, max_iterations)
-    vp = optimize.variable_projection(problem, beta0, max_iterations)
-    polish = optimize.trust_region(problem, vp.beta, max_iterations)
-    better = polish if polish.criterion <= vp.criterion else vp
-    return optimize.Optimum(
-        beta=better.beta, criterion=better.criterion, iterations=vp.iterations + polish.iterations,
-        evaluations=vp.evaluations + polish.evaluations, converged=vp.converged or polish.converged,
-        message=f"variable projection: {vp.message}; joint polish: {polish.message}")
-
 
 def _window_info(cfg: Config, test, problem: LsqProblem) -> dict[str, Any]:
     end = problem.mask.size
@@ -280,7 +259,7 @@ def fit_test(cfg: Config, test) -> FitResult:
             beta0[j] = fallback(specs[k], k)
             notes[k] = "centre of the prior box (no physics guess)"
     start = dict(zip(names, (float(b) for b in beta0), strict=True))
-    best = run_minimiser(problem, method, beta0, max_it)
+    best = optimize.run_minimiser(problem, method, beta0, max_it)
     main = best
 
     # multi-start over the prior box
@@ -290,7 +269,7 @@ def fit_test(cfg: Config, test) -> FitResult:
         tm = problem.model.time
         span = (float(np.median(np.diff(tm))), float(tm[-1] - tm[0]))
         for s in spread_starts(specs, names, n_ms, seed=0, time_span=span):
-            ms_runs.append((s, run_minimiser(problem, method, s, max_it)))
+            ms_runs.append((s, optimize.run_minimiser(problem, method, s, max_it)))
         # a meaningfully lower criterion (not rounding) replaces the physics-start optimum
         margin = 1e-9 * best.criterion + 1e-20 * float(problem.y @ problem.y)
         cands = [o for _, o in ms_runs if o.converged and o.criterion < best.criterion - margin]
@@ -366,96 +345,6 @@ def fit_test(cfg: Config, test) -> FitResult:
         strain_rate=rate, relaxation_start=test.relaxation_start, window=_window_info(cfg, test, problem),
         start=start, start_notes=notes, fixed=dict(cfg.fixed_values),
         wall_time_s=_time.perf_counter() - t_start, data_notes=list(test.notes), discrepancy=disc)
-
-
-def _on_bound(cfg: Config, name: str, value: float) -> bool:
-    lo, hi = cfg.parameters[name].bounds()
-    return bool((math.isfinite(lo) and abs(value - lo) <= 1e-6 * max(abs(lo), 1e-12 + abs(value)))
-                or (math.isfinite(hi) and abs(value - hi) <= 1e-6 * abs(hi)))
-
-
-def discrepancy_analysis(cfg: Config, test, problem: LsqProblem, beta_white: np.ndarray,
-                         residuals: np.ndarray) -> dict[str, Any]:
-    """The honest linearized analysis under model error (docs/model-error.md): maximum-likelihood
-    hyperparameters of the discrepancy, the generalized least-squares estimate, Δ = (XᵀK⁻¹X)⁻¹ and
-    its Δ̃ (eq. 32-35 with K in place of σ0² I), and whether the whitened residuals look white."""
-    spec = cfg.noise.discrepancy
-    names = problem.names
-    axis = test_axis(spec, test, problem.mask)
-    rms = float(np.sqrt(np.mean(residuals**2)))
-    fixed_sigma0 = None
-    if not isinstance(cfg.noise.sigma0, SampledNoise) and cfg.noise.sigma0 != "residuals":
-        fixed_sigma0 = resolve_sigma0(cfg, test, residuals)[0]
-    ml = maximum_likelihood(problem, beta_white, axis, spec.kernel, search_priors(spec, rms, axis),
-                            fixed_sigma0, residuals)
-    h = ml.hyper
-    problem.whiten = whitener(axis, h, spec.kernel)
-    try:
-        opt = run_minimiser(problem, cfg.fit.method, ml.beta, cfg.fit.max_iterations)
-        if opt.criterion > problem.ssr(problem.params(ml.beta)):
-            opt = optimize.Optimum(ml.beta, problem.ssr(problem.params(ml.beta)), 0, 0, True,
-                                   "the profile-likelihood optimum (the polish did not improve it)")
-        params = problem.params(opt.beta)
-        Xw = problem.jacobian(params)
-        white_res = problem.residuals(params)
-    finally:
-        problem.whiten = None
-    values = problem.vector(params)
-    warnings: list[str] = []
-    try:
-        sa: StochasticAnalysis | None = analyse(Xw, names, values, 1.0)
-    except np.linalg.LinAlgError as err:
-        sa = None
-        bound = [k for k in names if _on_bound(cfg, k, params[k])]
-        warnings.append(
-            "the generalized least-squares analysis has no covariance at its optimum (the whitened "
-            f"sensitivity matrix is singular: {err})"
-            + (f"; {', '.join(f'{k} = {params[k]:.4g}' for k in bound)} sits on a prior bound"
-               if bound else "") + ": the discrepancy posterior starts from the white estimate's "
-            "neighbourhood; narrow the priors or fix a parameter to get a linearized interval")
-    zero_amplitude = h.amplitude <= 1.01 * AMPLITUDE_FLOOR * max(rms, 1e-12)
-    lr = likelihood_ratio(ml.log_likelihood, float(residuals @ residuals), problem.n_points, fixed_sigma0)
-    evident = bool(lr > EVIDENCE_LR and not zero_amplitude)
-    priors = resolved_priors(spec, rms, axis, h.amplitude, evident)
-    whitened = residual_diagnostics(white_res, 1.0, "whitened")
-    if not whitened["white"] and not zero_amplitude:
-        r1 = whitened["lag1_autocorrelation"]
-        warnings.append(f"the whitened residuals are still correlated (lag-1 autocorrelation {r1:+.2f}): "
-                        f"the {spec.kernel} kernel describes the model error only in part, so the "
-                        "discrepancy intervals may still be somewhat narrow (docs/model-error.md, "
-                        "'Limits')")
-    for k in names:
-        if sa is not None and _on_bound(cfg, k, params[k]):
-            lo, hi = cfg.parameters[k].bounds()
-            warnings.append(f"{k} = {params[k]:.6g} (generalized least squares) sits on a bound of "
-                            f"its prior [{lo:g}, {hi:g}]")
-    nan = np.full((len(names), len(names)), np.nan)
-    sd = sa.sd if sa is not None else np.full(len(names), np.nan)
-    shift = {k: (params[k] - float(beta_white[j])) / float(sd[j])
-             for j, k in enumerate(names) if sd[j] > 0}
-    return {
-        "kernel": spec.kernel, "axis": spec.axis, "axis_unit": axis.unit,
-        "hyperparameters": {"sigma0": h.sigma0, "amplitude": 0.0 if zero_amplitude else h.amplitude,
-                            "length": h.length},
-        "estimated": ml.free,
-        "amplitude_is_zero": bool(zero_amplitude),
-        "likelihood_ratio": lr, "evidence": evident,
-        "priors": {k: v.model_dump(mode="json", exclude_none=True) for k, v in priors.items()},
-        "log_likelihood": ml.log_likelihood,
-        "hyper_log_covariance": ml.covariance_log,
-        "ml_evaluations": ml.evaluations, "ml_message": ml.message,
-        "estimate": params,
-        "sd": dict(zip(names, (float(x) for x in sd), strict=True)),
-        "err": dict(zip(names, (float(x) / abs(params[k]) if params[k] else math.nan
-                                for k, x in zip(names, sd, strict=True)), strict=True)),
-        "covariance": nan if sa is None else sa.covariance,
-        "correlation": nan if sa is None else sa.correlation,
-        "delta_tilde": nan if sa is None else sa.delta_tilde,
-        "shift_in_sd": shift,
-        "criterion": float(opt.criterion), "converged": bool(opt.converged), "message": opt.message,
-        "whitened_residuals": whitened,
-        "warnings": warnings,
-    }
 
 
 def stochastic_analysis(cfg: Config, test, params: Mapping[str, float],

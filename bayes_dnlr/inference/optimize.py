@@ -191,3 +191,18 @@ def variable_projection(problem: LsqProblem, beta0: np.ndarray, max_iterations: 
     return Optimum(beta=problem.vector(params), criterion=float(2.0 * res.cost),
                    iterations=int(res.njev), evaluations=problem.evaluations - n0,
                    converged=bool(res.status > 0), message=str(res.message))
+
+
+def run_minimiser(problem: LsqProblem, method: str, beta0: np.ndarray,
+                  max_iterations: int) -> Optimum:
+    """``fit.method`` from beta0: the paper's Gauss-Newton, or variable projection then a joint
+    trust-region polish (lm)."""
+    if method == "gauss-newton":
+        return gauss_newton(problem, beta0, max_iterations)
+    vp = variable_projection(problem, beta0, max_iterations)
+    polish = trust_region(problem, vp.beta, max_iterations)
+    better = polish if polish.criterion <= vp.criterion else vp
+    return Optimum(
+        beta=better.beta, criterion=better.criterion, iterations=vp.iterations + polish.iterations,
+        evaluations=vp.evaluations + polish.evaluations, converged=vp.converged or polish.converged,
+        message=f"variable projection: {vp.message}; joint polish: {polish.message}")

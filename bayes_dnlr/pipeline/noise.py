@@ -56,6 +56,10 @@ def noise_block(cfg: Config, fit: dict[str, Any], summary: dict[str, Any], sigma
             "priors": disc.get("priors"),
             "maximum_likelihood": hyper,
         })
+        choice = disc.get("kernel_choice")
+        if choice:
+            block["kernel_choice"] = {k: choice[k] for k in ("reason", "log_likelihood_gain_matern32",
+                                                             "move_in_sd") if k in choice}
         interval["gls_linearized"] = _linearized((disc.get("estimate") or {}).get(parameter),
                                                  (disc.get("sd") or {}).get(parameter))
     if post is not None:

@@ -142,18 +142,30 @@ def _dump(priors: dict[str, ParameterSpec] | None) -> dict | None:
                                         for k, v in priors.items()}
 
 
+def _kernel(stored, fit: dict[str, Any], key: str | None = None) -> str | None:
+    """The discrepancy kernel the chain was started with (resuming), else the one fit.json records
+    (``kernel: auto`` resolves there)."""
+    raw = stored.attrs.get("discrepancy_kernel") if stored is not None else None
+    if raw:
+        kernels = json.loads(raw)
+        return kernels.get(key) if key is not None else kernels
+    return (fit.get("discrepancy") or {}).get("kernel")
+
+
 def single_target(cfg: Config, test, fit: dict[str, Any], stored=None) -> Target:
-    """The posterior of one test (its resolved discrepancy priors from the stored chain when it
-    resumes one, else from fit.json)."""
+    """The posterior of one test (its resolved discrepancy priors and kernel from the stored chain
+    when it resumes one, else from fit.json)."""
     sigma0, source, sigma0_start = resolve_sigma0(cfg, fit, test)
     disc_priors = _stored_priors(stored) or discrepancy_priors(fit)
     if cfg.noise.has_discrepancy and disc_priors is None:
         raise RunError(f"{cfg.run_dir / 'fit.json'} has no discrepancy analysis for this config "
                        "(made by another version?): run `fit --force`")
+    kernel = _kernel(stored, fit)
     priors = build_priors(cfg, disc_priors)
-    post = build_log_posterior(cfg, test, sigma0, priors, disc_priors)
+    post = build_log_posterior(cfg, test, sigma0, priors, disc_priors, kernel)
     x0, cov = start_point(post, fit, sigma0_start)
-    meta = {} if disc_priors is None else {"discrepancy_priors": json.dumps(_dump(disc_priors))}
+    meta = {} if disc_priors is None else {"discrepancy_priors": json.dumps(_dump(disc_priors)),
+                                           "discrepancy_kernel": json.dumps(kernel)}
     return Target(post, priors, x0, cov, sigma0, source, meta)
 
 
@@ -163,6 +175,7 @@ def joint_target(cfg: Config, tests: dict[str, Any], fit: dict[str, Any], stored
     when a test has model error) and each test's noise parameters where its own fit put them."""
     singles = fit.get("single_fits") or {}
     local_posts, local_priors, local_names, starts, sig, src, disc_all = {}, {}, {}, {}, {}, {}, {}
+    kernels: dict[str, str | None] = {}
     for t in cfg.test_names:
         view = cfg.for_test(t)
         single = singles.get(t)
@@ -173,7 +186,8 @@ def joint_target(cfg: Config, tests: dict[str, Any], fit: dict[str, Any], stored
         if view.noise.has_discrepancy and disc_priors is None:
             raise RunError(f"fit.json has no discrepancy analysis for test {t}: run `fit --force`")
         priors = build_priors(view, disc_priors)
-        post = build_log_posterior(view, tests[t], s0, priors, disc_priors)
+        kernels[t] = _kernel(stored, single, t)
+        post = build_log_posterior(view, tests[t], s0, priors, disc_priors, kernels[t])
         local_posts[t], local_priors[t] = post, priors
         local_names[t] = sampled_names(view, disc_priors)
         starts[t] = start_point(post, single, s0_start)
@@ -207,5 +221,6 @@ def joint_target(cfg: Config, tests: dict[str, Any], fit: dict[str, Any], stored
             if k in NOISE_NAMES:
                 j = layout.columns[t][i]
                 x0[j], cov[j, j] = lx0[i], lcov[i, i]
-    meta = {"discrepancy_priors": json.dumps(disc_all), "layout": json.dumps(layout.local)}
+    meta = {"discrepancy_priors": json.dumps(disc_all), "discrepancy_kernel": json.dumps(kernels),
+            "layout": json.dumps(layout.local)}
     return Target(post, priors, x0, cov, sig, src, meta)

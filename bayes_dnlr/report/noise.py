@@ -152,8 +152,10 @@ def hyper_table(run: RunResults) -> Table | None:
         else:
             cell = "fixed" if post else "—"
         rows.append([f"{label} ({u})", fmt(ml.get(key)), prior, cell])
-    notes = [f"Kernel {d.get('kernel')} on the {d.get('axis')} axis. Likelihood ratio against the white "
-             f"model 2 Δ log L = {fmt(d.get('likelihood_ratio'))}: "
+    choice = (d.get("kernel_choice") or {}).get("reason")
+    chosen = f" (kernel: auto; {choice})" if choice else ""
+    notes = [f"Kernel {d.get('kernel')}{chosen} on the {d.get('axis')} axis. Likelihood ratio against "
+             f"the white model 2 Δ log L = {fmt(d.get('likelihood_ratio'))}: "
              + ("evidence of model error (> 9.21), the hyperparameters are sampled."
                 if d.get("evidence") else "no evidence of model error (≤ 9.21)."
                 + (" The amplitude is fixed at 0: the posterior is the white one."
