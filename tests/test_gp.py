@@ -144,3 +144,21 @@ def test_pinned_start_equals_the_conditioned_dense_normal(kind, start) -> None:
                                atol=1e-9)
     with pytest.raises(ValueError, match="after the first point"):
         gp.log_likelihood(x, r, 0.3, 2.0, 12.0, kind, start=x[0] + 1.0)
+
+
+@pytest.mark.parametrize("kind", ["exp", "matern32"])
+def test_batch_stays_finite_when_the_innovations_are_tiny(kind) -> None:
+    """A smooth discrepancy far above the white noise (the real rHDPE curve: σ0 8e-5 MPa, matern32
+    amplitude 1 MPa, length 4.5 s, step 0.02 s) makes the innovation variances ~1e-8: a product of
+    64 of them underflows. The batch must still equal the scalar filter and the whitening."""
+    x = np.arange(422) * 0.02
+    rng = np.random.default_rng(5)
+    r = np.linalg.cholesky(gp.covariance(x, 1.0, 4.5, kind, 8e-5)) @ rng.standard_normal(x.size)
+    args = (8e-5, 1.0, 4.5)
+    single = gp.log_likelihood(x, r, *args, kind)
+    w, logdet = gp.whiten(x, r[:, None], *args, kind)
+    dense = -0.5 * float(w[:, 0] @ w[:, 0]) - 0.5 * logdet - 0.5 * x.size * np.log(2 * np.pi)
+    batch = gp.log_likelihood_batch(x, np.vstack([r, r, 0.5 * r]), *args, kind)
+    assert np.all(np.isfinite(batch))
+    assert batch[0] == batch[1]
+    assert batch[0] == pytest.approx(single, rel=1e-10) and single == pytest.approx(dense, rel=1e-10)

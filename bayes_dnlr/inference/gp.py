@@ -347,6 +347,11 @@ def loglike_lanes(x, Rt, lo, hi, sigma0, amplitude, length, kind, gap, out):
                 prod[w] = 1.0
     for w in range(k):
         ll = -0.5 * (quad[w] + logdet[w] + math.log(prod[w]) + n * _LOG_2PI)
+        if ok[w] and not math.isfinite(ll):
+            # 64 innovation variances below ~1e-5 each underflow the product (a discrepancy far
+            # above the white noise, as matern32 on a smooth curve): the scalar filter rescales
+            # its product as it goes
+            ll = _loglike(x, Rt[:, lo + w], sigma0[lo + w], amplitude[lo + w], length[lo + w], kind, gap)
         out[lo + w] = ll if ok[w] and math.isfinite(ll) else -np.inf
 
 
