@@ -116,9 +116,10 @@ def _replicate(args: tuple) -> dict[str, dict[str, float]]:
     out = {k: {"mean": p["mean"], "sd": p["sd"], "lo": p["hdi_90"][0], "hi": p["hdi_90"][1],
                "r_hat": p["r_hat"], "ess": min(p["ess_bulk"], p["ess_tail"])}
            for k, p in s["posterior"].items()}
+    noise = s.get("noise") or {}
     out["_run"] = {"steps": s["steps"], "converged": s["stop_reason"] == "converged",
                    "wall_time_s": s["wall_time_s"],
-                   "kernel": (s.get("noise") or {}).get("kernel") if s["noise"]["model"] != "white" else None}
+                   "kernel": noise.get("kernel") if noise.get("model") == "discrepancy" else None}
     return out
 
 

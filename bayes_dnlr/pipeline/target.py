@@ -127,13 +127,17 @@ def resolve_sigma0(cfg: Config, fit: dict[str, Any], test) -> tuple[float | None
 
 
 
-def _stored_priors(stored, key: str | None = None) -> dict[str, ParameterSpec] | None:
-    raw = (stored.attrs.get("discrepancy_priors") if stored is not None else None)
+def _stored(stored, attr: str, key: str | None = None) -> Any:
+    """A JSON attribute of the stored chain (a joint run's: its entry for test ``key``), or None."""
+    raw = stored.attrs.get(attr) if stored is not None else None
     if not raw:
         return None
-    block = json.loads(raw)
-    if key is not None:
-        block = block.get(key)
+    value = json.loads(raw)
+    return value.get(key) if key is not None else value
+
+
+def _stored_priors(stored, key: str | None = None) -> dict[str, ParameterSpec] | None:
+    block = _stored(stored, "discrepancy_priors", key)
     return None if block is None else discrepancy_priors({"discrepancy": {"priors": block}})
 
 
@@ -145,11 +149,7 @@ def _dump(priors: dict[str, ParameterSpec] | None) -> dict | None:
 def _kernel(stored, fit: dict[str, Any], key: str | None = None) -> str | None:
     """The discrepancy kernel the chain was started with (resuming), else the one fit.json records
     (``kernel: auto`` resolves there)."""
-    raw = stored.attrs.get("discrepancy_kernel") if stored is not None else None
-    if raw:
-        kernels = json.loads(raw)
-        return kernels.get(key) if key is not None else kernels
-    return (fit.get("discrepancy") or {}).get("kernel")
+    return _stored(stored, "discrepancy_kernel", key) or (fit.get("discrepancy") or {}).get("kernel")
 
 
 def single_target(cfg: Config, test, fit: dict[str, Any], stored=None) -> Target:
