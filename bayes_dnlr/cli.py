@@ -57,7 +57,7 @@ def _shown(path: Path) -> str:
 def _config(path: str, command: str):
     """The config of a command that starts from one: a config file, or a run folder holding it."""
     from bayes_dnlr.arguments import config_file
-    from bayes_dnlr.config import load_config
+    from bayes_dnlr.config.schema import load_config
 
     return load_config(config_file(path, command))
 
@@ -70,14 +70,14 @@ def _run(path: str, command: str) -> Path:
 
 
 def cmd_simulate(args: argparse.Namespace) -> None:
-    from bayes_dnlr.synthetic import simulate_tests
+    from bayes_dnlr.workflows.simulate import simulate_tests
 
     cfg = _config(args.config, "simulate")
     print("\n".join(r.summary() for r in simulate_tests(cfg, overwrite=args.force)))
 
 
 def cmd_fit(args: argparse.Namespace) -> None:
-    from bayes_dnlr.pipeline.fit import fit
+    from bayes_dnlr.runs.fit import fit
 
     result = fit(_config(args.config, "fit"), overwrite=args.force)
     if not args.quiet:
@@ -85,7 +85,7 @@ def cmd_fit(args: argparse.Namespace) -> None:
 
 
 def cmd_sample(args: argparse.Namespace) -> None:
-    from bayes_dnlr.pipeline.sample import sample
+    from bayes_dnlr.runs.sample import sample
 
     post = sample(_config(args.config, "sample"), restart=args.restart, progress=not args.quiet,
                   threads=args.threads)
@@ -113,13 +113,13 @@ def cmd_compare(args: argparse.Namespace) -> None:
 
 
 def cmd_init(args: argparse.Namespace) -> None:
-    from bayes_dnlr.init import init_config
+    from bayes_dnlr.workflows.init import init_config
 
     print(init_config(args.data, args.out).text())
 
 
 def cmd_population(args: argparse.Namespace) -> None:
-    from bayes_dnlr.report.population import markdown, population_report
+    from bayes_dnlr.workflows.population.page import markdown, population_report
 
     runs = [_run(d, "population") for d in args.run_dirs]
     pr = population_report(runs, parameter=args.parameter, out=args.out, force=args.force)
@@ -127,14 +127,14 @@ def cmd_population(args: argparse.Namespace) -> None:
 
 
 def cmd_design(args: argparse.Namespace) -> None:
-    from bayes_dnlr.design.config import load_design
-    from bayes_dnlr.report.design import design_with_figure
+    from bayes_dnlr.workflows.design.config import load_design
+    from bayes_dnlr.workflows.design.figure import design_with_figure
 
     print(design_with_figure(load_design(args.design), overwrite=args.force).table(top=args.top))
 
 
 def cmd_export(args: argparse.Namespace) -> None:
-    from bayes_dnlr.export.run import export
+    from bayes_dnlr.workflows.export.run import export
 
     result = export(_run(args.run_dir, "export"), args.format, terms=args.terms, draws=args.draws,
                     nu=args.nu, density=args.density, out=args.out, material=args.material, seed=args.seed,
@@ -143,7 +143,7 @@ def cmd_export(args: argparse.Namespace) -> None:
 
 
 def cmd_batch(args: argparse.Namespace) -> int:
-    from bayes_dnlr.report.batch import run_campaign
+    from bayes_dnlr.workflows.batch.page import run_campaign
 
     result = run_campaign(args.inputs, manifest=args.manifest, out=args.out, n_jobs=args.jobs,
                           scheduler=args.scheduler, report=args.report, progress=not args.quiet,
@@ -241,7 +241,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--top", type=int, default=10, help="candidates shown on the console (default 10)")
     p.set_defaults(func=cmd_design)
 
-    from bayes_dnlr.export import FORMAT_NAMES
+    from bayes_dnlr.workflows.export import FORMAT_NAMES
 
     p = _command(sub, "export", "FE material cards (the small-strain Prony series) at the posterior "
                                 "median and 5 %%/95 %% quantiles of E, from a finished run",

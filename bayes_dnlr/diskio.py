@@ -1,7 +1,7 @@
 """Writing files that survive a full disk and a SIGKILL: free-space checks, clean errors, fsync of a
 directory, temporaries of killed writers, and the kill points of the crash tests.
 
-Used by rundir.write_atomic (every JSON/YAML/netCDF output) and inference/store.py (chains.h5).
+Used by rundir.write_atomic (every JSON/YAML/netCDF output) and runs/chains.py (chains.h5).
 """
 
 from __future__ import annotations

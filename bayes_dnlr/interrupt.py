@@ -3,7 +3,7 @@
 Python raises KeyboardInterrupt wherever the signal lands; inside the log-density emcee catches it,
 prints the walkers' positions and a traceback, then re-raises. While ``deferred_interrupt()`` is
 active the first SIGINT only sets ``requested``: the sampler finishes the step in progress, commits
-the block (inference/mcmc.py) and raises ``Interrupted`` outside emcee. A second Ctrl-C interrupts
+the block (inference/mcmc/ensemble.py) and raises ``Interrupted`` outside emcee. A second Ctrl-C interrupts
 at once (the default handler is back). Outside the main thread (Dask workers) it does nothing.
 """
 

@@ -37,9 +37,9 @@ def summary(label: str, est: np.ndarray, sd: np.ndarray, truth: dict[str, float]
 
 
 def exact_input(n_rep: int) -> None:
-    from bayes_dnlr.config import parse_config
+    from bayes_dnlr.config.schema import parse_config
     from bayes_dnlr.data import TestData
-    from bayes_dnlr.inference.lsq import fit_test
+    from bayes_dnlr.inference.lsq.identify import fit_test
     from bayes_dnlr.model import simulate
 
     rate = 5e-3
@@ -64,10 +64,10 @@ def exact_input(n_rep: int) -> None:
 
 
 def pipeline(n_rep: int, config: Path, strain_input: str) -> None:
-    from bayes_dnlr.config import parse_config
+    from bayes_dnlr.config.schema import parse_config
     from bayes_dnlr.data import load_test
-    from bayes_dnlr.inference.lsq import fit_test
-    from bayes_dnlr.synthetic import simulate_test
+    from bayes_dnlr.inference.lsq.identify import fit_test
+    from bayes_dnlr.workflows.simulate import simulate_test
 
     raw = yaml.safe_load(config.read_text())
     truth = raw["truth"]["params"]

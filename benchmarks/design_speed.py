@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bayes_dnlr.design.config import parse_design
-from bayes_dnlr.design.run import run_design
+from bayes_dnlr.workflows.design.config import parse_design
+from bayes_dnlr.workflows.design.run import run_design
 from bayes_dnlr.model import DNLR
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -35,8 +35,8 @@ def finished_run(path: str | None, tmp: Path) -> Path:
     shipped = ROOT / "runs" / "hdpe-a-5e-3"
     if (shipped / "posterior.nc").is_file() and (shipped / "summary.json").is_file():
         return shipped
-    from bayes_dnlr.config import load_config
-    from bayes_dnlr.pipeline.sample import sample
+    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.runs.sample import sample
 
     run = tmp / "hdpe-a-5e-3"
     shutil.copytree(shipped, run,

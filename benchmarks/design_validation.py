@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from bayes_dnlr.design.validate import validate_design
+from bayes_dnlr.workflows.design.validate import validate_design
 
 GUESS = {"E": 2854.0, "G": 2.32, "tau_max": 5.79}
 DESIGNS = {

@@ -29,7 +29,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 CHILD = r"""
 import json, resource, sys, time
-from bayes_dnlr.config import load_config
+from bayes_dnlr.config.schema import load_config
 from bayes_dnlr.data import load_test
 cfg = load_config(sys.argv[1])
 what = sys.argv[2]
@@ -41,7 +41,7 @@ if what == "load":
     n = int(test.time.size)
     extra = {"note": next(x for x in test.notes if x.startswith("strain_input"))}
 else:
-    from bayes_dnlr.pipeline.fit import fit
+    from bayes_dnlr.runs.fit import fit
     r = fit(cfg, write=False)
     n = r.n_points
     extra = {"E": r.estimate["E"], "converged": bool(r.converged)}

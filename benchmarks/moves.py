@@ -38,10 +38,10 @@ def variants():
 
 
 def setup(config: str | None):
-    from bayes_dnlr.config import load_config
+    from bayes_dnlr.config.schema import load_config
     from bayes_dnlr.data import load_test
-    from bayes_dnlr.inference.likelihood import build_log_posterior
-    from bayes_dnlr.pipeline.fit import fit
+    from bayes_dnlr.inference.posterior.likelihood import build_log_posterior
+    from bayes_dnlr.runs.fit import fit
 
     if config is None:
         from sampling_support import write_case
@@ -58,8 +58,8 @@ def setup(config: str | None):
 def run(post, fitd, moves, steps: int, walkers: int, seed: int) -> tuple[np.ndarray, float, float]:
     import emcee
 
-    from bayes_dnlr.inference.mcmc import start_ensemble
-    from bayes_dnlr.pipeline.target import start_point
+    from bayes_dnlr.inference.mcmc.ensemble import start_ensemble
+    from bayes_dnlr.runs.target import start_point
 
     x0, cov = start_point(post, fitd, None)
     coords, lp = start_ensemble(post, post.priors, x0, cov, walkers, seed)

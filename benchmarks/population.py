@@ -4,7 +4,7 @@
    E_k ~ Normal(2850, 100) MPa. Stage 1 is drawn cheaply, NOT sampled: each specimen's posterior is
    4000 normal draws around a centre scattered by its own sd (25-60 MPa, as single HDPE tests give;
    tests/population_support.py says why this stands in for a full `sample`). Stage 2 is the package's
-   (inference/population.py). Printed: the fraction of 90 % HDIs of mu_E and of s_E that hold the
+   (inference/analyses/population.py). Printed: the fraction of 90 % HDIs of mu_E and of s_E that hold the
    truth (target 80-97 %), the mean estimates and the Monte Carlo check's pass rate.
 2. Time of the population step on 8 specimens with 40 000 draws each (a full run's worth: 32 walkers
    × 1250 kept steps), against the time of one single-test `fit` measured in the same run.
@@ -31,7 +31,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from population_support import MU, PRIOR, S, coverage, draw_population  # noqa: E402
 
-from bayes_dnlr.inference.population import population  # noqa: E402
+from bayes_dnlr.inference.analyses.population import population  # noqa: E402
 
 
 def step_time(n_specimens: int, n_draws: int = 40_000, repeats: int = 3) -> float:
@@ -51,8 +51,8 @@ def fit_time() -> float:
 
     import yaml
 
-    from bayes_dnlr.config import load_config
-    from bayes_dnlr.pipeline.fit import fit
+    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.runs.fit import fit
 
     root = Path(__file__).resolve().parents[1] / "runs" / "hdpe-a-5e-3"
     with tempfile.TemporaryDirectory() as tmp:
@@ -75,8 +75,8 @@ def big_joint() -> None:
 
     import yaml
 
-    from bayes_dnlr.config import load_config
-    from bayes_dnlr.pipeline.sample import sample
+    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.runs.sample import sample
 
     root = Path(__file__).resolve().parents[1] / "runs" / "population"
     specs = sorted(root.glob("spec-*/config.yaml"))

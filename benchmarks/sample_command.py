@@ -45,9 +45,9 @@ SPLIT = r"""
 import time
 t_start = time.perf_counter()
 import json, sys
-from bayes_dnlr.config import load_config
-from bayes_dnlr.pipeline.sample import sample
-from bayes_dnlr.inference.emcee_import import load_emcee
+from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.runs.sample import sample
+from bayes_dnlr.inference.mcmc.emcee_import import load_emcee
 load_emcee()
 import h5py, tqdm.auto, h5netcdf   # what the command imports inside functions
 t_imp = time.perf_counter() - t_start
@@ -61,9 +61,9 @@ print(json.dumps(t))
 LOOPS = r"""
 import json, sys, shutil, time
 from pathlib import Path
-from bayes_dnlr.config import load_config
-from bayes_dnlr.inference.likelihood import LogPosterior
-from bayes_dnlr.pipeline.sample import sample
+from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.inference.posterior.likelihood import LogPosterior
+from bayes_dnlr.runs.sample import sample
 fused = LogPosterior.log_likelihood
 src, loops = Path(sys.argv[1]), int(sys.argv[2])
 rows = {"fused, default threads": [], "fused, 1 thread": [], "per-walker (old)": []}
@@ -91,9 +91,9 @@ print(json.dumps(rows))
 STEP = r"""
 import json, sys, time
 import numpy as np
-from bayes_dnlr.config import load_config, parse_config, ParameterSpec
-from bayes_dnlr.pipeline.fit import load_tests
-from bayes_dnlr.inference.likelihood import build_log_posterior
+from bayes_dnlr.config.schema import load_config, parse_config, ParameterSpec
+from bayes_dnlr.runs.fit import load_tests
+from bayes_dnlr.inference.posterior.likelihood import build_log_posterior
 cfg = load_config(sys.argv[1])
 test = load_tests(cfg)
 raw = cfg.model_dump(mode="json", exclude_none=True)

@@ -4,7 +4,7 @@
    runs/hdpe-a-5e-3 (E uniform 2400-3300 MPa, G uniform 1.5-3.5 MPa, tau_max log-uniform 2-15 s);
    the same prior is the one the sampler uses.
 2. Write one template config and a manifest (one row per draw: truth.params.*, truth.seed,
-   sampler.seed, data.file); simulate each test (bayes_dnlr.synthetic: a 5e-3 1/s ramp to strain 1.9,
+   sampler.seed, data.file); simulate each test (bayes_dnlr.workflows.simulate: a 5e-3 1/s ramp to strain 1.9,
    stress noise 0.3 MPa; exact strain).
 3. Run fit + sample for every test with ``python -m bayes_dnlr batch`` machinery (joblib locally, or a
    Dask cluster with --scheduler); resumable: run the same command again after a stop.
@@ -107,7 +107,7 @@ def ranks(rows: list[dict], truths: dict[str, dict[str, float]], names: list[str
     """Per parameter: ranks of the truth among the posterior draws thinned by ceil(max τ)."""
     import xarray as xr
 
-    from bayes_dnlr.inference.sbc import rank_of, thin_draws
+    from bayes_dnlr.inference.analyses.sbc import rank_of, thin_draws
 
     out: dict[str, dict[str, list]] = {p: {"rank": [], "L": [], "sim": []} for p in names}
     for r in rows:
@@ -133,7 +133,7 @@ def plot(pits: dict[str, np.ndarray], band: tuple, path: Path, title: str) -> No
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from bayes_dnlr.inference.sbc import ecdf
+    from bayes_dnlr.inference.analyses.sbc import ecdf
 
     z, lo, hi, _ = band
     fig, axes = plt.subplots(1, len(pits), figsize=(4.2 * len(pits), 3.6), sharey=True, squeeze=False)
@@ -163,10 +163,10 @@ def main() -> None:
     ap.add_argument("--out", type=Path, required=True, help="folder for the runs, table and plot")
     args = ap.parse_args()
 
-    from bayes_dnlr.inference.sbc import inside_band, pit_from_ranks, simultaneous_band
-    from bayes_dnlr.pipeline.manifest import jobs_from_manifest
-    from bayes_dnlr.report.batch import run_campaign
-    from bayes_dnlr.synthetic import simulate_test
+    from bayes_dnlr.inference.analyses.sbc import inside_band, pit_from_ranks, simultaneous_band
+    from bayes_dnlr.workflows.batch.manifest import jobs_from_manifest
+    from bayes_dnlr.workflows.batch.page import run_campaign
+    from bayes_dnlr.workflows.simulate import simulate_test
 
     out = args.out.resolve()
     t0 = time.perf_counter()
@@ -206,7 +206,7 @@ def main() -> None:
     verdict = {}
     z, lo, hi, _ = band
     for p, u in pits.items():
-        from bayes_dnlr.inference.sbc import ecdf
+        from bayes_dnlr.inference.analyses.sbc import ecdf
 
         inside = inside_band(u, z, lo, hi)
         verdict[p] = inside

@@ -42,8 +42,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-sample", action="store_true", help="least squares only (no posterior)")
     args = ap.parse_args(argv)
 
-    from bayes_dnlr.config import load_config
-    from bayes_dnlr.pipeline.fit import fit
+    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.runs.fit import fit
     from bayes_dnlr.report.compare import compare_runs
 
     dirs = []
@@ -53,7 +53,7 @@ def main(argv: list[str] | None = None) -> int:
         if not (d / "fit.json").is_file():
             fit(cfg)
         if not args.no_sample and not (d / "summary.json").is_file():
-            from bayes_dnlr.pipeline.sample import sample
+            from bayes_dnlr.runs.sample import sample
 
             sample(cfg, progress=False)
         dirs.append(cfg.run_dir)

@@ -86,7 +86,7 @@ def _serve() -> None:
             diskio._KILL_AT = diskio._kill_spec(job["kill"])
             diskio._reached.clear()
             if not job["precheck"]:
-                from bayes_dnlr.inference import store
+                from bayes_dnlr.runs import chains as store
 
                 store.ensure_free = lambda *args, **kwargs: None
             raise SystemExit(cli.main(["sample", job["config"], "--quiet"]))

@@ -10,8 +10,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from bayes_dnlr.config import load_config
-from bayes_dnlr.synthetic import simulate_tests
+from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.workflows.simulate import simulate_tests
 
 RATES = {"r2.5e-3": 2.5e-3, "r5e-3": 5e-3, "r1e-2": 1e-2}
 # one E and G, a rate-dependent tau_max (shorter at higher rate, as in the paper's Table 3)
@@ -74,7 +74,7 @@ def recovery(folder: Path, seed: int = 0, n_points: int = 400, stress_sd: float 
     import json
     import time
 
-    from bayes_dnlr.pipeline.sample import sample
+    from bayes_dnlr.runs.sample import sample
 
     run = folder / "joint"
     run.mkdir(parents=True, exist_ok=True)

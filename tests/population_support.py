@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bayes_dnlr.config import ParameterSpec
-from bayes_dnlr.inference.population import population
-from bayes_dnlr.inference.priors import Prior
+from bayes_dnlr.config.schema import ParameterSpec
+from bayes_dnlr.inference.analyses.population import population
+from bayes_dnlr.inference.posterior.priors import Prior
 
 MU, S = 2850.0, 100.0                  # the material's mean E and the specimen-to-specimen sd, MPa
 SD_RANGE = (25.0, 60.0)                # each specimen's posterior sd, MPa

@@ -8,8 +8,8 @@ from typing import Any
 
 import yaml
 
-from bayes_dnlr.config import load_config
-from bayes_dnlr.synthetic import simulate_test
+from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.workflows.simulate import simulate_test
 
 HDPE = {"E": 2854.0, "G": 2.32, "tau_max": 5.79}
 TINY_SAMPLER = {"walkers": 16, "max_steps": 100, "target_ess": 50, "seed": 1, "checkpoint_every": 50}

@@ -38,7 +38,7 @@ def correlated_error(time: np.ndarray, kind: str, amplitude: float, length: floa
         u = math.sqrt(5.0) * tau / length
         K = amplitude**2 * (1.0 + u + u * u / 3.0) * np.exp(-u)
     else:
-        from bayes_dnlr.inference.gp import covariance
+        from bayes_dnlr.inference.discrepancy.gp import covariance
 
         K = covariance(time, amplitude, length, kind)
     K[np.diag_indices_from(K)] += 1e-10 * amplitude**2
@@ -106,8 +106,8 @@ def write_case(folder: Path, name: str = "syn", *, params: dict[str, float] | No
 def _replicate(args: tuple) -> dict[str, dict[str, float]]:
     """One calibration replicate: fresh noise, fit, sample; per parameter mean, sd, 90 % HDI."""
     folder, r, base_seed, sampler, noise, case = args
-    from bayes_dnlr.config import load_config
-    from bayes_dnlr.pipeline.sample import sample
+    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.runs.sample import sample
 
     path = write_case(Path(folder), f"rep{r:04d}", seed=base_seed + r, noise=noise,
                       sampler={"max_steps": 20000, "target_ess": 1000, "checkpoint_every": 100,

@@ -584,7 +584,7 @@ def test_corpus_run_environment(tmp_path: Path, capsys, finished_run: Path, case
 def test_locked_run_is_refused_and_the_lock_kept(tmp_path: Path, capsys, finished_run: Path) -> None:
     """A second `sample` on a run directory another one holds: one line, and the holder's lock
     (file and flock) untouched."""
-    from bayes_dnlr.runlock import run_lock
+    from bayes_dnlr.runs.lock import run_lock
 
     folder = tmp_path / "case"
     shutil.copytree(finished_run, folder)

@@ -17,8 +17,8 @@ import pytest
 from batch_support import tiny_campaign
 
 from bayes_dnlr.cli import main
-from bayes_dnlr.inference.store import read_run
-from bayes_dnlr.report.batch import run_campaign
+from bayes_dnlr.runs.chains import read_run
+from bayes_dnlr.workflows.batch.page import run_campaign
 
 PARAMS = ("E", "G", "tau_max")
 

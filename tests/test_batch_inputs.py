@@ -10,7 +10,7 @@ import yaml
 from sampling_support import write_case
 
 from bayes_dnlr.cli import main
-from bayes_dnlr.pipeline.manifest import (
+from bayes_dnlr.workflows.batch.manifest import (
     BatchError,
     default_out,
     expand_inputs,
@@ -139,7 +139,7 @@ def test_results_table_takes_nested_and_mixed_values(tmp_path):
     """A run with tests: has per-test values (dicts); a failed row has text where others have numbers."""
     import pandas as pd
 
-    from bayes_dnlr.pipeline.batch import write_table
+    from bayes_dnlr.workflows.batch.run import write_table
 
     rows = [{"name": "joint", "status": "ok", "sigma0_used": {"ta": 0.3, "tb": 0.3}, "E_mean": 2850.0,
              "converged": True, "inputs": {"data.file": "a.csv"}},

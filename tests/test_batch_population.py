@@ -11,8 +11,8 @@ from pathlib import Path
 from batch_support import tiny_campaign
 
 from bayes_dnlr.cli import main
-from bayes_dnlr.pipeline.batch_population import PopulationStep, select
-from bayes_dnlr.report.batch_population import section
+from bayes_dnlr.workflows.batch.pooling import PopulationStep, select
+from bayes_dnlr.workflows.batch.population_step import section
 
 
 def _batch(template: Path, manifest: Path, out: Path, *extra: str) -> int:
@@ -121,7 +121,7 @@ def test_fewer_than_three_tests_opt_out_and_failures_are_notes(tmp_path, capsys,
     def broken(*args, **kwargs):
         raise RuntimeError("grid exploded")
 
-    monkeypatch.setattr("bayes_dnlr.report.batch_population.population_report", broken)
+    monkeypatch.setattr("bayes_dnlr.workflows.batch.population_step.population_report", broken)
     assert _batch(template, manifest, out) == 0
     assert "population (failed): RuntimeError: grid exploded" in capsys.readouterr().out
     assert "grid exploded" in (out / "batch.html").read_text()

@@ -42,7 +42,7 @@ def make_run(root: Path, name: str, rate: float, e: float, sd: float, tau: float
                    "deborah_max": tau * rate, "sigma0": 0.3}
         (d / "summary.json").write_text(json.dumps(summary))
         # posterior.nc: normal draws with these means and sds (16 walkers x 400 steps)
-        from bayes_dnlr.inference.posterior import build_datatree
+        from bayes_dnlr.runs.outputs import build_datatree
 
         rng = np.random.default_rng(int(rate * 1e6))
         draws = np.stack([rng.normal(v, s_, (400, 16)) for v, s_ in ((e, sd), (2.3, 0.001),

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from bayes_dnlr.data import DataError, load_test, ramp_strain_rate
-from bayes_dnlr.data.start import toe_point
+from bayes_dnlr.data.initial_state import toe_point
 
 
 def csv_text(cols: dict[str, np.ndarray]) -> str:
@@ -123,7 +123,7 @@ def test_toe_compensation_finds_point_b(write_csv, make_config, crop):
 
 
 def test_toe_point_with_a_stress_band():
-    from bayes_dnlr.config import ToeBand
+    from bayes_dnlr.config.schema import ToeBand
 
     e = np.linspace(0, 0.05, 501)
     s = 30.0 * np.tanh(2000 * np.maximum(e - 0.002, 0) / 30.0)

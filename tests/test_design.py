@@ -14,17 +14,17 @@ import yaml
 from finished_run import make_finished_run
 
 from bayes_dnlr.cli import main
-from bayes_dnlr.config import ConfigError, parse_config
+from bayes_dnlr.config.schema import ConfigError, parse_config
 from bayes_dnlr.data import TestData
-from bayes_dnlr.design.candidates import expand, planned_protocol
-from bayes_dnlr.design.config import load_design, parse_design
-from bayes_dnlr.design.fisher import Draws, NoiseDraw, predict
-from bayes_dnlr.design.run import run_design
-from bayes_dnlr.design.validate import discrepancy_draws, validate_design
+from bayes_dnlr.workflows.design.candidates import expand, planned_protocol
+from bayes_dnlr.workflows.design.config import load_design, parse_design
+from bayes_dnlr.workflows.design.fisher import Draws, NoiseDraw, predict
+from bayes_dnlr.workflows.design.run import run_design
+from bayes_dnlr.workflows.design.validate import discrepancy_draws, validate_design
 from bayes_dnlr.errors import RunError
-from bayes_dnlr.inference import gp
-from bayes_dnlr.inference.lsq import stochastic_analysis
-from bayes_dnlr.inference.sensitivity import sensitivity_matrix
+from bayes_dnlr.inference.discrepancy import gp
+from bayes_dnlr.inference.lsq.identify import stochastic_analysis
+from bayes_dnlr.inference.lsq.sensitivity import sensitivity_matrix
 from bayes_dnlr.model import DNLR
 
 GUESS = {"E": 2854.0, "G": 2.32, "tau_max": 5.79}
@@ -43,7 +43,7 @@ def design(**over) -> dict:
 
 
 def _draws(cfg) -> tuple[Draws, list[str]]:
-    from bayes_dnlr.design.run import resolve_draws
+    from bayes_dnlr.workflows.design.run import resolve_draws
 
     d, free, _ = resolve_draws(cfg)
     return d, free

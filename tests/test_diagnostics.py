@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bayes_dnlr.inference.diagnostics import (
+from bayes_dnlr.inference.lsq.whiteness import (
     durbin_watson,
     lag1_autocorrelation,
     residual_diagnostics,

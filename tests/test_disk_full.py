@@ -22,10 +22,10 @@ from test_store import _blocks, _create, _phys
 
 from bayes_dnlr import cli, diskio
 from bayes_dnlr.errors import DiskFullError
-from bayes_dnlr.inference import store
-from bayes_dnlr.inference.posterior import write_outputs
-from bayes_dnlr.inference.store import ChainWriter, read_run
-from bayes_dnlr.rundir import write_json
+from bayes_dnlr.runs import chains as store
+from bayes_dnlr.runs.outputs import write_outputs
+from bayes_dnlr.runs.chains import ChainWriter, read_run
+from bayes_dnlr.runs.folder import write_json
 
 ENOSPC = OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
@@ -164,7 +164,7 @@ def test_write_atomic_on_a_full_disk(tmp_path: Path, monkeypatch) -> None:
 
 
 def test_write_outputs_on_a_full_disk(tmp_path: Path, monkeypatch) -> None:
-    from bayes_dnlr.inference.posterior import build_datatree
+    from bayes_dnlr.runs.outputs import build_datatree
 
     dt = build_datatree(["E"], np.ones((5, 4, 1)), np.zeros((5, 4)))
     monkeypatch.setattr(os, "fsync", lambda fd: (_ for _ in ()).throw(ENOSPC))

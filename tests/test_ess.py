@@ -1,11 +1,11 @@
-"""The numpy ESS, R-hat and HDI (inference/ess.py) equal ArviZ's on chains with ties and trends."""
+"""The numpy ESS, R-hat and HDI (inference/mcmc/ess.py) equal ArviZ's on chains with ties and trends."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from bayes_dnlr.inference import ess
+from bayes_dnlr.inference.mcmc import ess
 
 
 def _chains(seed: int, chains: int = 8, draws: int = 301, phi: float = 0.8) -> np.ndarray:

@@ -12,10 +12,10 @@ from finished_run import make_finished_run
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.errors import BayesDnlrError, RunError
-from bayes_dnlr.export import abaqus, ansys, lsdyna
-from bayes_dnlr.export.cards import poisson_from_strains, ramp
-from bayes_dnlr.export.prony import Prony, from_parameters, refit
-from bayes_dnlr.export.run import export
+from bayes_dnlr.workflows.export import abaqus, ansys, lsdyna
+from bayes_dnlr.workflows.export.cards import poisson_from_strains, ramp
+from bayes_dnlr.workflows.export.prony import Prony, from_parameters, refit
+from bayes_dnlr.workflows.export.run import export
 from bayes_dnlr.model import simulate
 
 PARAMS = {"E": 2854.0, "G": 2.32, "tau_max": 5.79}
@@ -162,7 +162,7 @@ def test_ansys_and_tables(finished_run, tmp_path):
 
 
 def test_quantile_cards_bracket_the_median(finished_run, tmp_path):
-    from bayes_dnlr.pipeline.draws import load_run_draws
+    from bayes_dnlr.runs.draws import load_run_draws
 
     res = export(finished_run, "csv", out=tmp_path / "c")
     E = load_run_draws(finished_run).values["E"]

@@ -13,12 +13,12 @@ import pytest
 from run_support import WIDE_RELAXATION_PRIORS, make_run, small_ramp_relaxation_truth
 from sampling_support import write_case
 
-from bayes_dnlr.config import load_config
+from bayes_dnlr.config.schema import load_config
 from bayes_dnlr.data import load_test
-from bayes_dnlr.inference import lsq
-from bayes_dnlr.inference.plausibility import plausibility_warnings, singular_message
-from bayes_dnlr.inference.sensitivity import analyse, analyse_holding, bound_side
-from bayes_dnlr.pipeline.fit import fit
+from bayes_dnlr.inference.lsq import identify as lsq
+from bayes_dnlr.inference.lsq.plausibility import plausibility_warnings, singular_message
+from bayes_dnlr.inference.lsq.sensitivity import analyse, analyse_holding, bound_side
+from bayes_dnlr.runs.fit import fit
 
 NO_HARDENING = {"E": 2854.0, "G": 0.0, "tau_max": 5.79}
 
@@ -52,7 +52,7 @@ def test_a_parameter_on_its_lower_bound_gives_results_with_a_warning(g_on_bound)
 
 def test_sample_starts_and_the_report_builds_on_a_run_with_g_on_its_bound(g_on_bound):
     from bayes_dnlr.cli import main
-    from bayes_dnlr.pipeline.sample import sample
+    from bayes_dnlr.runs.sample import sample
 
     cfg = load_config(g_on_bound)
     post = sample(cfg, progress=False)

@@ -1,4 +1,4 @@
-"""The compiled all-walker log-likelihood (inference/fused.py) against the per-walker reference, and
+"""The compiled all-walker log-likelihood (inference/posterior/fused.py) against the per-walker reference, and
 its independence of the thread count (a fixed seed gives the same chain with 1 and 2 threads)."""
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ import pytest
 from sampling_support import TRUTH, TRUTH_RELAX, make_test
 from test_likelihood import _cfg, _disc_cfg, _disc_priors, _wobbly
 
-from bayes_dnlr.config import parse_config
-from bayes_dnlr.inference.likelihood import build_log_posterior
+from bayes_dnlr.config.schema import parse_config
+from bayes_dnlr.inference.posterior.likelihood import build_log_posterior
 from bayes_dnlr.model import get_threads, set_threads
 from bayes_dnlr.model.threads import available_threads
 

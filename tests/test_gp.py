@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.stats import multivariate_normal
 
-from bayes_dnlr.inference import gp
+from bayes_dnlr.inference.discrepancy import gp
 
 KINDS = ("exp", "matern32")
 

@@ -44,7 +44,7 @@ def test_fit_and_sample_import_no_plotting(tmp_path, discrepancy) -> None:
 
 def test_emcee_without_scipy_stats_keeps_every_move() -> None:
     code = ("import sys\n"
-            "from bayes_dnlr.inference.emcee_import import load_emcee\n"
+            "from bayes_dnlr.inference.mcmc.emcee_import import load_emcee\n"
             "emcee = load_emcee()\n"
             "assert 'scipy.stats' not in sys.modules\n"
             "emcee.moves.DEMove(); emcee.moves.StretchMove()\n"

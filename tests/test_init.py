@@ -12,8 +12,8 @@ import pytest
 import yaml
 
 from bayes_dnlr.cli import main
-from bayes_dnlr.config import load_config
-from bayes_dnlr.init import init_config
+from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.workflows.init import init_config
 
 REPO = Path(__file__).resolve().parents[1]
 REAL = Path(os.environ.get("BAYES_DNLR_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -51,7 +51,7 @@ def _set(raw: dict, key: str, value: Any) -> None:
 @pytest.mark.parametrize("case", ["bluehill", pytest.param("rhdpe", marks=real),
                                   pytest.param("etfe", marks=real)])
 def test_fit_accepts_the_config_after_the_listed_edits(tmp_path, case):
-    from bayes_dnlr.pipeline.fit import fit
+    from bayes_dnlr.runs.fit import fit
 
     data = {"bluehill": BLUEHILL, "rhdpe": RHDPE, "etfe": ETFE}[case]
     out = tmp_path / case / "config.yaml"
@@ -114,7 +114,7 @@ def test_extension_in_mm_and_force_in_kn_ask_for_gauge_length_and_area(tmp_path)
     import numpy as np
 
     from bayes_dnlr.model import simulate
-    from bayes_dnlr.pipeline.fit import fit
+    from bayes_dnlr.runs.fit import fit
 
     truth = {"E": 2854.0, "G": 2.32, "tau_max": 5.79}
     t = np.linspace(0.0, 200.0, 801)
@@ -143,7 +143,7 @@ def test_extension_in_mm_and_force_in_kn_ask_for_gauge_length_and_area(tmp_path)
 def test_a_relaxation_hold_is_seen_and_the_window_keeps_it(tmp_path):
     """The shipped ramp-and-hold example: relaxation_start: auto is proposed (a check), the window
     is the whole test, and fit accepts it after the area (and the strain measure of eps11)."""
-    from bayes_dnlr.pipeline.fit import fit
+    from bayes_dnlr.runs.fit import fit
 
     out = tmp_path / "relax" / "config.yaml"
     result = init_config(REPO / "runs/hdpe-b-relax-5e-3/hdpe-b-relax-5e-3.csv", out)

@@ -1,5 +1,5 @@
 """Ctrl-C during sampling is taken at a step boundary (bayes_dnlr/interrupt.py), and the run lock
-(bayes_dnlr/runlock.py) leaves no file behind and survives the removal race."""
+(bayes_dnlr/runs/lock.py) leaves no file behind and survives the removal race."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from bayes_dnlr import runlock
+from bayes_dnlr.runs import lock as runlock
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.interrupt import deferred_interrupt
 

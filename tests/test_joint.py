@@ -25,8 +25,8 @@ def cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
 @pytest.fixture(scope="module")
 def joint_run(tmp_path_factory) -> Path:
     """A three-rate run with shared E, G and one tau_max per test, fitted and sampled (tiny chain)."""
-    from bayes_dnlr.config import load_config
-    from bayes_dnlr.pipeline.sample import sample
+    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.runs.sample import sample
 
     path = make_joint(tmp_path_factory.mktemp("joint"))
     sample(load_config(path), progress=False)
@@ -64,16 +64,16 @@ def test_joint_posterior_names_in_summary_and_posterior_nc(joint_run):
 
 
 def test_joint_sample_is_resumable_without_resampling(joint_run):
-    from bayes_dnlr.config import load_config
-    from bayes_dnlr.pipeline.sample import sample
+    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.runs.sample import sample
 
     post = sample(load_config(joint_run / "config.yaml"), progress=False)
     assert "nothing sampled" in (post.note or "")
 
 
 def test_single_test_config_unchanged(tmp_path):
-    from bayes_dnlr.config import load_config
-    from bayes_dnlr.pipeline.fit import fit
+    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.runs.fit import fit
 
     path = make_run(tmp_path, "one", ramp_truth(0.4, n_points=150))
     cfg = load_config(path)
@@ -189,8 +189,8 @@ def test_compare_refuses_a_joint_run_in_one_line(joint_run, tmp_path):
 
 def test_joint_correlation_warnings_in_one_line():
     """A shared E ties every test's tau_max to it and so to each other: one warning, every pair."""
-    from bayes_dnlr.inference.joint_fit import _joint_identifiability
-    from bayes_dnlr.inference.sensitivity import analyse
+    from bayes_dnlr.inference.lsq.joint import _joint_identifiability
+    from bayes_dnlr.inference.lsq.sensitivity import analyse
 
     rng = np.random.default_rng(0)
     n = 200
@@ -208,10 +208,10 @@ def test_joint_correlation_warnings_in_one_line():
 def test_joint_report_with_model_error_in_one_test(tmp_path):
     """One test with a smooth correlated error: its own discrepancy in the joint posterior
     (disc_amplitude[r5e-3]); the others white; the report draws δ on that test's residuals only."""
-    from bayes_dnlr.config import load_config
-    from bayes_dnlr.pipeline.sample import sample
+    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.runs.sample import sample
     from bayes_dnlr.report import build_report
-    from bayes_dnlr.synthetic import simulate_tests
+    from bayes_dnlr.workflows.simulate import simulate_tests
 
     path = make_joint(tmp_path, "bias", discrepancy=True, sampler={"walkers": 24, "max_steps": 200})
     raw = yaml.safe_load(path.read_text())

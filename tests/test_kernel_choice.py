@@ -11,10 +11,10 @@ import h5py
 import pytest
 from sampling_support import write_case
 
-from bayes_dnlr.config import load_config, parse_config
-from bayes_dnlr.inference.gls import SAME_ESTIMATE_SD, choose_kernel
-from bayes_dnlr.pipeline.fit import fit
-from bayes_dnlr.pipeline.sample import sample
+from bayes_dnlr.config.schema import load_config, parse_config
+from bayes_dnlr.inference.discrepancy.gls import SAME_ESTIMATE_SD, choose_kernel
+from bayes_dnlr.runs.fit import fit
+from bayes_dnlr.runs.sample import sample
 from bayes_dnlr.report import build_report
 
 
@@ -106,7 +106,7 @@ def test_a_resumed_chain_keeps_the_kernel_it_started_with() -> None:
     """fit.json may be re-made with another choice; the chain's own record wins, per test too."""
     from types import SimpleNamespace
 
-    from bayes_dnlr.pipeline.target import _kernel
+    from bayes_dnlr.runs.target import _kernel
 
     fit_json = {"discrepancy": {"kernel": "exp"}}
     assert _kernel(None, fit_json) == "exp"

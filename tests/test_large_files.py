@@ -13,7 +13,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 from large_files import write_test  # noqa: E402
 
-from bayes_dnlr.config import load_config  # noqa: E402
+from bayes_dnlr.config.schema import load_config  # noqa: E402
 from bayes_dnlr.data import load_test  # noqa: E402
 
 ROWS = 1_000_000
@@ -40,7 +40,7 @@ def test_a_million_rows_load_and_the_smoothing_succeeds(million: Path) -> None:
 
 @pytest.mark.slow
 def test_a_million_rows_fit_with_the_default_config(million: Path) -> None:
-    from bayes_dnlr.pipeline.fit import fit
+    from bayes_dnlr.runs.fit import fit
 
     result = fit(load_config(million), write=False)
     assert result.converged

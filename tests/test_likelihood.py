@@ -10,9 +10,9 @@ import pytest
 from sampling_support import TRUTH, TRUTH_RELAX, make_test
 from scipy import stats
 
-from bayes_dnlr.config import parse_config
-from bayes_dnlr.inference.likelihood import build_log_posterior
-from bayes_dnlr.inference.priors import build_priors
+from bayes_dnlr.config.schema import parse_config
+from bayes_dnlr.inference.posterior.likelihood import build_log_posterior
+from bayes_dnlr.inference.posterior.priors import build_priors
 from bayes_dnlr.model import simulate
 
 
@@ -129,7 +129,7 @@ def _disc_cfg(kernel: str, axis: str, relaxation: bool = False):
 
 
 def _disc_priors(high: float):
-    from bayes_dnlr.config import ParameterSpec
+    from bayes_dnlr.config.schema import ParameterSpec
 
     return {"disc_amplitude": ParameterSpec(prior="half-normal", scale=2.0),
             "disc_length": ParameterSpec(prior="log-uniform", low=1e-4, high=high)}
@@ -148,7 +148,7 @@ def _wobbly(test):
 @pytest.mark.parametrize("kernel", ["exp", "matern32"])
 @pytest.mark.parametrize("axis", ["time", "strain"])
 def test_discrepancy_likelihood_matches_dense_normal(kernel, axis) -> None:
-    from bayes_dnlr.inference import gp
+    from bayes_dnlr.inference.discrepancy import gp
 
     test = _wobbly(make_test(n=400))
     cfg = _disc_cfg(kernel, axis)
@@ -170,7 +170,7 @@ def test_discrepancy_likelihood_matches_dense_normal(kernel, axis) -> None:
 
 
 def test_discrepancy_likelihood_on_a_relaxation_test_with_a_window_gap() -> None:
-    from bayes_dnlr.inference import gp
+    from bayes_dnlr.inference.discrepancy import gp
 
     window = np.ones(700, bool)
     window[100:150] = False
@@ -185,7 +185,7 @@ def test_discrepancy_likelihood_on_a_relaxation_test_with_a_window_gap() -> None
 
 
 def test_discrepancy_with_fixed_hyperparameters_and_bad_points() -> None:
-    from bayes_dnlr.config import ParameterSpec
+    from bayes_dnlr.config.schema import ParameterSpec
 
     test = make_test(n=300)
     raw = _disc_cfg("matern32", "time").model_dump(mode="json", exclude_none=True)

@@ -12,14 +12,14 @@ import numpy as np
 import pytest
 import yaml
 
-from bayes_dnlr.config import load_config, parse_config
+from bayes_dnlr.config.schema import load_config, parse_config
 from bayes_dnlr.data import TestData
 from bayes_dnlr.errors import BayesDnlrError, RunError
-from bayes_dnlr.inference.lsq import FitResult, fit_test, stochastic_analysis
-from bayes_dnlr.inference.noise import resolve_sigma0
-from bayes_dnlr.inference.start import physics_start, spread_starts
+from bayes_dnlr.inference.lsq.identify import FitResult, fit_test, stochastic_analysis
+from bayes_dnlr.inference.lsq.sigma0 import resolve_sigma0
+from bayes_dnlr.inference.lsq.start import physics_start, spread_starts
 from bayes_dnlr.model import simulate
-from bayes_dnlr.pipeline.fit import fit, fit_is_current, load_fit
+from bayes_dnlr.runs.fit import fit, fit_is_current, load_fit
 
 REPO = Path(__file__).resolve().parents[1]
 RATE = 5e-3
@@ -98,7 +98,7 @@ def test_shipped_example_recovers_table3_within_3sd_from_every_start(path: Path,
     raw["output"] = {"dir": str(tmp_path)}
     cfg = parse_config(raw, source=tmp_path / "config.yaml")
     if not cfg.data_path.is_file():
-        from bayes_dnlr.synthetic import simulate_test
+        from bayes_dnlr.workflows.simulate import simulate_test
 
         raw["data"]["file"] = "data.csv"
         cfg = parse_config(raw, source=tmp_path / "config.yaml")

@@ -11,11 +11,11 @@ import yaml
 from sampling_support import TRUTH, write_case
 
 from bayes_dnlr.cli import main
-from bayes_dnlr.config import ConfigError, load_config
+from bayes_dnlr.config.schema import ConfigError, load_config
 from bayes_dnlr.errors import RunError
-from bayes_dnlr.inference.mcmc import convergence
-from bayes_dnlr.inference.store import read_run
-from bayes_dnlr.pipeline.sample import sample
+from bayes_dnlr.inference.mcmc.ensemble import convergence
+from bayes_dnlr.runs.chains import read_run
+from bayes_dnlr.runs.sample import sample
 
 CONTRACT_KEYS = {"parameters", "posterior", "posterior_correlation", "gauss_newton", "sigma0", "n_points",
                  "walkers", "steps", "autocorr_time", "wall_time_s", "standards", "deborah_max"}
@@ -204,7 +204,7 @@ def test_convergence_rule_on_independent_draws() -> None:
 
 
 def test_one_sampler_per_run_directory(tmp_path: Path) -> None:
-    from bayes_dnlr.pipeline.sample import _run_lock
+    from bayes_dnlr.runs.sample import _run_lock
 
     path = write_case(tmp_path, sampler={"max_steps": 20, "checkpoint_every": 10})
     cfg = load_config(path)
@@ -226,7 +226,7 @@ def test_sigma0_from_residuals_is_resolved_once_by_the_fit(tmp_path: Path) -> No
 
 
 def test_stale_fit_json_is_never_replaced_silently(tmp_path: Path) -> None:
-    from bayes_dnlr.pipeline.fit import fit
+    from bayes_dnlr.runs.fit import fit
 
     path = write_case(tmp_path, sampler={"max_steps": 40, "target_ess": 1e9, "checkpoint_every": 20})
     fit(load_config(path))

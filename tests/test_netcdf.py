@@ -1,12 +1,12 @@
-"""posterior.nc written by h5netcdf directly (inference/netcdf.py) holds what ArviZ writes."""
+"""posterior.nc written by h5netcdf directly (runs/netcdf.py) holds what ArviZ writes."""
 
 from __future__ import annotations
 
 import numpy as np
 import xarray as xr
 
-from bayes_dnlr.inference.netcdf import PosteriorDraws
-from bayes_dnlr.inference.posterior import _netcdf_bytes, build_datatree
+from bayes_dnlr.runs.netcdf import PosteriorDraws
+from bayes_dnlr.runs.outputs import _netcdf_bytes, build_datatree
 
 
 def test_same_content_as_the_arviz_file(tmp_path) -> None:

@@ -20,7 +20,7 @@ def cli(*args: str) -> subprocess.CompletedProcess:
 
 
 def test_two_stage_recovers_a_known_population_and_shrinks():
-    from bayes_dnlr.inference.population import population
+    from bayes_dnlr.inference.analyses.population import population
 
     rng = np.random.default_rng(3)
     draws = draw_population(rng, 8)
@@ -37,7 +37,7 @@ def test_two_stage_recovers_a_known_population_and_shrinks():
 
 def test_monte_carlo_check_fails_with_too_few_draws():
     """A population far narrower than each specimen's posterior leaves few effective draws."""
-    from bayes_dnlr.inference.population import population
+    from bayes_dnlr.inference.analyses.population import population
 
     rng = np.random.default_rng(5)
     draws = {f"s{k}": rng.normal(2850.0 + rng.normal(0, 1.0), 400.0, 60) for k in range(8)}
@@ -51,7 +51,7 @@ def test_grid_posterior_of_s_matches_the_exact_one():
     """Normal specimens (own sd 25 MPa, flat prior): L(μ, s) = Π N(c_k | μ, s² + 25²) exactly. The
     grid's posterior mean and HDI of s agree with that posterior's on a fine uniform grid (the
     first grid's s points are not equally spaced: each is weighted by its cell)."""
-    from bayes_dnlr.inference.population import population
+    from bayes_dnlr.inference.analyses.population import population
 
     rng = np.random.default_rng(21)
     centres = rng.normal(MU, 100.0, 6)
@@ -73,7 +73,7 @@ def test_grid_posterior_of_s_matches_the_exact_one():
 def test_many_specimens_get_a_grid_fine_enough_for_their_narrow_posterior(tmp_path):
     """A batch of 150 specimens: μ's sd (about 8 MPa) is below the first grid's step (about 13 MPa);
     the second, zoomed grid resolves it: μ's 90 % HDI is 2 × 1.645 sd wide, as for a normal."""
-    from bayes_dnlr.inference.population import population
+    from bayes_dnlr.inference.analyses.population import population
 
     rng = np.random.default_rng(11)
     centres = rng.normal(MU, 100.0, 150)
@@ -90,8 +90,8 @@ def test_many_specimens_get_a_grid_fine_enough_for_their_narrow_posterior(tmp_pa
     # the figure of a batch this size keeps a readable height (rows narrower past 40 specimens)
     from PIL import Image
 
-    from bayes_dnlr.pipeline.population import PopulationRun
-    from bayes_dnlr.report.population import figure
+    from bayes_dnlr.workflows.population.run import PopulationRun
+    from bayes_dnlr.workflows.population.page import figure
 
     png = figure(PopulationRun(pop, {k: k for k in draws}, dict.fromkeys(draws, "")), tmp_path / "p.png")
     assert Image.open(png).size[1] < 3000                  # 70 inches (7700 px) with 8 specimens' rows
@@ -100,8 +100,8 @@ def test_many_specimens_get_a_grid_fine_enough_for_their_narrow_posterior(tmp_pa
 @pytest.fixture(scope="module")
 def specimens(tmp_path_factory):
     """Three finished single-test runs with different true E (tiny chains)."""
-    from bayes_dnlr.config import load_config
-    from bayes_dnlr.pipeline.sample import sample
+    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.runs.sample import sample
 
     root = tmp_path_factory.mktemp("pop")
     dirs = []

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayes_dnlr.config import load_config
-from bayes_dnlr.pipeline.sample import sample
+from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.runs.sample import sample
 
 RUNS = Path(__file__).resolve().parents[1] / "runs"
 EXAMPLES = ["hdpe-a-2.5e-3", "hdpe-a-5e-3", "hdpe-a-1e-2", "hdpe-b-relax-5e-3"]

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
-from bayes_dnlr.config import ParameterSpec, SampledNoise, parse_config
-from bayes_dnlr.inference.priors import Prior, build_priors, sampled_names
+from bayes_dnlr.config.schema import ParameterSpec, SampledNoise, parse_config
+from bayes_dnlr.inference.posterior.priors import Prior, build_priors, sampled_names
 
 CASES = [
     ({"prior": "uniform", "low": 100.0, "high": 20000.0}, stats.uniform(100.0, 19900.0)),
@@ -123,7 +123,7 @@ def test_build_priors_from_config() -> None:
 def test_discrepancy_hyperparameters_are_sampled_in_log_space() -> None:
     """disc_amplitude (half-normal) and disc_length (log-uniform) follow the model parameters and
     sigma0; both are sampled in ln x, the density carrying the Jacobian x; a fixed one is left out."""
-    from bayes_dnlr.config import ParameterSpec
+    from bayes_dnlr.config.schema import ParameterSpec
 
     raw = {"name": "t", "data": {"file": "x.csv", "columns": {"time": "t", "eps11": "e", "stress": "s"},
                                  "observable": "stress"},
@@ -156,7 +156,7 @@ def test_sampled_sigma0_prior_kinds() -> None:
 def test_log_ndtr_equals_scipy() -> None:
     from scipy.special import log_ndtr as reference
 
-    from bayes_dnlr.inference.priors import log_ndtr
+    from bayes_dnlr.inference.posterior.priors import log_ndtr
 
     x = np.concatenate([np.linspace(-80.0, 20.0, 20001), [-1e3, -1e5, 0.0, -37.0, -36.999]])
     ours = np.array([log_ndtr(v) for v in x])

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from sampling_support import write_case
 
-import bayes_dnlr.inference.mcmc as mcmc
-from bayes_dnlr.config import load_config
-from bayes_dnlr.inference.mcmc import Convergence
-from bayes_dnlr.inference.progress import EssProgress, credited_ess
-from bayes_dnlr.pipeline.sample import sample
+import bayes_dnlr.inference.mcmc.ensemble as mcmc
+from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.inference.mcmc.ensemble import Convergence
+from bayes_dnlr.inference.mcmc.progress import EssProgress, credited_ess
+from bayes_dnlr.runs.sample import sample
 
 
 def _conv(ess, tau=5.0, kept=400, converged=False, arviz=None) -> Convergence:

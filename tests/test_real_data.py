@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayes_dnlr.config import parse_config
+from bayes_dnlr.config.schema import parse_config
 from bayes_dnlr.data import load_test
 
 REAL = Path(os.environ.get("BAYES_DNLR_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -71,7 +71,7 @@ def test_cropped_toe_from_a_config_only(tmp_path, start, low, high):
     fit gives E near 4800 MPa; with an unloaded start before it (a config key, no hand-made row) E is
     near the 2269 MPa of a hand-made origin row. G is fixed: a pre-yield window does not identify it
     (the paper's interval I identifies E and tau_max)."""
-    from bayes_dnlr.pipeline.fit import fit
+    from bayes_dnlr.runs.fit import fit
 
     params = {"G": {"value": 0.0}}
     result = fit(rhdpe_config(tmp_path, params, window={"strain_max": 0.07}, **start), write=False)
@@ -94,7 +94,7 @@ def test_etfe_specimens_split_by_column_group_and_padding_dropped(tmp_path, spec
 
 
 def test_etfe_specimen_fits_from_a_config_only(tmp_path):
-    from bayes_dnlr.pipeline.fit import fit
+    from bayes_dnlr.runs.fit import fit
 
     r = fit(etfe_config(tmp_path, 1, strain_input="smoothed"), write=False)
     assert r.converged

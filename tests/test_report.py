@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayes_dnlr.config import load_config
+from bayes_dnlr.config.schema import load_config
 from bayes_dnlr.model import simulate
 from bayes_dnlr.numbers import fmt, fmt_at
 from bayes_dnlr.report import build_report
@@ -45,8 +45,8 @@ def _png_size(path: Path) -> tuple[int, int]:
 @pytest.fixture(scope="module")
 def finished_run(tmp_path_factory) -> Path:
     """A 300-point synthetic test (E 2854, G 2.32, tau_max 3.15 at 1e-2 1/s) fitted and sampled."""
-    from bayes_dnlr.pipeline.fit import fit
-    from bayes_dnlr.pipeline.sample import sample
+    from bayes_dnlr.runs.fit import fit
+    from bayes_dnlr.runs.sample import sample
 
     d = tmp_path_factory.mktemp("runs") / "tiny"
     d.mkdir()

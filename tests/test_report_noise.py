@@ -8,8 +8,8 @@ import json
 import pytest
 from sampling_support import write_case
 
-from bayes_dnlr.config import load_config
-from bayes_dnlr.pipeline.sample import sample
+from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.runs.sample import sample
 from bayes_dnlr.report import build_report
 
 SAMPLER = {"walkers": 16, "max_steps": 1500, "target_ess": 150, "checkpoint_every": 50}

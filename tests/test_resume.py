@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from sampling_support import write_case
 
-from bayes_dnlr.inference.store import read_run
+from bayes_dnlr.runs.chains import read_run
 
 # never converges (target_ess huge): stops at max_steps; checkpoints every 50 steps. Long enough
 # that the signal, sent once 150 steps are committed, arrives mid-run: the compiled all-walker

@@ -1,4 +1,4 @@
-"""bayes_dnlr/runlock.py: one holder at a time, no lock file left behind, a killed holder blocks nobody."""
+"""bayes_dnlr/runs/lock.py: one holder at a time, no lock file left behind, a killed holder blocks nobody."""
 
 from __future__ import annotations
 
@@ -12,12 +12,12 @@ from pathlib import Path
 import pytest
 
 from bayes_dnlr.errors import RunError
-from bayes_dnlr.runlock import run_lock
+from bayes_dnlr.runs.lock import run_lock
 
 HOLD = """
 import sys, time
 from pathlib import Path
-from bayes_dnlr.runlock import run_lock
+from bayes_dnlr.runs.lock import run_lock
 with run_lock(Path(sys.argv[1]), "sample.lock", "busy"):
     print("held", flush=True)
     time.sleep(60)

@@ -13,13 +13,13 @@ import yaml
 from sampling_support import write_case
 
 from bayes_dnlr.cli import main
-from bayes_dnlr.config import load_config
+from bayes_dnlr.config.schema import load_config
 from bayes_dnlr.errors import RunError
-from bayes_dnlr.inference.mcmc import convergence, shortfall, start_ensemble
-from bayes_dnlr.inference.priors import Prior, PriorSet
-from bayes_dnlr.inference.store import read_run
-from bayes_dnlr.pipeline.fit import fit
-from bayes_dnlr.pipeline.sample import sample
+from bayes_dnlr.inference.mcmc.ensemble import convergence, shortfall, start_ensemble
+from bayes_dnlr.inference.posterior.priors import Prior, PriorSet
+from bayes_dnlr.runs.chains import read_run
+from bayes_dnlr.runs.fit import fit
+from bayes_dnlr.runs.sample import sample
 
 TINY = {"walkers": 12, "max_steps": 100, "target_ess": 50, "checkpoint_every": 50}
 

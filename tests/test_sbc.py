@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import yaml
 
-from bayes_dnlr.config import load_config
-from bayes_dnlr.inference.gp import covariance
-from bayes_dnlr.inference.sbc import (
+from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.inference.discrepancy.gp import covariance
+from bayes_dnlr.inference.analyses.sbc import (
     ecdf,
     inside_band,
     pit_from_ranks,
@@ -17,7 +17,7 @@ from bayes_dnlr.inference.sbc import (
     simultaneous_band,
     thin_draws,
 )
-from bayes_dnlr.synthetic import correlated_error, simulate_test
+from bayes_dnlr.workflows.simulate import correlated_error, simulate_test
 
 
 def test_rank_thin_and_pit():

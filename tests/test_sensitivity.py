@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bayes_dnlr.inference.sensitivity import (
+from bayes_dnlr.inference.lsq.sensitivity import (
     analyse,
     correlation,
     covariance,

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from sampling_support import write_case
 
-from bayes_dnlr.config import load_config
-from bayes_dnlr.inference.mcmc import CHECK_FRACTION, Convergence, next_check
-from bayes_dnlr.inference.store import read_run
-from bayes_dnlr.pipeline.sample import sample
+from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.inference.mcmc.ensemble import CHECK_FRACTION, Convergence, next_check
+from bayes_dnlr.runs.chains import read_run
+from bayes_dnlr.runs.sample import sample
 
 
 def _conv(needed: int, stuck: bool = False) -> Convergence:
@@ -72,7 +72,7 @@ def test_resume_after_an_early_stop_gives_the_same_chain(tmp_path, ess_bound_run
 def test_tau_equals_emcee() -> None:
     from emcee.autocorr import integrated_time
 
-    from bayes_dnlr.inference.mcmc import _tau
+    from bayes_dnlr.inference.mcmc.ensemble import _tau
 
     rng = np.random.default_rng(0)
     for n in (20, 57, 401):

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayes_dnlr.inference.store import ChainWriter, SamplerState, read_attrs, read_run
+from bayes_dnlr.runs.chains import ChainWriter, SamplerState, read_attrs, read_run
 
 W, D = 8, 3
 
@@ -83,7 +83,7 @@ def test_chunked_and_compressed(tmp_path: Path) -> None:
 
 READER = textwrap.dedent("""
     import sys
-    from bayes_dnlr.inference.store import read_run
+    from bayes_dnlr.runs.chains import read_run
     run = read_run(sys.argv[1])
     print(run.steps, run.checkpoint_steps.size, float(run.chain[-1].sum()) if run.steps else 0.0)
 """)

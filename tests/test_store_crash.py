@@ -22,8 +22,8 @@ import pytest
 from sampling_support import write_case
 
 from bayes_dnlr.diskio import KILL_ENV
-from bayes_dnlr.inference import store
-from bayes_dnlr.inference.store import KILL_POINTS, read_run
+from bayes_dnlr.runs import chains as store
+from bayes_dnlr.runs.chains import KILL_POINTS, read_run
 
 # 8 walkers, 3 checkpoints of 20 steps, never converges: stops at max_steps
 SAMPLER = {"walkers": 8, "max_steps": 60, "target_ess": 1.0e9, "checkpoint_every": 20}

@@ -1,4 +1,4 @@
-"""Synthetic tests (synthetic.py): the protocol, the noise model, the file and the shipped examples."""
+"""Synthetic tests (workflows/simulate.py): the protocol, the noise model, the file and the shipped examples."""
 
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ import pytest
 import yaml
 
 from bayes_dnlr.cli import main
-from bayes_dnlr.config import ConfigError, load_config, parse_config
+from bayes_dnlr.config.schema import ConfigError, load_config, parse_config
 from bayes_dnlr.data import DataError, load_test
 from bayes_dnlr.model import simulate
-from bayes_dnlr.synthetic import simulate_test
+from bayes_dnlr.workflows.simulate import simulate_test
 
 RUNS = Path(__file__).resolve().parents[1] / "runs"
 EXAMPLES = ["hdpe-a-2.5e-3", "hdpe-a-5e-3", "hdpe-a-1e-2", "hdpe-b-relax-5e-3"]

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bayes_dnlr.config import Config
+from bayes_dnlr.config.schema import Config
 from bayes_dnlr.data.checks import (
     check_increasing,
     check_load,
@@ -37,7 +37,7 @@ from bayes_dnlr.data.errors import DataError
 from bayes_dnlr.data.ramp import detect_relaxation_start, window_strain_rate
 from bayes_dnlr.data.reading import _Table, read_table
 from bayes_dnlr.data.smoothing import sampling_breaks, segment_edges, smooth_strain
-from bayes_dnlr.data.start import plan_start
+from bayes_dnlr.data.initial_state import plan_start
 from bayes_dnlr.data.windows import window_mask
 
 
@@ -46,7 +46,7 @@ class TestData:
     """One tensile (then relaxation) test, ready for the model.
 
     The arrays hold the data rows read, in file order (see ``notes`` for any left out), after
-    ``virtual_start`` model-only samples (an unloaded start, see data/start.py). The model runs from
+    ``virtual_start`` model-only samples (an unloaded start, see data/initial_state.py). The model runs from
     the first sample (history matters) to ``model_end``; the comparison with data uses the samples
     where ``window`` is True.
     """
@@ -196,7 +196,7 @@ def _load_source(d) -> str:
 
 def load_test(cfg: Config) -> TestData:
     """Read the test that ``cfg.data`` describes (see docs/data-input.md)."""
-    from bayes_dnlr.rundir import file_sha256
+    from bayes_dnlr.runs.folder import file_sha256
 
     d = cfg.data
     path = _check_file(cfg)

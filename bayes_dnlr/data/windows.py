@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from bayes_dnlr.config import Window
+from bayes_dnlr.config.schema import Window
 from bayes_dnlr.data.errors import DataError
 
 if TYPE_CHECKING:

@@ -2,5 +2,5 @@
 and emcee on a log-density (mcmc). Nothing here knows about run directories (see pipeline/).
 
 Kept light: nothing heavy (emcee, ArviZ) is imported here; import the submodule you need, e.g.
-``from bayes_dnlr.inference.lsq import fit_test``.
+``from bayes_dnlr.inference.lsq.identify import fit_test``.
 """

@@ -17,10 +17,10 @@ from pathlib import Path
 import numpy as np
 
 from bayes_dnlr import __version__
-from bayes_dnlr.inference.plausibility import plausibility_warnings
+from bayes_dnlr.inference.lsq.plausibility import plausibility_warnings
 from bayes_dnlr.numbers import fmt, interval, pm
 from bayes_dnlr.report import figures as figs
-from bayes_dnlr.report import noise as rn
+from bayes_dnlr.report import model_error as rn
 from bayes_dnlr.report import tables as tb
 from bayes_dnlr.report import views
 from bayes_dnlr.report.tables import RunResults, load_run

@@ -23,9 +23,9 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr import __version__
-from bayes_dnlr.inference.joint import NOISE_NAMES, base_name, joint_name
+from bayes_dnlr.inference.layout import NOISE_NAMES, base_name, joint_name
 from bayes_dnlr.report import figures as figs
-from bayes_dnlr.report import noise as rn
+from bayes_dnlr.report import model_error as rn
 from bayes_dnlr.report import tables as tb
 from bayes_dnlr.report.tables import RunResults, Table, fmt, fmt_at
 
@@ -112,8 +112,8 @@ def _truths(views: dict[str, RunResults], names: list[str]) -> list[float | None
 
 def rate_question(run: RunResults, views: dict[str, RunResults]):
     """inference.rate.RateAnalysis of the joint posterior when E is one per test (else None)."""
-    from bayes_dnlr.inference.priors import Prior
-    from bayes_dnlr.inference.rate import rate_analysis
+    from bayes_dnlr.inference.posterior.priors import Prior
+    from bayes_dnlr.inference.analyses.rate import rate_analysis
 
     if run.draws is None or "E" not in run.cfg.per_test_parameters:
         return None

@@ -17,10 +17,10 @@ from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.config import UNITS, Config, load_config
+from bayes_dnlr.config.schema import UNITS, Config, load_config
 from bayes_dnlr.crosscheck import crosscheck_values, deborah_max
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pct
-from bayes_dnlr.rundir import find_config
+from bayes_dnlr.runs.folder import find_config
 
 SD_TOLERANCE = 0.15      # posterior sd vs linearized sd, relative
 RHO_TOLERANCE = 0.05     # posterior ρ vs linearized ρ, absolute

@@ -1,0 +1,264 @@
+"""The least-squares fit of several tests at once (a run with ``tests:``), and its stochastic
+analysis: the joint Δ (eq. 32) and Δ̃ (eq. 35) with every test weighted by its own noise.
+
+1. Each test alone (``fit_test`` on its single-test view): its estimate, its σ0 and, with the model
+   discrepancy, its maximum-likelihood hyperparameters and the evidence of model error.
+2. The joint white fit: Σ_tests |y_t - f_t(θ)|² / σ0_t², from the pooled single-test estimates.
+   Δ = (XᵀWX)⁻¹ with W = diag(1/σ0_t²): every test counts by its own noise.
+3. With the discrepancy (where a test shows model error): the joint generalized least squares,
+   each such test whitened by its own K_t (hyperparameters held at the single-test ML values),
+   Δ = (Σ X_tᵀ K_t⁻¹ X_t)⁻¹.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from bayes_dnlr.config.schema import UNITS, Config
+from bayes_dnlr.errors import BayesDnlrError
+from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
+from bayes_dnlr.inference.discrepancy.hyper import Hyper, discrepancy_priors, is_white, test_axis, whitener
+from bayes_dnlr.inference.layout import JointProblem, Layout, base_name, pooled_start
+from bayes_dnlr.inference.lsq.identify import FitResult, fit_test
+from bayes_dnlr.inference.lsq.optimize import run_minimiser
+from bayes_dnlr.inference.lsq.problem import LsqProblem
+from bayes_dnlr.inference.lsq.sensitivity import StochasticAnalysis, analyse, identifiability_warnings
+from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd, pm
+from bayes_dnlr.runs.folder import jsonable
+
+
+@dataclass
+class JointFitResult:
+    """Outcome of the joint fit: estimates of the joint vector, Δ̃, and each test's own fit."""
+
+    name: str
+    names: list[str]
+    estimate: dict[str, float]
+    sd: dict[str, float]
+    err: dict[str, float]
+    covariance: np.ndarray
+    correlation: np.ndarray
+    delta_tilde: np.ndarray
+    tests: dict[str, dict[str, Any]]       # per test: n_points, sigma0, residuals at the joint estimate
+    singles: dict[str, FitResult]          # each test fitted alone
+    criterion: float
+    converged: bool
+    message: str
+    iterations: int
+    condition_number: float
+    warnings: list[str]
+    discrepancy: dict[str, Any] | None = None   # the joint GLS analysis
+    per_test: list[str] = field(default_factory=list)
+    config_digest: str = ""
+    config_sections: dict[str, str] = field(default_factory=dict)
+    data_sha256: str = ""
+    wall_time_s: float = 0.0
+
+    @property
+    def n_points(self) -> int:
+        return int(sum(t["n_points"] for t in self.tests.values()))
+
+    def to_dict(self) -> dict[str, Any]:
+        from bayes_dnlr import __version__
+
+        return jsonable({
+            "name": self.name, "joint": True, "parameters": self.names, "per_test": self.per_test,
+            "estimate": self.estimate, "sd": self.sd, "err": self.err,
+            "units": {k: UNITS.get(base_name(k), "") for k in self.names},
+            "covariance": self.covariance, "correlation": self.correlation,
+            "delta_tilde": self.delta_tilde, "n_points": self.n_points,
+            "tests": self.tests,
+            "single_fits": {t: {k: v for k, v in r.to_dict().items()
+                                if k in ("estimate", "sd", "err", "sigma0", "sigma0_source", "residuals",
+                                         "warnings", "discrepancy", "strain_rate", "deborah_max",
+                                         "n_points", "relaxation_start", "data_notes")}
+                            for t, r in self.singles.items()},
+            "criterion": self.criterion, "converged": self.converged, "message": self.message,
+            "iterations": self.iterations, "condition_number": self.condition_number,
+            "warnings": self.warnings, "discrepancy": self.discrepancy,
+            "config_digest": self.config_digest, "config_sections": self.config_sections,
+            "data_sha256": self.data_sha256, "version": __version__, "wall_time_s": self.wall_time_s,
+        })
+
+    def table(self) -> str:
+        d = self.discrepancy
+        lines = [f"joint fit {self.name}: {len(self.tests)} tests, {self.n_points} points, "
+                 f"{'converged' if self.converged else 'NOT converged'}"]
+        for t, info in self.tests.items():
+            lines.append(f"  {t}: {info['n_points']} points, sigma0 {fmt(info['sigma0'], 3)} MPa, rate "
+                         f"{fmt(info['strain_rate'], 3)} 1/s, residuals "
+                         f"{'white' if info['residuals']['white'] else 'NOT white'}"
+                         + (f", discrepancy ({info['discrepancy']})" if info.get("discrepancy") else ""))
+        w = max(len(k) for k in self.names) + 2
+        head = f"{'parameter':<{w}}{'estimate':>14}{'sd':>12}{'Err %':>9}"
+        if d:
+            head += f"  {'GLS estimate':>14}{'sd':>12}{'Err %':>9}"
+        lines += ["", head + "  unit"]
+        for k in self.names:
+            sd = self.sd[k]
+            row = f"{k:<{w}}{fmt_at(self.estimate[k], sd):>14}{fmt_sd(sd):>12}{err_pct(self.err[k]):>9}"
+            if d:
+                gs = d["sd"][k]
+                row += f"  {fmt_at(d['estimate'][k], gs):>14}{fmt_sd(gs):>12}{err_pct(d['err'][k]):>9}"
+            lines.append(row + f"  {UNITS.get(base_name(k), '')}")
+        lines += ["", "single-test estimates (each test alone):"]
+        for t, r in self.singles.items():
+            src = r.discrepancy if (r.discrepancy and t in (d or {}).get("tests", [])) else None
+            est = (src or {}).get("estimate", r.estimate)
+            sds = (src or {}).get("sd", r.sd)
+            lines.append(f"  {t}: " + ", ".join(f"{k} {pm(est[k], sds.get(k))}"
+                                                 for k in r.names))
+        if self.warnings:
+            lines += ["warnings:"] + [f"  - {m}" for m in self.warnings]
+        return "\n".join(lines)
+
+
+def _analyse(problem: JointProblem, params: dict[str, float]) -> StochasticAnalysis:
+    X = problem.jacobian(params)
+    names = problem.names
+    zero = [k for k, c in zip(names, np.linalg.norm(X, axis=0), strict=True) if c == 0]
+    if zero:
+        raise BayesDnlrError(
+            f"parameters {zero} have no effect on any test's window: no test can identify them; fix "
+            f"them (parameters.{base_name(zero[0])}: {{value: ...}}) or give them a test that can")
+    try:
+        return analyse(X, names, problem.vector(params), 1.0)
+    except np.linalg.LinAlgError as err:
+        raise BayesDnlrError(f"the joint sensitivity matrix is singular at the optimum ({err}): the "
+                             f"parameters {names} cannot all be identified by these tests") from None
+
+
+def _joint_identifiability(sa: StochasticAnalysis) -> list[str]:
+    """The identifiability warnings of the joint vector, the strongly correlated pairs in one line:
+    a shared E ties every test's tau_max to it and so to each other."""
+    from bayes_dnlr.inference.lsq.sensitivity import RHO_WARN
+
+    out = identifiability_warnings(sa)
+    pairs = [w for w in out if w.startswith("|ρ(")]
+    if len(pairs) < 2:
+        return out
+    import re
+
+    found = [re.match(r"\|ρ\((.+?), (.+?)\)\| = ([0-9.]+)", w) for w in pairs]
+    names = "; ".join(f"{m[1]}–{m[2]} {m[3]}" for m in found if m)
+    merged = (f"strongly correlated pairs (|ρ| > {RHO_WARN}): {names}. A shared parameter ties "
+              "each test's own parameters to it and so to each other. The paper finds ρ(E, tau_max) "
+              "≈ -0.9988 on one whole curve and still identifies both (Err ≈ 1.4 %); check Err")
+    return [w for w in out if w not in pairs] + [merged]
+
+
+def _blocks(views: dict[str, Config], tests: dict[str, Any]) -> dict[str, LsqProblem]:
+    out = {}
+    for t, cfg in views.items():
+        data = tests[t]
+        names = cfg.free_parameters
+        out[t] = LsqProblem(data.time, data.strain_input, data.stress, data.window, data.relaxation_start,
+                            names, cfg.fixed_values, {k: cfg.parameters[k].bounds() for k in names},
+                            cfg.model.modes, cfg.model.decades)
+    return out
+
+
+def _fit_single(i: int, view: Config, test: Any) -> FitResult:
+    """One test alone; its errors name the test (``tests[i] (name): ...``): a parameter its data
+    cannot identify is a config error of that test (fix it, give it ``per: test``, or widen the
+    window)."""
+    try:
+        return fit_test(view, test)
+    except BayesDnlrError as err:
+        raise type(err)(f"tests[{i}] ({view.name}): {err}") from None
+
+
+def fit_joint(cfg: Config, tests: dict[str, Any]) -> JointFitResult:
+    """The joint fit of a run with ``tests:`` (``tests``: name -> TestData); writes nothing."""
+    t0 = time.perf_counter()
+    views = {t: cfg.for_test(t) for t in cfg.test_names}
+    singles = {t: _fit_single(i, views[t], tests[t]) for i, t in enumerate(views)}
+    layout = Layout.build({t: views[t].free_parameters for t in views}, cfg.per_test_parameters)
+    bounds = {g: cfg.parameters[base_name(g)].bounds() for g in layout.names}
+    blocks = _blocks(views, tests)
+    sigma0 = {t: singles[t].sigma0 for t in views}
+    problem = JointProblem(blocks, layout, bounds, {t: 1.0 / sigma0[t] for t in views})
+    start = pooled_start({t: r.estimate for t, r in singles.items()}, {t: r.sd for t, r in singles.items()},
+                         layout)
+    beta0 = np.clip(problem.vector(start), problem.lower, problem.upper)
+    opt = run_minimiser(problem, cfg.fit.method, beta0, cfg.fit.max_iterations)
+    params = problem.params(opt.beta)
+    sa = _analyse(problem, params)
+    warnings = [f"{t}: {w}" for t, r in singles.items() for w in r.warnings
+                if "residuals are not white" in w]
+    warnings += _joint_identifiability(sa)
+    raw = problem.raw_residuals(params)
+    info = {}
+    for t, r in singles.items():
+        diag = residual_diagnostics(raw[t], sigma0[t], r.sigma0_source)
+        info[t] = {"n_points": int(raw[t].size), "sigma0": sigma0[t], "sigma0_source": r.sigma0_source,
+                   "strain_rate": r.strain_rate, "residuals": diag,
+                   "rms_single_fit": r.diagnostics["rms"], "rms_joint_fit": diag["rms"]}
+        if r.diagnostics["white"] and not diag["white"]:
+            warnings.append(f"{t}: its residuals are white alone but not in the joint fit: the shared "
+                            "parameters do not fit this test as well as its own would (see the "
+                            "single-test estimates)")
+    disc = _joint_gls(cfg, problem, params, singles, tests, info, warnings)
+    return JointFitResult(
+        name=cfg.name, names=layout.names, estimate=params,
+        sd=dict(zip(layout.names, map(float, sa.sd), strict=True)),
+        err=dict(zip(layout.names, map(float, sa.err), strict=True)),
+        covariance=sa.covariance, correlation=sa.correlation, delta_tilde=sa.delta_tilde,
+        tests=info, singles=singles, criterion=float(opt.criterion), converged=bool(opt.converged),
+        message=opt.message, iterations=int(opt.iterations), condition_number=sa.condition_number,
+        warnings=warnings, discrepancy=disc, per_test=cfg.per_test_parameters,
+        wall_time_s=time.perf_counter() - t0)
+
+
+def _joint_gls(cfg: Config, problem: JointProblem, white: dict[str, float],
+               singles: dict[str, FitResult], tests: dict[str, Any], info: dict[str, dict],
+               warnings: list[str]) -> dict[str, Any] | None:
+    """The joint generalized least squares, each test with model error whitened by its own K."""
+    used = {}
+    for t, r in singles.items():
+        d = r.discrepancy
+        if not d:
+            continue
+        priors = discrepancy_priors(r.to_dict())
+        if priors is None or is_white(priors):
+            continue
+        view = cfg.for_test(t)
+        axis = test_axis(view.noise.discrepancy, tests[t], problem.blocks[t].mask)
+        h = d["hyperparameters"]
+        used[t] = whitener(axis, Hyper(h["sigma0"], h["amplitude"], h["length"]), d["kernel"])
+        info[t]["discrepancy"] = (f"{d['kernel']}, amplitude {fmt(h['amplitude'], 3)} MPa, length "
+                                  f"{fmt(h['length'], 3)} {d.get('axis_unit', 's')}")
+    if not used:
+        return None
+    weights = dict(problem.weights)
+    problem.weights = {t: (1.0 if t in used else w) for t, w in weights.items()}
+    problem.set_whiteners(used)
+    try:
+        opt = run_minimiser(problem, cfg.fit.method, problem.vector(white), cfg.fit.max_iterations)
+        params = problem.params(opt.beta)
+        try:
+            sa = _analyse(problem, params)
+        except BayesDnlrError as err:
+            warnings.append(f"the joint generalized least-squares analysis has no covariance: {err}")
+            sa = None
+    finally:
+        problem.set_whiteners(dict.fromkeys(used))
+        problem.weights = weights
+    names = problem.names
+    nan = np.full((len(names), len(names)), math.nan)
+    sd = sa.sd if sa is not None else np.full(len(names), math.nan)
+    return {
+        "tests": sorted(used), "estimate": params,
+        "sd": dict(zip(names, map(float, sd), strict=True)),
+        "err": {k: float(s) / abs(params[k]) if params[k] else math.nan
+                for k, s in zip(names, sd, strict=True)},
+        "covariance": nan if sa is None else sa.covariance,
+        "correlation": nan if sa is None else sa.correlation,
+        "delta_tilde": nan if sa is None else sa.delta_tilde,
+        "criterion": float(opt.criterion), "converged": bool(opt.converged), "message": opt.message,
+    }

@@ -1,0 +1,144 @@
+"""The log-likelihood of all walkers of an ensemble step in one compiled call.
+
+For each walker: the model stress by the exponential integrator (``kernel.stress_into``, eq. 18;
+no basis is formed), the residual r = y - σ(θ) on the compared samples, then
+
+- white: log L = -½ Σ r² / σ0² - n ln σ0 - (n/2) ln 2π (eq. 27 up to constants);
+- with the discrepancy: log L = log N(r | 0, k(x, x) + σ0² I) by the Kalman filter of
+  ``gp.loglike_lanes`` (inference/discrepancy/gp.py), eight walkers side by side as SIMD lanes.
+
+Walkers run in groups of ``gp.LANE_GROUP`` (8), one group per numba thread (``prange``). A group
+is always the same walkers of the call, and nothing is summed across walkers, so the result does
+not depend on the number of threads: a fixed seed gives the same chain with 1 or 2 threads.
+
+numba's on-disk cache keys a function on the content of its own file only, not on the njit
+helpers it calls from other modules (NOTES-apis.md). ``_depend_on`` adds the content of
+model/kernel.py and inference/discrepancy/gp.py to the cache key of ``loglike_walkers``, so an edit there
+recompiles it instead of loading stale machine code.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+from numba import njit, prange
+
+from bayes_dnlr.inference.discrepancy import gp
+from bayes_dnlr.model import kernel, threads
+
+_LOG_2PI = math.log(2.0 * math.pi)
+GROUP = gp.LANE_GROUP
+_stress_into = kernel.stress_into
+_lanes = gp.loglike_lanes
+
+
+@njit(cache=True)
+def _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out, lo, hi):
+    """Walkers lo..hi-1 of ``loglike_walkers`` (one group, one thread)."""
+    n = y.shape[0]
+    q = grid[0].shape[0] + 1
+    m = hi - lo
+    stress = np.empty(q)
+    rt = np.empty((n if use_gp else 0, m))
+    bad = np.zeros(m, dtype=np.bool_)
+    for w in range(m):
+        r = lo + w
+        ok = _stress_into(theta[r, 0], theta[r, 1], theta[r, 2], theta[r, 3], theta[r, 4],
+                          grid, stress)
+        if not ok:
+            bad[w] = True
+            continue
+        if use_gp:
+            finite = True
+            for i in range(n):
+                v = y[i] - stress[idx[i]]
+                rt[i, w] = v
+                finite = finite and math.isfinite(v)
+            if not finite:
+                bad[w] = True
+            continue
+        s = sig[r]
+        if not (s > 0.0 and math.isfinite(s)):
+            bad[w] = True
+            continue
+        rss = 0.0
+        for i in range(n):
+            v = y[i] - stress[idx[i]]
+            rss += v * v
+        ll = -0.5 * rss / (s * s) - n * (math.log(s) + 0.5 * _LOG_2PI)
+        if math.isfinite(ll):
+            out[r] = ll
+        else:
+            bad[w] = True
+    if use_gp:
+        for w in range(m):
+            if bad[w]:
+                for i in range(n):
+                    rt[i, w] = 0.0
+        _lanes(x, rt, 0, m, sig[lo:hi], amp[lo:hi], length[lo:hi], kind, gap, out[lo:hi])
+    for w in range(m):
+        if bad[w]:
+            out[lo + w] = -np.inf
+
+
+@njit(cache=True, parallel=True)
+def loglike_walkers(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out):
+    """log-likelihood of every row of theta into ``out`` (k,); -inf where it is not defined.
+    Groups of GROUP walkers in parallel (numba threads).
+
+    theta (k, 5): E, G, σ_inf, tau_max, tau_max_R (model units; the last two ignored without a
+    relaxation phase, but must then be positive anyway); sig, amp, length (k,): σ0 and the
+    discrepancy's amplitude and length (amp, length unused when ``use_gp`` is False);
+    grid: ``DNLR.kernel_args``; y (n,): the observed values in the order of the axis x;
+    idx (n,): the model sample of each of them; kind, gap: the kernel code and the pinned start
+    (inf: stationary) of inference/discrepancy/gp.py.
+    """
+    k = theta.shape[0]
+    groups = (k + GROUP - 1) // GROUP
+    for g in prange(groups):
+        lo = g * GROUP
+        _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out, lo,
+               min(k, lo + GROUP))
+
+
+@njit(cache=True)
+def loglike_walkers_serial(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out):
+    """``loglike_walkers`` in the calling thread, the same groups one after the other (the same
+    values): for one thread, and in a process forked from one whose numba threads run on GNU
+    OpenMP, where numba terminates a child that starts a parallel region."""
+    k = theta.shape[0]
+    for lo in range(0, k, GROUP):
+        _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out, lo,
+               min(k, lo + GROUP))
+
+
+def evaluate(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out) -> None:
+    """``loglike_walkers`` when threads may run, else ``loglike_walkers_serial``
+    (``model.threads.parallel_allowed``)."""
+    if threads.parallel_allowed():
+        loglike_walkers(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out)
+    else:
+        loglike_walkers_serial(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out)
+
+
+def _file_digest(module: ModuleType) -> bytes:
+    return hashlib.sha256(Path(module.__file__).read_bytes()).digest()
+
+
+def _depend_on(dispatcher, *modules: ModuleType) -> None:
+    """Key the on-disk cache of ``dispatcher`` also on the source of ``modules`` (numba's cache
+    keys on the dispatcher's own file only). A no-op if numba's internals differ."""
+    try:
+        cache_file = dispatcher._cache._cache_file
+        cache_file._source_stamp = (cache_file._source_stamp,
+                                    *(_file_digest(m) for m in modules))
+    except (AttributeError, OSError, TypeError):   # pragma: no cover - another numba
+        pass
+
+
+for _f in (_group, loglike_walkers, loglike_walkers_serial):
+    _depend_on(_f, kernel, gp)

@@ -1,0 +1,174 @@
+"""``fit`` as a run: the least-squares result of a config written to ``<run_dir>/fit.json``.
+
+fit.json records the digests of the config sections it depends on and the data file's sha256, so a
+later ``fit`` or ``sample`` can tell whether it still belongs to the config and data: a stale
+fit.json is never replaced silently (``overwrite`` / ``--force`` does it).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from bayes_dnlr.config.schema import Config
+from bayes_dnlr.errors import RunError
+from bayes_dnlr.inference.lsq.joint import JointFitResult, fit_joint
+from bayes_dnlr.inference.lsq.identify import FitResult, fit_test
+from bayes_dnlr.runs.folder import (
+    check_output_dir,
+    config_digest,
+    digest,
+    discard_if_empty,
+    file_sha256,
+    prepare_run_dir,
+    resolved_config_path,
+    section_digests,
+    write_json,
+)
+
+FIT_FILE = "fit.json"
+SECTIONS = ("data", "model", "parameters", "noise", "fit")
+
+
+def sections(cfg: Config, base: tuple[str, ...] = SECTIONS) -> tuple[str, ...]:
+    """The config sections a result depends on: ``base``, and ``tests`` in a run with tests."""
+    return (*base, "tests") if cfg.is_joint else base
+
+
+@dataclass(frozen=True)
+class TestSet:
+    """The tests of a run with ``tests:``, loaded, in config order, with one fingerprint."""
+
+    __test__ = False  # not a pytest test class despite its name
+
+    tests: dict[str, Any]        # name -> TestData
+
+    @property
+    def sha256(self) -> str:
+        return digest({t: d.sha256 for t, d in self.tests.items()})
+
+    @property
+    def n_points(self) -> int:
+        return int(sum(d.n_points for d in self.tests.values()))
+
+    @property
+    def path(self) -> str:
+        """The data files, for the record."""
+        return ", ".join(str(d.path) for d in self.tests.values())
+
+
+def load_tests(cfg: Config):
+    """The TestData of a one-test config, or the TestSet of a run with tests."""
+    from bayes_dnlr.data import load_test
+
+    if not cfg.is_joint:
+        return load_test(cfg)
+    return TestSet({t: load_test(cfg.for_test(t)) for t in cfg.test_names})
+
+
+def _data_sha(cfg: Config) -> str | None:
+    """The data fingerprint without loading (None when a data file is missing)."""
+    paths = [c.data_path for c in cfg.test_configs()]
+    if not all(p.is_file() for p in paths):
+        return None
+    if not cfg.is_joint:
+        return file_sha256(paths[0])
+    return digest(dict(zip(cfg.test_names, (file_sha256(p) for p in paths), strict=True)))
+
+def _fit_path(run_dir: Path) -> Path:
+    return Path(run_dir) / FIT_FILE
+
+
+def load_fit(run_dir: str | Path) -> dict[str, Any]:
+    """The content of ``<run_dir>/fit.json``."""
+    path = _fit_path(Path(run_dir))
+    if not path.is_file():
+        raise RunError(f"{path}: no fit.json in this run directory (run `fit` first)")
+    try:
+        return json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise RunError(f"{path}: not a readable fit.json ({err}); run `fit --force` to redo it") from None
+
+
+def _stale_reason(saved: Mapping[str, Any], cfg: Config, sha256: str) -> str | None:
+    """Why a saved fit.json does not belong to this config and data (None when it does)."""
+    reasons = []
+    secs = sections(cfg)
+    if saved.get("config_digest") != config_digest(cfg, secs):
+        old = saved.get("config_sections") or {}
+        diff = [s for s, d in section_digests(cfg, secs).items() if old.get(s) != d]
+        reasons.append(f"a different config (sections {', '.join(diff) or secs})")
+    if saved.get("data_sha256") != sha256:
+        reasons.append("a different data file (sha256 differs)")
+    return " and ".join(reasons) or None
+
+
+def fit_is_current(cfg: Config, data_sha256: str | None = None) -> bool:
+    """True when ``cfg.run_dir/fit.json`` exists and was made from this config and data file
+    (``data_sha256``: the data file's hash when the caller already has it)."""
+    path = _fit_path(cfg.run_dir)
+    sha = data_sha256 or _data_sha(cfg)
+    if not path.is_file() or sha is None:
+        return False
+    try:
+        saved = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError, OSError):
+        return False
+    return _stale_reason(saved, cfg, sha) is None
+
+
+def stale_fit_reason(cfg: Config, data_sha256: str) -> str | None:
+    """Why an existing ``cfg.run_dir/fit.json`` does not belong to this config and data (None when
+    there is none or it does)."""
+    path = _fit_path(cfg.run_dir)
+    if not path.exists():
+        return None
+    try:
+        return _stale_reason(json.loads(path.read_text()), cfg, data_sha256)
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        return f"an unreadable file ({err})"
+
+
+def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) -> FitResult | JointFitResult:
+    """Least-squares fit of the configured test(s); writes ``cfg.run_dir/fit.json`` (unless
+    write=False). Returns a FitResult, or a JointFitResult for a run with ``tests:``.
+
+    ``test``: the TestData (or TestSet) of ``cfg`` when the caller has already loaded it.
+    An existing fit.json made from another config (sections data, model, parameters, noise, fit,
+    tests) or other data is never replaced silently: RunError unless ``overwrite`` (CLI ``--force``).
+    """
+    t0 = time.perf_counter()
+    if write:
+        check_output_dir(cfg.run_dir, writable=True)
+    if test is None:
+        test = load_tests(cfg)
+    path = _fit_path(cfg.run_dir)
+    if write and not overwrite and path.exists():
+        reason = stale_fit_reason(cfg, test.sha256)
+        if reason is not None:
+            raise RunError(f"{path} exists and was made from {reason}; pass --force "
+                           "(overwrite=True) to replace it")
+    if cfg.is_joint:
+        result = fit_joint(cfg, test.tests)
+    else:
+        result = fit_test(cfg, test)
+    secs = sections(cfg)
+    result.config_digest = config_digest(cfg, secs)
+    result.config_sections = section_digests(cfg, secs)
+    result.data_sha256 = test.sha256
+    result.wall_time_s = time.perf_counter() - t0
+    if write:
+        created = not cfg.run_dir.exists()
+        try:
+            prepare_run_dir(cfg)
+            write_json(path, result.to_dict())
+        except BaseException:
+            if created:     # leave no half-made run directory (a config without its fit.json)
+                resolved_config_path(cfg).unlink(missing_ok=True)
+                discard_if_empty(cfg.run_dir)
+            raise
+    return result

@@ -1,0 +1,447 @@
+"""``sample`` as a run: the posterior of a config, sampled into ``<run_dir>/chains.h5``, then
+posterior.nc and summary.json (``python -m bayes_dnlr sample``).
+
+1. Posterior: priors from the config, Gaussian likelihood with σ0 fixed (number, residuals,
+   baseline: resolved once, from fit.json) or sampled (``sigma0`` with its prior); see
+   inference/posterior/likelihood.py.
+2. Start: the walkers are drawn from the least-squares estimate and its linearized covariance
+   (fit.json, eq. 32; ``fit`` runs first when fit.json is missing or stale).
+3. Sampling and stopping: inference/mcmc/ensemble.py (``run_ensemble``).
+4. Storage: chains.h5 (runs/chains.py), appended every ``checkpoint_every`` steps; a re-run
+   resumes from the last checkpoint and continues the same chain bit-exactly; a changed config or
+   data file is refused (RunError) unless ``restart``; a finished, current run is not sampled again.
+5. Outputs: posterior.nc, summary.json (runs/outputs.py).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bayes_dnlr.config.schema import Config, ConfigError
+from bayes_dnlr.errors import BayesDnlrError, StaleRunError
+from bayes_dnlr.inference.mcmc.ensemble import (
+    MIN_STEPS_FOR_TAU,
+    MOVES,
+    Convergence,
+    StopRule,
+    convergence,
+    make_moves,
+    run_ensemble,
+    shortfall,
+    start_ensemble,
+    stop_reason,
+)
+from bayes_dnlr.runs.netcdf import PosteriorDraws
+from bayes_dnlr.runs.outputs import (
+    POSTERIOR_FILE,
+    SUMMARY_FILE,
+    Posterior,
+    gauss_newton_block,
+    load_posterior,
+    read_summary,
+    summarize,
+    write_outputs,
+)
+from bayes_dnlr.inference.posterior.priors import build_priors, sampled_names
+from bayes_dnlr.runs.chains import ChainWriter, SamplerState, StoredRun, read_attrs, read_run
+from bayes_dnlr.interrupt import Interrupted
+from bayes_dnlr.runs.fit import load_tests, sections
+from bayes_dnlr.runs.noise_summary import joint_noise_block, noise_block, residual_warnings
+from bayes_dnlr.runs.target import joint_target, single_target
+from bayes_dnlr.runs.folder import (
+    check_output_dir,
+    digest,
+    discard_if_empty,
+    jsonable,
+    make_dir,
+    prepare_run_dir,
+    resolved_config_text,
+    section_digests,
+)
+from bayes_dnlr.runs.lock import run_lock
+
+CHAINS_FILE = "chains.h5"
+LOCK_FILE = "sample.lock"
+# config sections that change the posterior or the chain; max_steps, target_ess, checkpoint_every,
+# burn_in_tau and min_tau_multiple only decide how long to sample and what to keep.
+POSTERIOR_SECTIONS = ("data", "model", "parameters", "noise")
+SAMPLER_KEYS = ("walkers", "seed", "moves")
+
+
+# ---------------------------------------------------------------- configuration
+
+def check_sampler(cfg: Config, names: list[str]) -> None:
+    """Sampler settings that depend on the number of sampled parameters (before anything runs)."""
+    where = str(cfg.source) if cfg.source is not None else "config"
+    ndim = len(names)
+    if cfg.sampler.walkers < 2 * ndim:
+        raise ConfigError(
+            f"{where}: sampler.walkers: {cfg.sampler.walkers} walkers for {ndim} sampled parameters "
+            f"({', '.join(names)}); the ensemble moves need at least 2 × {ndim} = {2 * ndim} "
+            f"(32 is a good choice)")
+
+
+def fingerprint_parts(cfg: Config, data_sha256: str) -> dict[str, str]:
+    """Digests of what the chain depends on: config sections, sampler walkers/seed/moves, data file."""
+    parts = section_digests(cfg, sections(cfg, POSTERIOR_SECTIONS))
+    sampler = cfg.sampler.model_dump(mode="json")
+    parts["sampler"] = digest({k: sampler[k] for k in SAMPLER_KEYS})
+    parts["data file"] = data_sha256
+    return parts
+
+
+def stale_reason(attrs: dict[str, Any], parts: dict[str, str]) -> str | None:
+    """Why a stored chain does not belong to this config and data (None when it does)."""
+    try:
+        old = json.loads(attrs.get("fingerprint_parts", "{}"))
+    except (TypeError, json.JSONDecodeError):
+        old = {}
+    changed = [k for k, v in parts.items() if old.get(k) != v]
+    if not changed:
+        return None
+    what = []
+    sections = [("sampler." + "/".join(SAMPLER_KEYS) if k == "sampler" else k)
+                for k in changed if k != "data file"]
+    if sections:
+        what.append(f"config section(s) {', '.join(sections)} changed")
+    if "data file" in changed:
+        what.append("the data file changed (sha256 differs)")
+    return " and ".join(what)
+
+
+# ---------------------------------------------------------------- helpers
+
+def _standards(test) -> dict[str, float | None] | None:
+    try:
+        from bayes_dnlr.standards import standard_moduli
+    except ImportError:
+        return None
+    try:
+        return standard_moduli(test)
+    except Exception as err:  # noqa: BLE001 - a failed standard modulus must not lose a posterior
+        print(f"note: standard moduli not computed ({err})", file=sys.stderr)
+        return None
+
+
+def _settings(cfg: Config) -> dict[str, Any]:
+    s = cfg.sampler
+    return {"burn_in_tau": s.burn_in_tau, "min_tau_multiple": s.min_tau_multiple,
+            "target_ess": s.target_ess, "max_steps": s.max_steps}
+
+
+def _remove_outputs(run_dir: Path) -> None:
+    for name in (CHAINS_FILE, POSTERIOR_FILE, SUMMARY_FILE):
+        p = run_dir / name
+        if p.exists():
+            p.unlink()
+
+
+# ---------------------------------------------------------------- sampling
+
+def sample(cfg: Config, *, restart: bool = False, progress: bool = True,
+           threads: int | None = None) -> Posterior:
+    """Sample the posterior of ``cfg`` to convergence (or max_steps); resumable. See the module doc.
+
+    ``threads``: threads of the compiled likelihood, instead of config ``sampler.threads``; both
+    are capped by NUMBA_NUM_THREADS and OMP_NUM_THREADS (``model.threads.use_threads``). The chain
+    does not depend on it."""
+    from bayes_dnlr.model.threads import use_threads
+
+    t0 = time.perf_counter()
+    use_threads(threads if threads is not None else cfg.sampler.threads)
+    names = sampled_names(cfg)
+    if not cfg.is_joint:             # a joint run knows its names after the fit
+        check_sampler(cfg, names)
+    build_priors(cfg)               # validate the model priors early
+    make_moves(cfg.sampler.moves)
+    check_output_dir(cfg.run_dir, writable=False)
+    test = load_tests(cfg)
+    created = make_dir(cfg.run_dir)
+    try:
+        with _run_lock(cfg.run_dir):
+            post = _sample(cfg, test, names, restart=restart, progress=progress)
+    except BaseException:
+        if created:
+            discard_if_empty(cfg.run_dir)   # nothing half-made is left by a failed first command
+        raise
+    timing = post.extras.setdefault("timing", {})
+    timing["total_s"] = time.perf_counter() - t0
+    return post
+
+
+def _run_lock(run_dir: Path):
+    """One ``sample`` per run directory at a time (bayes_dnlr/runs/lock.py: released even on SIGKILL,
+    removed when the command ends)."""
+    return run_lock(run_dir, LOCK_FILE, f"{run_dir}: another `sample` is running on this run "
+                    "directory; wait for it or stop it (its chain is kept and resumes)")
+
+
+def _current_fit(cfg: Config, test, *, replace: bool, progress: bool) -> dict[str, Any]:
+    """fit.json for this config and data, running the fit when it is missing. A fit.json made from
+    another config or data is replaced only when ``replace`` (sample --restart): never silently."""
+    from bayes_dnlr.runs.fit import fit as run_fit
+    from bayes_dnlr.runs.fit import fit_is_current, load_fit, stale_fit_reason
+
+    if not fit_is_current(cfg, test.sha256):
+        reason = None if replace else stale_fit_reason(cfg, test.sha256)
+        if reason is not None:
+            path = cfg.run_dir / "fit.json"
+            config = cfg.source if cfg.source is not None else "<config.yaml>"
+            chain = ("the chain in chains.h5 still matches the config and is kept"
+                     if (cfg.run_dir / CHAINS_FILE).exists() else "nothing is lost")
+            raise StaleRunError(
+                f"{path} was made from {reason}, and `sample` does not replace a fit silently. Redo "
+                f"the fit with `python -m bayes_dnlr fit --force {config}`, then run `sample` again "
+                f"({chain}); or `sample --restart`, which redoes the fit and also discards this run's "
+                "chain")
+        if progress:
+            print("fit.json missing or stale: running the least-squares fit first", file=sys.stderr)
+        run_fit(cfg, overwrite=replace, test=test)
+    return load_fit(cfg.run_dir)
+
+
+def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: bool) -> Posterior:
+    run_dir = cfg.run_dir
+    chains = run_dir / CHAINS_FILE
+    parts = fingerprint_parts(cfg, test.sha256)
+    fp = digest(parts)
+    sc = cfg.sampler
+
+    stored: StoredRun | None = None
+    if chains.exists() and restart:
+        _remove_outputs(run_dir)
+    elif chains.exists():
+        try:
+            attrs = read_attrs(chains)
+            reason = stale_reason(attrs, parts)
+        except OSError as err:
+            raise StaleRunError(f"{chains}: cannot read the stored chain ({err}); sample --restart "
+                           "(restart=True) discards it and starts again") from None
+        if reason is not None:
+            raise StaleRunError(f"{chains} was sampled from another config or data: {reason}. Refusing to "
+                           "mix chains; sample --restart (restart=True) discards it and starts again, "
+                           "or set output.dir to sample into another run directory")
+        try:
+            stored = read_run(chains)
+        except OSError as err:
+            raise StaleRunError(f"{chains}: no usable checkpoint ({err}); sample --restart discards "
+                                "it") from None
+        done = _finished_result(cfg, test, stored, fp)
+        if done is not None:
+            return done
+
+    t_fit = time.perf_counter()
+    fit = _current_fit(cfg, test, replace=restart, progress=progress)
+    t_fit = time.perf_counter() - t_fit
+    prepare_run_dir(cfg)
+    target = (joint_target(cfg, test.tests, fit, stored) if cfg.is_joint
+              else single_target(cfg, test, fit, stored))
+    post, priors, names = target.post, target.priors, target.names
+    sigma0, sigma0_source = target.sigma0, target.sigma0_source
+    check_sampler(cfg, names)
+    if stored is not None and (stored.names != names or [bool(v) for v in stored.attrs.get(
+            "log_space", [])] != [bool(v) for v in priors.log_space]):
+        raise StaleRunError(f"{chains} holds parameters {stored.names} sampled in other coordinates "
+                       f"(made by bayes_dnlr {stored.attrs.get('version')}); it cannot be continued: "
+                       "sample --restart discards it and starts again")
+
+    walkers, ndim = sc.walkers, len(names)
+    if stored is None:
+        coords, lp = start_ensemble(post, priors, target.x0, target.cov, walkers, sc.seed)
+        state0 = SamplerState(coords, lp, np.random.RandomState(sc.seed).get_state())
+        meta = {
+            "names": names, "log_space": [bool(v) for v in priors.log_space], "walkers": walkers,
+            "ndim": ndim, "config": resolved_config_text(cfg), "fingerprint": fp,
+            "fingerprint_parts": json.dumps(parts), "data_sha256": test.sha256,
+            "data_file": str(test.path), "version": _version(), "modes": cfg.model.modes,
+            "decades": cfg.model.decades, "moves": sc.moves, "seed": sc.seed,
+            "sigma0": _sigma0_attr(sigma0), "sigma0_source": json.dumps(sigma0_source),
+            "created": datetime.now(UTC).isoformat(timespec="seconds"), **target.meta,
+        }
+        writer = ChainWriter.create(chains, meta, walkers, ndim, state0, priors.to_physical,
+                                    chunk_steps=sc.checkpoint_every, n_evals=0)
+        chain0 = np.empty((0, walkers, ndim))
+        elapsed0, evals0, state = 0.0, 0, state0
+        fresh = True
+    else:
+        writer = ChainWriter.resume(chains, priors.to_physical)
+        chain0 = stored.chain
+        elapsed0, evals0, state = stored.elapsed, stored.n_evals, stored.state
+        post(state.coords[:1])      # numba: load/compile outside the timed loop
+        post.n_evals = 0
+        fresh = False
+
+    rule = StopRule(sc.burn_in_tau, sc.min_tau_multiple, sc.target_ess, sc.max_steps,
+                    sc.checkpoint_every)
+    # storage inside the loop only: creating or re-publishing the file happened before it
+    store_before, store_prev = writer.store_time, (stored.store_time if stored is not None else 0.0)
+    try:
+        out = run_ensemble(post, priors.to_physical, sc.moves, state, chain0, writer, rule,
+                           fresh=fresh, elapsed0=elapsed0, evals0=evals0, progress=progress)
+    except BaseException as err:
+        steps = writer.steps
+        writer.close()
+        kept = f"stopped at step {steps}; the chain is saved in {chains}: run `sample` again to continue"
+        if isinstance(err, KeyboardInterrupt):
+            raise Interrupted(kept) from None
+        if progress and not isinstance(err, BayesDnlrError):
+            print(f"\n{kept}", file=sys.stderr)
+        raise
+    conv, reason = out.convergence, out.reason
+    elapsed = elapsed0 + out.sampling_time
+    store_time = store_prev + writer.store_time - store_before
+    t_finish = time.perf_counter()
+    writer.finish({"stop_reason": reason, "steps": int(out.chain.shape[0]),
+                   "finished": datetime.now(UTC).isoformat(timespec="seconds")})
+    t_finish = time.perf_counter() - t_finish
+    t_out = time.perf_counter()
+    run = read_run(chains)
+    post = _write_result(cfg, run, fit, conv, reason, fp, test, sigma0_source,
+                         wall_time=elapsed, store_time=store_time, evals=evals0 + out.evals,
+                         check_time=out.check_time)
+    # where a call's time went (benchmarks/sample_command.py): the fit (or reading fit.json), the
+    # sampling loop, and the outputs (finishing chains.h5, statistics, posterior.nc, summary.json)
+    post.extras["timing"] = {"fit_s": t_fit, "loop_s": out.sampling_time,
+                             "loop_cpu_s": out.cpu_time, "loop_steps": int(out.chain.shape[0]),
+                             "output_s": time.perf_counter() - t_out + t_finish}
+    return post
+
+
+def _json_attr(v: Any) -> Any:
+    """A chain attribute written as JSON (older chains hold plain strings)."""
+    try:
+        return json.loads(v)
+    except (TypeError, ValueError):
+        return v
+
+
+def _sigma0_used(run: StoredRun, draws: np.ndarray, cfg: Config) -> Any:
+    """σ0 (MPa) of the likelihood: the fixed value, or the posterior mean when sampled; per test
+    ({test: value}) in a joint run."""
+    names = run.names
+    stored = _json_attr(run.attrs.get("sigma0"))
+
+    def value(name: str, fixed: Any) -> float:
+        if name in names:
+            return float(draws[:, :, names.index(name)].mean())
+        return float("nan") if fixed is None else float(fixed)
+
+    if cfg.is_joint:
+        return {t: value(f"sigma0[{t}]", (stored or {}).get(t)) for t in cfg.test_names}
+    return value("sigma0", stored)
+
+
+def _sigma0_attr(sigma0: Any) -> Any:
+    """σ0 as a chain attribute: a number, NaN when sampled, JSON for a joint run's per-test values."""
+    if isinstance(sigma0, dict):
+        return json.dumps({t: (None if v is None else float(v)) for t, v in sigma0.items()})
+    return float("nan") if sigma0 is None else float(sigma0)
+
+
+def _threads_in_use() -> int:
+    from bayes_dnlr.model.threads import get_threads
+
+    return get_threads()
+
+
+def _version() -> str:
+    from bayes_dnlr import __version__
+
+    return __version__
+
+
+def _finished_result(cfg: Config, test, stored: StoredRun, fp: str) -> Posterior | None:
+    """For a finished run whose stopping rule still holds: its Posterior (outputs rewritten only
+    when missing or made with other settings). None when sampling must continue."""
+    if not stored.finished:
+        return None
+    sc = cfg.sampler
+    n = stored.steps
+    conv = (convergence(stored.chain, sc.burn_in_tau, sc.min_tau_multiple, sc.target_ess)
+            if n >= MIN_STEPS_FOR_TAU else None)
+    reason = stop_reason(conv, n, sc.max_steps)
+    if reason is None:
+        return None       # e.g. max_steps or target_ess raised: sample on from the last state
+    summary = read_summary(cfg.run_dir)
+    note = (f"{cfg.run_dir / CHAINS_FILE}: finished earlier ({reason} at step {n}); nothing sampled "
+            "(sample --restart to sample again)")
+    if (summary is not None and summary.get("fingerprint") == fp and summary.get("steps") == n
+            and summary.get("settings") == _settings(cfg)
+            and (cfg.run_dir / POSTERIOR_FILE).is_file()):
+        return load_posterior(cfg.run_dir, note=note)
+    # outputs missing or made with other burn-in/stopping settings: rebuild them from the chain
+    fit = _current_fit(cfg, test, replace=False, progress=False)
+    post = _write_result(cfg, stored, fit, conv, reason, fp, test,
+                         _json_attr(stored.attrs.get("sigma0_source", "")), wall_time=stored.elapsed,
+                         store_time=stored.store_time, evals=stored.n_evals)
+    post.note = note + "; summary.json and posterior.nc rewritten from the chain"
+    return post
+
+
+def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Convergence | None,
+                  reason: str | None, fp: str, test, sigma0_source: str, *, wall_time: float,
+                  store_time: float, evals: int, check_time: float | None = None) -> Posterior:
+    """posterior.nc and summary.json from the stored chain. ``wall_time``: the sampling loops
+    (all sessions), ``store_time`` the checkpoint writes inside them, ``check_time`` the checks of
+    the stopping rule in the last session (None: not measured)."""
+    sc = cfg.sampler
+    names = run.names
+    if conv is None:
+        conv = convergence(run.chain, sc.burn_in_tau, sc.min_tau_multiple, sc.target_ess)
+    burn = conv.burn_in
+    draws = run.chain[burn:]
+    lp = run.log_prob[burn:]
+    sigma0 = _sigma0_used(run, draws, cfg)
+    sampling = max(wall_time - store_time, 1e-12)
+    acc = float(run.accepted[burn:].mean()) if run.accepted.size else float("nan")
+    warnings = []
+    if reason != "converged":
+        warnings.append(f"not converged: stopped at max_steps = {sc.max_steps}: "
+                        f"{shortfall(conv, names, sc.target_ess, sc.min_tau_multiple)} "
+                        f"(about {conv.needed_steps} steps needed)")
+    extra = {
+        "sigma0": sigma0, "n_points": int(test.n_points), "steps": int(run.steps),
+        "wall_time_s": wall_time,
+        "standards": ({t: _standards(d) for t, d in test.tests.items()} if cfg.is_joint
+                      else _standards(test)),
+        "deborah_max": ({t: f.get("deborah_max") for t, f in (fit.get("single_fits") or {}).items()}
+                        if cfg.is_joint else fit.get("deborah_max")),
+        "name": cfg.name, "stop_reason": reason, "converged": reason == "converged",
+        "burn_in": int(burn), "target_ess": sc.target_ess, "moves": MOVES.get(sc.moves, sc.moves),
+        "seed": sc.seed, "threads": _threads_in_use(), "acceptance_fraction": acc,
+        "sigma0_source": sigma0_source,
+        "storage_time_s": store_time, "storage_overhead": store_time / sampling,
+        "log_prob_evals": int(evals), "log_prob_evals_per_s": evals / sampling,
+        "check_time_s": check_time,
+        "settings": _settings(cfg), "fingerprint": fp, "data_sha256": test.sha256,
+        "version": _version(),
+    }
+    attrs = {"burn_in": int(burn), "stop_reason": reason, "walkers": int(run.chain.shape[1]),
+             "steps": int(run.steps), "moves": sc.moves, "seed": sc.seed, "run": cfg.name,
+             "sampling_coordinates": json.dumps({k: ("log" if ls else "linear") for k, ls in
+                                                 zip(names, run.attrs.get("log_space", []),
+                                                     strict=False)})}
+    dt = PosteriorDraws(names, draws, lp, attrs)     # posterior.nc without importing xarray
+    summary = summarize(names, draws, fit=fit, tau=conv.tau, extra=extra)
+    if cfg.is_joint:
+        summary["noise"] = jsonable(joint_noise_block(cfg, fit, summary, sigma0, sigma0_source,
+                                                      json.loads(run.attrs.get("layout", "{}"))))
+    else:
+        summary["noise"] = jsonable(noise_block(cfg, fit, summary, sigma0, sigma0_source))
+    if summary["noise"]["model"] == "discrepancy" and fit.get("discrepancy"):
+        summary["generalized_least_squares"] = gauss_newton_block(
+            {"parameters": fit.get("parameters"), **fit["discrepancy"]})
+    summary["warnings"] = warnings + [
+        f"R-hat of {k} is {summary['posterior'][k]['r_hat']:.4f} > 1.01"
+        for k in names if (summary["posterior"][k]["r_hat"] or 0) > 1.01] + residual_warnings(fit)
+    if summary["noise"]["model"] == "white" and summary["noise"].get("fit_residuals_white") is False:
+        summary["warnings"].append(summary["noise"]["verdict"])
+    write_outputs(cfg.run_dir, dt, summary)
+    return Posterior(cfg.run_dir, summary)          # its DataTree is read from posterior.nc on use

@@ -1,0 +1,406 @@
+"""Many tests at once: fit, sample and (optionally) report each test of a batch, on all local cores
+(joblib, loky processes) or on a Dask distributed cluster (joblib's dask backend).
+
+- **One test per process**, one thread each: the workers run with OMP/OpenBLAS/MKL/NUMBA threads
+  limited to 1 (loky's ``inner_max_num_threads``; on Dask workers ``threadpoolctl`` and
+  ``numba.set_num_threads`` at run time), so tests running side by side do not oversubscribe.
+- **Resumable**: each finished test leaves ``<out>/rows/<name>.json``; a re-run skips a test whose
+  row is current (same config fingerprint and data file as its summary.json, report present) and
+  dispatches the rest, where ``sample`` resumes an interrupted chain from chains.h5 and skips a
+  finished one, and the report is made only when missing or older than summary.json.
+- **Faults stay local**: an exception in one test becomes a row with status ``failed`` and the
+  error; the others go on.
+- **Outputs** in ``out``: ``results.csv`` and ``results.parquet`` (one row per test: every parameter's
+  posterior summary, R-hat, ESS, τ, the Gauss-Newton estimate, warnings, standards moduli), ``rows/``.
+
+``run_batch(jobs, out, ...)`` returns a ``BatchResult``; the report layer adds the batch page
+(``bayes_dnlr.workflows.batch.page``). Results are identical whichever backend runs them: each test's chain
+depends only on its config (seed) and data.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import sys
+import time
+import traceback
+from collections.abc import Callable, Iterator
+from contextlib import ExitStack, contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from bayes_dnlr.config.schema import DISCREPANCY_PARAMETERS, PARAMETER_NAMES
+from bayes_dnlr.errors import BayesDnlrError, StaleRunError
+from bayes_dnlr.workflows.batch.manifest import BatchError, Job
+from bayes_dnlr.runs.folder import digest, jsonable, write_atomic, write_json
+from bayes_dnlr.runs.lock import run_lock
+
+ROWS_DIR = "rows"
+TABLE_CSV = "results.csv"
+TABLE_PARQUET = "results.parquet"
+LOCK_FILE = "batch.lock"
+THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS",
+               "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")
+STATS = ("mean", "sd", "median", "hdi90_lo", "hdi90_hi", "ess_bulk", "ess_tail", "r_hat", "tau")
+ORDER = (*PARAMETER_NAMES, "sigma0", *DISCREPANCY_PARAMETERS)
+
+Reporter = Callable[[Path], Any]
+
+
+@dataclass
+class BatchResult:
+    """What a batch did: one row per test (input order), where the outputs are, counts."""
+
+    rows: list[dict[str, Any]]
+    out: Path
+    backend: str
+    elapsed_s: float
+    written: list[Path] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)      # further lines of the summary (population)
+
+    def count(self, status: str) -> int:
+        return sum(r.get("status") == status for r in self.rows)
+
+    @property
+    def failed(self) -> list[dict[str, Any]]:
+        return [r for r in self.rows if r.get("status") == "failed"]
+
+    @property
+    def reused(self) -> int:
+        return sum(bool(r.get("reused")) and r.get("status") == "ok" for r in self.rows)
+
+    def summary(self) -> str:
+        n = len(self.rows)
+        ok = self.count("ok")
+        lines = [f"{n} tests ({self.backend}): {ok} ok ({self.reused} already done, skipped), "
+                 f"{self.count('failed')} failed, {self.count('pending')} not run; "
+                 f"{self.elapsed_s:.1f} s"]
+        lines += [f"  failed: {r['name']}: {r.get('error')}" for r in self.failed]
+        lines += [f"  {n}" for n in self.notes]
+        lines += [f"  wrote {p}" for p in self.written]
+        return "\n".join(lines)
+
+
+# ---------------------------------------------------------------- one test (runs in a worker)
+
+@contextmanager
+def single_threaded() -> Iterator[None]:
+    """BLAS/OpenMP and numba limited to one thread in this process while a test runs."""
+    import numba
+    from threadpoolctl import threadpool_limits
+
+    before = numba.get_num_threads()
+    with threadpool_limits(limits=1):
+        numba.set_num_threads(1)
+        try:
+            yield
+        finally:
+            numba.set_num_threads(before)
+
+
+def _stale_report(run_dir: Path) -> bool:
+    report, summary = run_dir / "report.html", run_dir / "summary.json"
+    return not report.is_file() or report.stat().st_mtime < summary.stat().st_mtime
+
+
+def run_job(job: Job, report: Reporter | None = None) -> dict[str, Any]:
+    """Fit, sample and report one test; never raises for a failing test: the row says what failed."""
+    t0 = time.perf_counter()
+    row: dict[str, Any] = {"name": job.name, "origin": job.origin, "run_dir": job.run_dir,
+                           "worker": f"{socket.gethostname()}:{os.getpid()}", "reused": False,
+                           "inputs": job.inputs}
+    try:
+        if job.error is not None:
+            raise BatchError(job.error)
+        with single_threaded():
+            from bayes_dnlr.runs.sample import sample
+
+            cfg = job.config()
+            try:
+                sample(cfg, progress=False)
+            except StaleRunError:
+                if not job.restart:
+                    raise
+                sample(cfg, progress=False, restart=True)   # batch --restart: only stale runs
+            if report is not None and _stale_report(cfg.run_dir):
+                report(cfg.run_dir)
+            row.update(result_row(job, cfg))
+        row["status"] = "ok"
+    except Exception as err:  # noqa: BLE001 - one failing test must not stop the batch
+        row["status"] = "failed"
+        row["error"] = f"{type(err).__name__}: {err}"
+        if isinstance(err, StaleRunError):
+            row["error"] += " (in a batch: `batch --restart` restarts such tests and keeps the others)"
+        if not isinstance(err, BayesDnlrError):
+            row["traceback"] = "".join(traceback.format_exception(err)[-6:])
+    row["elapsed_s"] = time.perf_counter() - t0
+    return row
+
+
+def fingerprint(cfg) -> dict[str, Any]:
+    """What a finished test's outputs depend on: the chain's fingerprint (config sections, sampler
+    walkers/seed/moves, data file sha256) and the settings that decide its length and burn-in."""
+    from bayes_dnlr.runs.fit import _data_sha
+    from bayes_dnlr.runs.sample import _settings, fingerprint_parts
+
+    sha = _data_sha(cfg)            # the data file's sha256 (a digest of them for a run with tests:)
+    if sha is None:
+        raise BatchError(f"{cfg.name}: a data file is missing")
+    return {"chain": digest(fingerprint_parts(cfg, sha)), "settings": _settings(cfg)}
+
+
+def result_row(job: Job, cfg) -> dict[str, Any]:
+    """A finished run's numbers, flat: one column per parameter statistic (summary.json, fit.json)."""
+    run_dir = cfg.run_dir
+    summary = json.loads((run_dir / "summary.json").read_text())
+    fit_path = run_dir / "fit.json"
+    fit = json.loads(fit_path.read_text()) if fit_path.is_file() else {}
+    post = summary.get("posterior") or {}
+    tau = summary.get("autocorr_time") or {}
+    gn = summary.get("gauss_newton") or {}
+    truth = cfg.truth.params if cfg.truth is not None else {}
+    row: dict[str, Any] = {
+        "data_file": ", ".join(str(c.data_path) for c in cfg.test_configs()),
+        "n_points": summary.get("n_points"),
+        "walkers": summary.get("walkers"), "steps": summary.get("steps"),
+        "converged": summary.get("converged"), "stop_reason": summary.get("stop_reason"),
+        "sampling_time_s": summary.get("wall_time_s"),
+        "noise_model": (summary.get("noise") or {}).get("model"), "sigma0_used": summary.get("sigma0"),
+    }
+    for p in [n for n in ORDER if n in post] + [n for n in post if n not in ORDER]:
+        s = post[p]
+        hdi = s.get("hdi_90") or [None, None]
+        vals = {"mean": s.get("mean"), "sd": s.get("sd"), "median": s.get("median"),
+                "hdi90_lo": hdi[0], "hdi90_hi": hdi[1], "ess_bulk": s.get("ess_bulk"),
+                "ess_tail": s.get("ess_tail"), "r_hat": s.get("r_hat"), "tau": tau.get(p)}
+        row.update({f"{p}_{k}": v for k, v in vals.items()})
+        est, sd = (gn.get("estimate") or {}).get(p), (gn.get("sd") or {}).get(p)
+        if est is not None:
+            row[f"{p}_gn"], row[f"{p}_gn_sd"] = est, sd
+        if p in truth:
+            row[f"{p}_true"] = truth[p]
+    for p, v in cfg.fixed_values.items():
+        row[f"{p}_fixed"] = v
+    std = summary.get("standards") or {}
+    for key in ("iso527_1", "astm_d638"):      # one value, or one per test in a run with tests:
+        v = std.get(key)
+        if isinstance(v, int | float) or v is None:
+            row[key] = v
+    for test, values in std.items():
+        if isinstance(values, dict):
+            row.update({f"{key}[{test}]": values.get(key) for key in ("iso527_1", "astm_d638")})
+    row["deborah_max"] = summary.get("deborah_max")
+    rhats = [s.get("r_hat") for s in post.values() if s.get("r_hat") is not None]
+    esss = [min(s.get("ess_bulk") or 0, s.get("ess_tail") or 0) for s in post.values()]
+    row["r_hat_max"] = max(rhats) if rhats else None
+    row["ess_min"] = min(esss) if esss else None
+    warnings = list(summary.get("warnings") or []) + [
+        w for w in (fit.get("warnings") or []) if w not in (summary.get("warnings") or [])]
+    row["n_warnings"] = len(warnings)
+    row["warnings"] = " | ".join(warnings)
+    row["report"] = str(run_dir / "report.html") if (run_dir / "report.html").is_file() else None
+    row["fingerprint"] = fingerprint(cfg)
+    return row
+
+
+# ---------------------------------------------------------------- the batch (parent process)
+
+def _row_path(out: Path, name: str) -> Path:
+    return out / ROWS_DIR / f"{name}.json"
+
+
+def current_row(job: Job, out: Path, want_report: bool) -> dict[str, Any] | None:
+    """The stored row of a test that is finished and still current, else None (run it)."""
+    path = _row_path(out, job.name)
+    if job.error is not None or not path.is_file():
+        return None
+    try:
+        row = json.loads(path.read_text())
+        if row.get("status") != "ok":
+            return None
+        cfg = job.config()
+        fp = fingerprint(cfg)
+        summary = json.loads((cfg.run_dir / "summary.json").read_text())
+    except (OSError, ValueError, BayesDnlrError):
+        return None
+    if row.get("fingerprint") != fp or summary.get("fingerprint") != fp["chain"]:
+        return None
+    if summary.get("settings") != fp["settings"]:
+        return None
+    if want_report and _stale_report(cfg.run_dir):
+        return None
+    return {**row, "reused": True, "origin": job.origin}
+
+
+def _batch_lock(out: Path):
+    """One batch per output folder at a time (bayes_dnlr/runs/lock.py: released even on SIGKILL,
+    removed when the batch ends)."""
+    out.mkdir(parents=True, exist_ok=True)
+    return run_lock(out, LOCK_FILE, f"{out}: another batch is running into this folder; wait for it "
+                    "or stop it (finished tests are kept and the next run resumes)", BatchError)
+
+
+def _dask_client(scheduler: str):
+    """A client of the Dask scheduler: an address (tcp://host:8786), a scheduler file, or
+    ``config`` for the Dask config's ``scheduler-address`` (e.g. DASK_SCHEDULER_ADDRESS)."""
+    try:
+        import dask
+        from dask.distributed import Client
+    except ImportError as err:
+        raise BatchError(f"--scheduler needs dask[distributed] ({err}); pip install "
+                         "'dask[distributed]'") from None
+    try:
+        if scheduler == "config":
+            address = dask.config.get("scheduler-address", None)
+            if not address:
+                raise BatchError("--scheduler config: the Dask config has no scheduler-address (set "
+                                 "DASK_SCHEDULER_ADDRESS or scheduler-address in ~/.config/dask/)")
+            return Client(address, set_as_default=False)
+        if Path(scheduler).is_file():
+            return Client(scheduler_file=scheduler, set_as_default=False)
+        # waits distributed.comm.timeouts.connect (Dask config, 30 s by default) for the scheduler
+        return Client(scheduler, set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as err:
+        raise BatchError(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({err})") from None
+
+
+def _stop_local_workers() -> None:
+    """Stop loky's worker processes once the batch has its rows. joblib keeps them for reuse and
+    joins them at interpreter exit, which took 0.7 s after the last result of a 2-process batch;
+    every chain is committed by then (and a killed writer loses nothing: docs/sampling.md)."""
+    from joblib.externals.loky import reusable_executor
+
+    executor = getattr(reusable_executor, "_executor", None)
+    if executor is not None:
+        executor.shutdown(wait=False)
+
+
+def _results(stack: ExitStack, todo: list[Job], n_jobs: int, client,
+             report: Reporter | None) -> tuple[Iterator[dict[str, Any]], str]:
+    """Rows of ``todo`` as they finish (any order) and the backend's description; the joblib
+    backend stays configured until ``stack`` closes. ``client``: a Dask client, or None (local)."""
+    import joblib
+
+    calls = (joblib.delayed(run_job)(j, report) for j in todo)
+    if client is None:
+        n = n_jobs if n_jobs > 0 else (os.cpu_count() or 1)
+        n = max(1, min(n, len(todo)))
+        stack.enter_context(joblib.parallel_config(backend="loky", n_jobs=n, inner_max_num_threads=1))
+        stack.callback(_stop_local_workers)
+        gen = joblib.Parallel(return_as="generator_unordered", batch_size=1)(calls)
+        return gen, f"{n} local process{'es' if n > 1 else ''} (joblib, loky)"
+    workers = client.scheduler_info().get("workers", {})
+    threads = sum(w.get("nthreads", 1) for w in workers.values())
+    stack.enter_context(joblib.parallel_config(backend="dask", client=client,
+                                               wait_for_workers_timeout=60))
+    gen = joblib.Parallel(n_jobs=-1, return_as="generator_unordered", batch_size=1)(calls)
+    return gen, (f"Dask cluster {client.scheduler.address} ({len(workers)} workers, {threads} "
+                 "threads, joblib dask backend)")
+
+
+def run_batch(jobs: list[Job], out: Path, *, n_jobs: int = -1, scheduler: str | None = None,
+              report: Reporter | None = None, progress: bool = True) -> BatchResult:
+    """Run every job not already done (see the module doc); write the results table into ``out``.
+    ``scheduler``: a Dask scheduler (address, scheduler file or ``config``), else local processes."""
+    if not jobs:
+        raise BatchError("the batch has no tests")
+    out = Path(out).resolve()
+    t0 = time.perf_counter()
+    with ExitStack() as stack:
+        client = None
+        if scheduler is not None:       # connect first: an unreachable cluster writes nothing
+            client = _dask_client(scheduler)
+            stack.callback(client.close)          # disconnects; the cluster keeps running
+        stack.enter_context(_batch_lock(out))
+        (out / ROWS_DIR).mkdir(exist_ok=True)
+        rows: dict[str, dict[str, Any]] = {}
+        for j in jobs:
+            done = current_row(j, out, report is not None)
+            if done is not None:
+                rows[j.name] = done
+        todo = [j for j in jobs if j.name not in rows]
+        backend = "all done earlier: nothing to run"
+        if todo:
+            gen, backend = _results(stack, todo, n_jobs, client, report)
+            for j in todo:              # a stale row must not survive a failed re-run
+                _row_path(out, j.name).unlink(missing_ok=True)
+            try:
+                _collect(gen, rows, len(jobs), out, progress)
+            finally:                    # also after Ctrl-C: the table of what finished
+                result = BatchResult(_ordered(jobs, rows), out, backend, time.perf_counter() - t0)
+                result.written = write_table(result.rows, out)
+        else:
+            result = BatchResult(_ordered(jobs, rows), out, backend, time.perf_counter() - t0)
+            result.written = write_table(result.rows, out)
+    return result
+
+
+def _collect(gen: Iterator[dict[str, Any]], rows: dict[str, dict[str, Any]], total: int, out: Path,
+             progress: bool) -> None:
+    from tqdm import tqdm
+
+    failed = sum(r.get("status") == "failed" for r in rows.values())
+    with tqdm(total=total, initial=len(rows), unit="test", desc="batch", disable=not progress,
+              file=sys.stderr) as bar:
+        for row in gen:
+            write_json(_row_path(out, row["name"]), row)
+            rows[row["name"]] = row
+            failed += row["status"] == "failed"
+            bar.set_postfix_str(f"last {row['name']} ({row['status']}), {failed} failed")
+            bar.update()
+
+
+def _ordered(jobs: list[Job], rows: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
+    out = []
+    for j in jobs:
+        row = rows.get(j.name) or {"name": j.name, "origin": j.origin, "run_dir": j.run_dir,
+                                   "status": "pending", "error": "not run (the batch stopped)"}
+        row = {**row, "inputs": j.inputs}
+        out.append(row)
+    return out
+
+
+def table_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The rows as table records: manifest cells as ``in:<key>`` columns, nested values dropped."""
+    flat = []
+    for r in rows:
+        rec = {k: v for k, v in r.items() if k not in ("inputs", "fingerprint", "traceback")}
+        rec.update({f"in:{k}": v for k, v in (r.get("inputs") or {}).items()})
+        flat.append(rec)
+    return flat
+
+
+def _cell(v: Any) -> Any:
+    """A table cell: nested values (per-test values of a run with tests:) as JSON text."""
+    return json.dumps(v, sort_keys=True) if isinstance(v, dict | list) else v
+
+
+FIRST = ("name", "status", "error", "reused", "origin", "run_dir", "data_file", "worker", "elapsed_s")
+
+
+def write_table(rows: list[dict[str, Any]], out: Path) -> list[Path]:
+    """results.csv and results.parquet (pandas + pyarrow), each replaced atomically."""
+    import pandas as pd
+
+    recs = table_rows(rows)
+    cols: list[str] = [c for c in FIRST if any(c in r for r in recs)]
+    for r in recs:
+        cols += [k for k in r if k not in cols]
+    df = pd.DataFrame([{k: _cell(v) for k, v in jsonable(r).items()} for r in recs], columns=cols)
+    for c in df.columns:
+        if df[c].dtype != object:
+            continue
+        values = [v for v in df[c] if v is not None and v == v]
+        if all(isinstance(v, int | float) and not isinstance(v, bool) for v in values):
+            df[c] = pd.to_numeric(df[c])               # numbers stay numbers: None -> NaN
+        elif not all(isinstance(v, bool) for v in values):
+            df[c] = df[c].map(lambda v: None if v is None or v != v else str(v))  # one type per column
+    csv_path, pq_path = out / TABLE_CSV, out / TABLE_PARQUET
+    write_atomic(csv_path, df.to_csv(index=False))
+    tmp = out / f".{TABLE_PARQUET}.{os.getpid()}.tmp"
+    df.to_parquet(tmp, index=False)
+    os.replace(tmp, pq_path)
+    return [csv_path, pq_path]

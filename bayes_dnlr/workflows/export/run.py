@@ -1,0 +1,267 @@
+"""``python -m bayes_dnlr export RUN_DIR --format abaqus|ls-dyna|ansys|csv|json``: material cards of a
+finished run with its uncertainty (docs/export.md).
+
+Writes ``<run_dir>/export/<format>/`` (or ``--out``): one file per card (median, q05, q95 and
+``--draws`` ensemble members) and ``cards.csv``, the index of the cards with their parameters and
+checks. Nothing is written when an input is wrong; a different existing file is never replaced
+without ``--force``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from bayes_dnlr.errors import BayesDnlrError, RunError
+from bayes_dnlr.workflows.export import FORMAT_NAMES, abaqus, ansys, lsdyna, table
+from bayes_dnlr.workflows.export.cards import (
+    RAMP_CHECK_STRAIN,
+    SMALL_STRAIN_TOLERANCE,
+    STRAIN_FLOOR,
+    Card,
+    CardSet,
+    Poisson,
+    TimeRange,
+    bracket_checks,
+    check_poisson,
+    make_cards,
+    poisson_from_strains,
+    ramp_error,
+    small_strain_limit,
+)
+from bayes_dnlr.workflows.export.context import Context
+from bayes_dnlr.workflows.export.prony import from_parameters
+from bayes_dnlr.numbers import fmt
+from bayes_dnlr.runs.folder import write_atomic
+
+
+@dataclass(frozen=True)
+class Format:
+    render: Callable[[Card, Context], str]
+    extension: str
+    solver: str | None          # a solver that needs ν < 0.5, or None (csv, json)
+
+
+FORMATS = {
+    "abaqus": Format(abaqus.render, abaqus.EXTENSION, abaqus.SOLVER),
+    "ls-dyna": Format(lsdyna.render, lsdyna.EXTENSION, lsdyna.SOLVER),
+    "ansys": Format(ansys.render, ansys.EXTENSION, ansys.SOLVER),
+    "csv": Format(table.render_csv, "csv", None),
+    "json": Format(table.render_json, "json", None),
+}
+INDEX_FILE = "cards.csv"
+assert tuple(FORMATS) == FORMAT_NAMES
+
+
+@dataclass
+class ExportResult:
+    out_dir: Path
+    fmt: str
+    files: list[Path]
+    cards: CardSet
+    context: Context
+    status: str                        # written | up to date
+    removed: list[Path] = field(default_factory=list)
+
+    def table(self) -> str:
+        ctx, cs = self.context, self.cards
+        nu = "not given" if ctx.poisson.value is None else f"{ctx.poisson.value:.4g}"
+        lines = [f"export {ctx.run} -> {self.out_dir} ({self.fmt}; ν = {nu}, {ctx.poisson.source}): "
+                 f"{self.status}"]
+        head = (f"{'card':<10}{'E MPa':>10}{'G MPa':>10}{'tau_max s':>11}{'E(0) MPa':>11}"
+                f"{'E_inf MPa':>11}{'terms':>7}")
+        lines.append(head)
+        for c in cs.cards[:3]:
+            p = c.params
+            lines.append(f"{c.label:<10}{fmt(p['E'], 5):>10}{fmt(p['G'], 5):>10}{fmt(p['tau_max'], 5):>11}"
+                         f"{fmt(c.prony.e0, 5):>11}{fmt(c.prony.e_inf, 4):>11}{c.prony.terms:>7}")
+        extra = cs.cards[3:]
+        if extra:
+            lines.append(f"ensemble: {len(extra)} cards from posterior draws ({extra[0].label} .. "
+                         f"{extra[-1].label}), listed in {INDEX_FILE}")
+        ch = cs.checks
+        e0 = ", ".join(fmt(v, 5) for v in ch["E0"])
+        until = ch["modulus_bracketed_until_s"]
+        rng = cs.time_range
+        brk = (f"in E(t) over the whole test range ({fmt(rng.t_lo, 3)}-{fmt(rng.t_hi, 4)} s)" if until is None
+               else f"in E(t) up to t = {fmt(until, 3)} s only: beyond, the cards cross (a lower E comes "
+                    "with a longer tau_max on the posterior ridge), so they are quantiles of E, not of the "
+                    "long-time modulus: use the --draws ensemble for that")
+        lines.append(f"check: q05/q95 bracket the median in E(0) ({e0} MPa): "
+                     f"{'yes' if ch['E0_bracketed'] else 'NO'}; in the ramp to {100 * RAMP_CHECK_STRAIN:g} % "
+                     f"at {fmt(rng.strain_rate, 3)} 1/s: {'yes' if ch['ramp_bracketed'] else 'NO'}; {brk}")
+        if cs.terms is not None:
+            lines.append(f"--terms {cs.terms}: refitted on {fmt(rng.t_lo, 3)}-{fmt(rng.t_hi, 4)} s; "
+                         f"max error of E(t) {100 * ch['refit_max_error']:.3g} %, of the ramp to "
+                         f"{100 * RAMP_CHECK_STRAIN:g} % (from {fmt(rng.t_lo, 3)} s) "
+                         f"{100 * ch['refit_ramp_error']:.3g} % (worst card)")
+        lines.append(f"limit: the card follows the DNLR model within {100 * SMALL_STRAIN_TOLERANCE:g} % "
+                     f"up to a strain of {fmt(ctx.small_strain_limit, 3)} at {fmt(rng.strain_rate, 3)} 1/s; "
+                     "the viscoplastic hardening beyond needs a user material (the files say so)")
+        lines.append(f"files: {len(self.files)} in {self.out_dir}"
+                     + (f"; removed {len(self.removed)} stale draw cards" if self.removed else ""))
+        return "\n".join(lines)
+
+
+def material_name(name: str) -> str:
+    s = re.sub(r"[^A-Za-z0-9_]", "_", name)
+    return s if s[:1].isalpha() else f"M_{s}"
+
+
+def _config(run_dir: Path):
+    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.runs.folder import find_config
+
+    try:
+        return load_config(find_config(run_dir))
+    except FileNotFoundError as err:
+        raise RunError(f"export: {err}") from None
+
+
+def _time_range(fit: dict, run_dir: Path) -> TimeRange:
+    try:
+        t0, t1 = (float(v) for v in fit["window"]["time"])
+        n = int(fit["window"]["n_points"])
+        rate = float(fit["strain_rate"])
+    except (KeyError, TypeError, ValueError):
+        raise RunError(f"{run_dir}/fit.json: no window time range or strain rate; re-run `fit`") from None
+    if not (t1 > t0 and n > 1 and rate > 0):
+        raise RunError(f"{run_dir}/fit.json: the window spans {t0:g}-{t1:g} s with {n} points at "
+                       f"{rate:g} 1/s: no time range to export for")
+    step = (t1 - t0) / (n - 1)
+    return TimeRange(min(step, STRAIN_FLOOR / rate), t1 - t0, rate)
+
+
+def resolve_poisson(nu: float | None, cfg) -> Poisson:
+    """--nu, else the slope of the data's transverse strain, else None (said so)."""
+    if nu is not None:
+        return Poisson(float(nu), "--nu")
+    if cfg.data is not None and cfg.data.columns.eps22 is not None:
+        from bayes_dnlr.data import load_test
+
+        test = load_test(cfg)
+        end = test.strain.size
+        if test.relaxation_start is not None:
+            end = int(np.searchsorted(test.time, test.relaxation_start, "right"))
+        value, n, top = poisson_from_strains(test.strain[:end], test.transverse_strain[:end])
+        return Poisson(value, f"from the data's transverse strain: slope of -ε22 against ε11 over "
+                              f"0 < ε11 <= {top:.3g}, {n} samples")
+    return Poisson(None, "the data have no transverse strain (data.columns.eps22) and --nu was not given")
+
+
+def _targets(out_dir: Path, files: dict[str, str], force: bool, pattern: str) -> tuple[str, list[Path]]:
+    """Refuse to replace a different file without ``force``; the stale ensemble files to remove."""
+    differ = [n for n, text in files.items()
+              if (out_dir / n).is_file() and (out_dir / n).read_text() != text]
+    stale = sorted(p for p in out_dir.glob(pattern) if p.name not in files) if out_dir.is_dir() else []
+    if (differ or stale) and not force:
+        what = differ[:3] + [p.name for p in stale[:3]]
+        raise RunError(f"{out_dir}: {len(differ) + len(stale)} existing file(s) differ from this export "
+                       f"({', '.join(what)}{', ...' if len(differ) + len(stale) > 3 else ''}); not "
+                       "overwritten. Pass --force to replace them, or --out for another folder")
+    same = all((out_dir / n).is_file() for n in files) and not differ and not stale
+    return ("up to date" if same else "written"), stale
+
+
+def export(run_dir: str | Path, fmt_name: str, *, terms: int | None = None, draws: int = 0,
+           nu: float | None = None, density: float | None = None, out: str | Path | None = None,
+           material: str | None = None, seed: int = 0, force: bool = False) -> ExportResult:
+    """Write the cards of the finished run ``run_dir`` in ``fmt_name`` (docs/export.md)."""
+    from bayes_dnlr.runs.draws import load_run_draws
+
+    if fmt_name not in FORMATS:
+        raise BayesDnlrError(f"--format {fmt_name!r}: expected one of {', '.join(FORMATS)}")
+    form = FORMATS[fmt_name]
+    if draws < 0:
+        raise BayesDnlrError(f"--draws {draws}: give 0 or more")
+    if density is not None and not (math.isfinite(density) and density > 0):
+        raise BayesDnlrError(f"--density {density:g}: a mass density in kg/m³ is > 0")
+    run_dir = Path(run_dir)
+    run = load_run_draws(run_dir, key="export")
+    cfg = _config(run_dir)
+    if cfg.is_joint:
+        raise BayesDnlrError(f"export: {run_dir} is a run with several tests (tests:); export one "
+                             "test's own run directory instead (not supported yet for joint runs)")
+    modes, decades = cfg.model.modes, cfg.model.decades
+    if fmt_name == "ls-dyna":
+        n_terms = (terms if terms is not None else modes) + 1
+        if n_terms > lsdyna.MAX_TERMS:
+            raise BayesDnlrError(
+                f"--terms: LS-DYNA *MAT_GENERAL_VISCOELASTIC takes at most {lsdyna.MAX_TERMS} terms (the "
+                f"long-term one included); the model's series has {modes}: give --terms "
+                f"{lsdyna.MAX_TERMS - 1} or fewer (a refit over the test's time range; its error is printed)")
+        if density is None:
+            raise BayesDnlrError("--density: LS-DYNA needs the mass density RO (in kg/m³; it is written "
+                                 "in tonne/mm³)")
+    poisson = resolve_poisson(nu, cfg)
+    check_poisson(poisson, form.solver)
+    if poisson.value is not None and not -1.0 < poisson.value <= 0.5:
+        raise BayesDnlrError(f"--nu {poisson.value:g}: Poisson's ratio lies in (-1, 0.5]")
+    values = {k: (run.values[k] if k in run.values
+                  else np.full(run.n_draws, float(cfg.fixed_values[k])) if k in cfg.fixed_values else None)
+              for k in ("E", "G", "tau_max")}
+    missing = [k for k, v in values.items() if v is None]
+    if missing:
+        raise RunError(f"{run_dir}: the posterior has no draws of {missing} and the config does not fix "
+                       "them; export needs E, G and tau_max")
+    if not run.fit:
+        raise RunError(f"{run_dir}: no fit.json (the test's time range comes from it); run `fit`")
+    rng = _time_range(run.fit, run_dir)
+    cards = make_cards(values, modes, decades, rng, terms=terms, draws=draws, seed=seed)
+    cards.checks = bracket_checks(cards.cards, rng)
+    if terms is not None:
+        errs = [(c.refit.max_error,
+                 ramp_error(c.prony, from_parameters(c.params["E"], c.params["G"], c.params["tau_max"],
+                                                     modes, decades), rng.strain_rate, rng.t_lo))
+                for c in cards.cards]
+        cards.checks["refit_max_error"] = max(e for e, _ in errs)
+        cards.checks["refit_ramp_error"] = max(r for _, r in errs)
+    median = cards.cards[1] if cards.cards[1].label == "median" else cards.cards[0]
+    mat = material_name(material or cfg.name)
+    ctx = Context(material=mat, run=str(run_dir), poisson=poisson, density=density, modes=modes,
+                  decades=decades, strain_rate=rng.strain_rate,
+                  small_strain_limit=small_strain_limit(median, rng.strain_rate, modes, decades),
+                  t_range=(rng.t_lo, rng.t_hi), notes=_notes(cfg))
+    files = {f"{mat}_{c.label}.{form.extension}": form.render(c, ctx) for c in cards.cards}
+    files[INDEX_FILE] = index_csv(cards, ctx)
+    out_dir = Path(out) if out is not None else run_dir / "export" / fmt_name
+    status, stale = _targets(out_dir, files, force, f"{mat}_draw*.{form.extension}")
+    if status == "written":
+        out_dir.mkdir(parents=True, exist_ok=True)
+        for p in stale:
+            p.unlink()
+        for name, text in files.items():
+            write_atomic(out_dir / name, text)
+    return ExportResult(out_dir, fmt_name, [out_dir / n for n in files], cards, ctx, status, stale)
+
+
+def _notes(cfg) -> list[str]:
+    notes = []
+    fixed = [k for k in ("E", "G", "tau_max") if k in cfg.fixed_values]
+    if fixed:
+        notes.append(f"{', '.join(fixed)} fixed in the run's config (no uncertainty from them).")
+    if cfg.has_relaxation:
+        notes.append("The run's relaxation phase (sigma_inf, tau_max_R: a shifted spectrum during the "
+                     "hold, section 4.1) is not in the card: it is the tensile phase's response.")
+    return notes
+
+
+def index_csv(cards: CardSet, ctx: Context) -> str:
+    """One row per card: its draw, parameters, series and checks (the file's header says more)."""
+    lines = [f"# bayes_dnlr export of {ctx.run}: cards of the small-strain Prony series (docs/export.md)",
+             f"# checks: {json.dumps(cards.checks)}",
+             "card,quantile_of_E,posterior_draw,E_MPa,G_MPa,tau_max_s,E0_MPa,E_inf_MPa,terms,"
+             "refit_max_error"]
+    for c in cards.cards:
+        p = c.params
+        q = "" if c.quantile_of_E is None else f"{c.quantile_of_E:g}"
+        err = "" if c.refit is None else f"{c.refit.max_error:.4g}"
+        lines.append(f"{c.label},{q},{c.draw_index},{p['E']:.10g},{p['G']:.10g},{p['tau_max']:.10g},"
+                     f"{c.prony.e0:.10g},{c.prony.e_inf:.10g},{c.prony.terms},{err}")
+    return "\n".join(lines) + "\n"
