@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
+from bayes_dnlr.model import DNLR
 from bayes_dnlr.workflows.design.config import parse_design
 from bayes_dnlr.workflows.design.run import run_design
-from bayes_dnlr.model import DNLR
 
 ROOT = Path(__file__).resolve().parent.parent
 GRID = {"strain_rate": {"low": 1e-3, "high": 5e-2, "n": 10}, "strain_max": [0.13, 0.5, 1.0, 1.9, 2.5],

@@ -43,8 +43,8 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
 
     from bayes_dnlr.config.schema import load_config
-    from bayes_dnlr.runs.fit import fit
     from bayes_dnlr.report.compare import compare_runs
+    from bayes_dnlr.runs.fit import fit
 
     dirs = []
     for name in RUNS:

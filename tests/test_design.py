@@ -16,16 +16,16 @@ from finished_run import make_finished_run
 from bayes_dnlr.cli import main
 from bayes_dnlr.config.schema import ConfigError, parse_config
 from bayes_dnlr.data import TestData
-from bayes_dnlr.workflows.design.candidates import expand, planned_protocol
-from bayes_dnlr.workflows.design.config import load_design, parse_design
-from bayes_dnlr.workflows.design.fisher import Draws, NoiseDraw, predict
-from bayes_dnlr.workflows.design.run import run_design
-from bayes_dnlr.workflows.design.validate import discrepancy_draws, validate_design
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.inference.discrepancy import gp
 from bayes_dnlr.inference.lsq.identify import stochastic_analysis
 from bayes_dnlr.inference.lsq.sensitivity import sensitivity_matrix
 from bayes_dnlr.model import DNLR
+from bayes_dnlr.workflows.design.candidates import expand, planned_protocol
+from bayes_dnlr.workflows.design.config import load_design, parse_design
+from bayes_dnlr.workflows.design.fisher import Draws, NoiseDraw, predict
+from bayes_dnlr.workflows.design.run import run_design
+from bayes_dnlr.workflows.design.validate import discrepancy_draws, validate_design
 
 GUESS = {"E": 2854.0, "G": 2.32, "tau_max": 5.79}
 

@@ -23,9 +23,9 @@ from test_store import _blocks, _create, _phys
 from bayes_dnlr import cli, diskio
 from bayes_dnlr.errors import DiskFullError
 from bayes_dnlr.runs import chains as store
-from bayes_dnlr.runs.outputs import write_outputs
 from bayes_dnlr.runs.chains import ChainWriter, read_run
 from bayes_dnlr.runs.folder import write_json
+from bayes_dnlr.runs.outputs import write_outputs
 
 ENOSPC = OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 

@@ -12,11 +12,11 @@ from finished_run import make_finished_run
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.errors import BayesDnlrError, RunError
+from bayes_dnlr.model import simulate
 from bayes_dnlr.workflows.export import abaqus, ansys, lsdyna
 from bayes_dnlr.workflows.export.cards import poisson_from_strains, ramp
 from bayes_dnlr.workflows.export.prony import Prony, from_parameters, refit
 from bayes_dnlr.workflows.export.run import export
-from bayes_dnlr.model import simulate
 
 PARAMS = {"E": 2854.0, "G": 2.32, "tau_max": 5.79}
 

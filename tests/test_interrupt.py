@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from bayes_dnlr.runs import lock as runlock
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.interrupt import deferred_interrupt
+from bayes_dnlr.runs import lock as runlock
 
 
 def test_first_sigint_is_a_request_and_the_second_interrupts() -> None:

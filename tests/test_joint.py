@@ -209,8 +209,8 @@ def test_joint_report_with_model_error_in_one_test(tmp_path):
     """One test with a smooth correlated error: its own discrepancy in the joint posterior
     (disc_amplitude[r5e-3]); the others white; the report draws δ on that test's residuals only."""
     from bayes_dnlr.config.schema import load_config
-    from bayes_dnlr.runs.sample import sample
     from bayes_dnlr.report import build_report
+    from bayes_dnlr.runs.sample import sample
     from bayes_dnlr.workflows.simulate import simulate_tests
 
     path = make_joint(tmp_path, "bias", discrepancy=True, sampler={"walkers": 24, "max_steps": 200})

@@ -90,8 +90,8 @@ def test_many_specimens_get_a_grid_fine_enough_for_their_narrow_posterior(tmp_pa
     # the figure of a batch this size keeps a readable height (rows narrower past 40 specimens)
     from PIL import Image
 
-    from bayes_dnlr.workflows.population.run import PopulationRun
     from bayes_dnlr.workflows.population.page import figure
+    from bayes_dnlr.workflows.population.run import PopulationRun
 
     png = figure(PopulationRun(pop, {k: k for k in draws}, dict.fromkeys(draws, "")), tmp_path / "p.png")
     assert Image.open(png).size[1] < 3000                  # 70 inches (7700 px) with 8 specimens' rows

@@ -11,10 +11,10 @@ from joint_support import make_joint
 
 def _verdict(tmp_path, name: str, per_decade: float):
     from bayes_dnlr.config.schema import load_config
-    from bayes_dnlr.runs.sample import sample
     from bayes_dnlr.report import build_report
     from bayes_dnlr.report.joint import rate_question, test_view
     from bayes_dnlr.report.tables import load_run
+    from bayes_dnlr.runs.sample import sample
 
     path = make_joint(tmp_path, name, per_test=("E", "tau_max"), e_per_decade=per_decade,
                       discrepancy=True, sampler={"max_steps": 300, "walkers": 24})
@@ -46,9 +46,9 @@ def test_e_rising_ten_percent_per_decade_is_rate_dependent(tmp_path):
 def test_shared_e_gives_no_rate_verdict(tmp_path, per_decade):
     """With E shared the joint posterior cannot ask the question: no verdict is invented."""
     from bayes_dnlr.config.schema import load_config
-    from bayes_dnlr.runs.fit import fit
     from bayes_dnlr.report.joint import rate_question, test_view
     from bayes_dnlr.report.tables import load_run
+    from bayes_dnlr.runs.fit import fit
 
     path = make_joint(tmp_path, "shared", e_per_decade=per_decade)
     fit(load_config(path))

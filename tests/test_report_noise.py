@@ -9,8 +9,8 @@ import pytest
 from sampling_support import write_case
 
 from bayes_dnlr.config.schema import load_config
-from bayes_dnlr.runs.sample import sample
 from bayes_dnlr.report import build_report
+from bayes_dnlr.runs.sample import sample
 
 SAMPLER = {"walkers": 16, "max_steps": 1500, "target_ess": 150, "checkpoint_every": 50}
 

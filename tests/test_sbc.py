@@ -8,7 +8,6 @@ import pytest
 import yaml
 
 from bayes_dnlr.config.schema import load_config
-from bayes_dnlr.inference.discrepancy.gp import covariance
 from bayes_dnlr.inference.analyses.sbc import (
     ecdf,
     inside_band,
@@ -17,6 +16,7 @@ from bayes_dnlr.inference.analyses.sbc import (
     simultaneous_band,
     thin_draws,
 )
+from bayes_dnlr.inference.discrepancy.gp import covariance
 from bayes_dnlr.workflows.simulate import correlated_error, simulate_test
 
 

@@ -1,4 +1,4 @@
-"""Synthetic tests (workflows/simulate.py): the protocol, the noise model, the file and the shipped examples."""
+"""Synthetic tests (workflows/simulate.py): the protocol, the noise model, the file, the shipped examples."""
 
 from __future__ import annotations
 

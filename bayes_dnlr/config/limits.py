@@ -32,7 +32,8 @@ POSITIVE = ("tau_max", "tau_max_R")          # the spectrum's logarithm (eq. 12)
 POSITIVE_FIXED = ("E", "tau_max", "tau_max_R")
 SPEC_NUMBERS = ("value", "low", "high", "mean", "sd", "median", "scale")
 MEMORY_SHARE = 0.5      # of the physical memory the chain may take
-CHAIN_BYTES_PER_VALUE = 8 * 2   # float64, and the growing buffer doubles (inference/mcmc/ensemble.py _Growing)
+# float64, and the growing buffer doubles (inference/mcmc/ensemble.py, _Growing)
+CHAIN_BYTES_PER_VALUE = 8 * 2
 
 
 def _magnitude(spec, key: str, unit: str) -> str | None:

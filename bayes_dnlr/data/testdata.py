@@ -34,10 +34,10 @@ from bayes_dnlr.data.conversions import (
     true_stress,
 )
 from bayes_dnlr.data.errors import DataError
+from bayes_dnlr.data.initial_state import plan_start
 from bayes_dnlr.data.ramp import detect_relaxation_start, window_strain_rate
 from bayes_dnlr.data.reading import _Table, read_table
 from bayes_dnlr.data.smoothing import sampling_breaks, segment_edges, smooth_strain
-from bayes_dnlr.data.initial_state import plan_start
 from bayes_dnlr.data.windows import window_mask
 
 

@@ -201,8 +201,8 @@ def rate_table(ra) -> Table:
 
 def _rate_of_runs(runs: Sequence[RunResults]):
     """The rate analysis of separate runs (independent posteriors of E), when ≥ 2 have draws."""
-    from bayes_dnlr.inference.posterior.priors import Prior
     from bayes_dnlr.inference.analyses.rate import rate_analysis
+    from bayes_dnlr.inference.posterior.priors import Prior
 
     use = [r for r in runs if r.draws is not None and "E" in r.draws and r.strain_rate()]
     rates = {r.name: r.strain_rate() for r in use}

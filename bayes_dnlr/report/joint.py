@@ -112,8 +112,8 @@ def _truths(views: dict[str, RunResults], names: list[str]) -> list[float | None
 
 def rate_question(run: RunResults, views: dict[str, RunResults]):
     """inference.rate.RateAnalysis of the joint posterior when E is one per test (else None)."""
-    from bayes_dnlr.inference.posterior.priors import Prior
     from bayes_dnlr.inference.analyses.rate import rate_analysis
+    from bayes_dnlr.inference.posterior.priors import Prior
 
     if run.draws is None or "E" not in run.cfg.per_test_parameters:
         return None

@@ -16,8 +16,8 @@ from typing import Any
 
 from bayes_dnlr.config.schema import Config
 from bayes_dnlr.errors import RunError
-from bayes_dnlr.inference.lsq.joint import JointFitResult, fit_joint
 from bayes_dnlr.inference.lsq.identify import FitResult, fit_test
+from bayes_dnlr.inference.lsq.joint import JointFitResult, fit_joint
 from bayes_dnlr.runs.folder import (
     check_output_dir,
     config_digest,

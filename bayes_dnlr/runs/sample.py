@@ -38,23 +38,10 @@ from bayes_dnlr.inference.mcmc.ensemble import (
     start_ensemble,
     stop_reason,
 )
-from bayes_dnlr.runs.netcdf import PosteriorDraws
-from bayes_dnlr.runs.outputs import (
-    POSTERIOR_FILE,
-    SUMMARY_FILE,
-    Posterior,
-    gauss_newton_block,
-    load_posterior,
-    read_summary,
-    summarize,
-    write_outputs,
-)
 from bayes_dnlr.inference.posterior.priors import build_priors, sampled_names
-from bayes_dnlr.runs.chains import ChainWriter, SamplerState, StoredRun, read_attrs, read_run
 from bayes_dnlr.interrupt import Interrupted
+from bayes_dnlr.runs.chains import ChainWriter, SamplerState, StoredRun, read_attrs, read_run
 from bayes_dnlr.runs.fit import load_tests, sections
-from bayes_dnlr.runs.noise_summary import joint_noise_block, noise_block, residual_warnings
-from bayes_dnlr.runs.target import joint_target, single_target
 from bayes_dnlr.runs.folder import (
     check_output_dir,
     digest,
@@ -66,6 +53,19 @@ from bayes_dnlr.runs.folder import (
     section_digests,
 )
 from bayes_dnlr.runs.lock import run_lock
+from bayes_dnlr.runs.netcdf import PosteriorDraws
+from bayes_dnlr.runs.noise_summary import joint_noise_block, noise_block, residual_warnings
+from bayes_dnlr.runs.outputs import (
+    POSTERIOR_FILE,
+    SUMMARY_FILE,
+    Posterior,
+    gauss_newton_block,
+    load_posterior,
+    read_summary,
+    summarize,
+    write_outputs,
+)
+from bayes_dnlr.runs.target import joint_target, single_target
 
 CHAINS_FILE = "chains.h5"
 LOCK_FILE = "sample.lock"

@@ -19,8 +19,6 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config.schema import Config, SampledNoise
-from bayes_dnlr.inference.lsq import optimize
-from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.inference.discrepancy.hyper import (
     AMPLITUDE_FLOOR,
     EVIDENCE_LR,
@@ -31,9 +29,11 @@ from bayes_dnlr.inference.discrepancy.hyper import (
     test_axis,
     whitener,
 )
-from bayes_dnlr.inference.lsq.sigma0 import resolve_sigma0
+from bayes_dnlr.inference.lsq import optimize
 from bayes_dnlr.inference.lsq.problem import LsqProblem
 from bayes_dnlr.inference.lsq.sensitivity import StochasticAnalysis, analyse
+from bayes_dnlr.inference.lsq.sigma0 import resolve_sigma0
+from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.numbers import fmt
 
 CANDIDATES = ("exp", "matern32")     # rough first: the fallback when the smooth one is not identified

@@ -26,10 +26,8 @@ import numpy as np
 
 from bayes_dnlr.config.schema import UNITS, Config
 from bayes_dnlr.errors import BayesDnlrError
-from bayes_dnlr.inference.lsq import optimize
-from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.inference.discrepancy.gls import discrepancy_analysis
-from bayes_dnlr.inference.lsq.sigma0 import resolve_sigma0
+from bayes_dnlr.inference.lsq import optimize
 from bayes_dnlr.inference.lsq.plausibility import plausibility_warnings, singular_message
 from bayes_dnlr.inference.lsq.problem import LsqProblem
 from bayes_dnlr.inference.lsq.sensitivity import (
@@ -40,7 +38,9 @@ from bayes_dnlr.inference.lsq.sensitivity import (
     bound_warning,
     identifiability_warnings,
 )
+from bayes_dnlr.inference.lsq.sigma0 import resolve_sigma0
 from bayes_dnlr.inference.lsq.start import clip_to, fallback, physics_start, spread_starts
+from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd
 from bayes_dnlr.runs.folder import jsonable
 

@@ -30,8 +30,8 @@ from bayes_dnlr.errors import RunError
 from bayes_dnlr.inference.mcmc.emcee_import import load_emcee
 from bayes_dnlr.inference.mcmc.ess import next_fast_len
 from bayes_dnlr.inference.mcmc.progress import EssProgress
-from bayes_dnlr.runs.chains import ChainWriter, SamplerState
 from bayes_dnlr.interrupt import Interrupted, deferred_interrupt
+from bayes_dnlr.runs.chains import ChainWriter, SamplerState
 
 START_SCALE = 1.0       # walkers start as a draw of the linearized (Laplace) posterior
 MIN_STEPS_FOR_TAU = 20  # shorter chains: no τ estimate, no stopping decision

@@ -8,8 +8,8 @@ over the n samples of the identification window, with r = y - σ_model(θ):
   least-squares criterion (eq. 27 is -2 σ0² log L up to constants);
 - with the model discrepancy (the default): r = δ + ε, δ a Gaussian process with amplitude and
   correlation length on the time or strain axis, log L = log N(r | 0, k(x, x) + σ0² I), exact and
-  O(n) (inference/discrepancy/gp.py), all walkers of a call at once. The hyperparameters ``disc_amplitude`` and
-  ``disc_length`` are sampled with the others, or fixed.
+  O(n) (inference/discrepancy/gp.py), all walkers of a call at once. The hyperparameters
+  ``disc_amplitude`` and ``disc_length`` are sampled with the others, or fixed.
 
 All walkers of a call are evaluated by one compiled call, in parallel over walkers
 (inference/posterior/fused.py: the stress by the exponential integrator, the residual and the likelihood,
@@ -29,9 +29,9 @@ import numpy as np
 
 from bayes_dnlr.config.schema import DISCREPANCY_PARAMETERS, Config, ParameterSpec
 from bayes_dnlr.data import TestData
-from bayes_dnlr.inference.posterior import fused as fused_kernel
 from bayes_dnlr.inference.discrepancy import gp
 from bayes_dnlr.inference.discrepancy.hyper import AMPLITUDE, LENGTH, Axis, is_white, test_axis
+from bayes_dnlr.inference.posterior import fused as fused_kernel
 from bayes_dnlr.inference.posterior.priors import PriorSet, build_priors
 from bayes_dnlr.model import DNLR
 

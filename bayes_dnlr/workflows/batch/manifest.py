@@ -33,8 +33,8 @@ from typing import Any
 import yaml
 
 from bayes_dnlr.config.schema import Config, ConfigError, load_config, parse_config
-from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.config.yamlio import YamlError, load_yaml
+from bayes_dnlr.errors import BayesDnlrError
 
 RUNS_FOLDER = "runs"
 NAME_OK = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")

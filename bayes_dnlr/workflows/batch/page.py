@@ -24,8 +24,7 @@ import numpy as np
 
 from bayes_dnlr import __version__
 from bayes_dnlr.numbers import fmt, pm
-from bayes_dnlr.workflows.batch.run import BatchResult, run_batch
-from bayes_dnlr.workflows.batch.pooling import PopulationStep
+from bayes_dnlr.report.html import CSS
 from bayes_dnlr.workflows.batch.manifest import (
     BatchError,
     default_out,
@@ -33,8 +32,9 @@ from bayes_dnlr.workflows.batch.manifest import (
     jobs_from_configs,
     jobs_from_manifest,
 )
+from bayes_dnlr.workflows.batch.pooling import PopulationStep
 from bayes_dnlr.workflows.batch.population_step import population_step, section
-from bayes_dnlr.report.html import CSS
+from bayes_dnlr.workflows.batch.run import BatchResult, run_batch
 
 PAGE = "batch.html"
 FIGURE = "batch_E.png"
@@ -48,8 +48,8 @@ def _warm_up_the_end() -> None:
     batch does not wait for it (1.3 s after the last result of 8 tests before, 0.6 s when warm)."""
     try:
         from bayes_dnlr.inference.analyses.population import _add_log_mean_weight
-        from bayes_dnlr.runs import draws  # noqa: F401 - posterior.nc reader
         from bayes_dnlr.report.figures import _plt
+        from bayes_dnlr.runs import draws  # noqa: F401 - posterior.nc reader
 
         _plt()
         _add_log_mean_weight(np.zeros(1), np.zeros(1), np.zeros(1), np.ones(1), np.zeros((1, 1)))

@@ -16,10 +16,10 @@ from typing import Any
 
 from bayes_dnlr import __version__
 from bayes_dnlr.numbers import fmt, interval, pm
-from bayes_dnlr.workflows.batch.run import BatchResult
 from bayes_dnlr.workflows.batch.pooling import MIN_TESTS, PARAMETER, PopulationStep, select
-from bayes_dnlr.workflows.population.run import POPULATION_FILE, current_population, read_existing
+from bayes_dnlr.workflows.batch.run import BatchResult
 from bayes_dnlr.workflows.population.page import FIGURE, MARKDOWN, population_report
+from bayes_dnlr.workflows.population.run import POPULATION_FILE, current_population, read_existing
 
 MADE_BY = "batch"
 

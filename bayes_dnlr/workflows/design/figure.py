@@ -6,9 +6,9 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from bayes_dnlr.report.figures import _plt, _save
 from bayes_dnlr.workflows.design.config import DesignConfig
 from bayes_dnlr.workflows.design.run import FIGURE_FILE, DesignResult, run_design
-from bayes_dnlr.report.figures import _plt, _save
 
 
 def err_figure(res: DesignResult, path: Path, parameter: str = "E") -> Path:

@@ -14,10 +14,10 @@ import numpy as np
 
 from bayes_dnlr.config.schema import DEFAULT_PRIORS, parse_config
 from bayes_dnlr.data import TestData
-from bayes_dnlr.workflows.design.candidates import Candidate, planned_protocol, window_mask
-from bayes_dnlr.workflows.design.fisher import Draws, Prediction, predict
 from bayes_dnlr.inference.discrepancy import gp
 from bayes_dnlr.model import simulate
+from bayes_dnlr.workflows.design.candidates import Candidate, planned_protocol, window_mask
+from bayes_dnlr.workflows.design.fisher import Draws, Prediction, predict
 
 
 @dataclass

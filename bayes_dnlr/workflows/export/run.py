@@ -19,6 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from bayes_dnlr.errors import BayesDnlrError, RunError
+from bayes_dnlr.numbers import fmt
+from bayes_dnlr.runs.folder import write_atomic
 from bayes_dnlr.workflows.export import FORMAT_NAMES, abaqus, ansys, lsdyna, table
 from bayes_dnlr.workflows.export.cards import (
     RAMP_CHECK_STRAIN,
@@ -37,8 +39,6 @@ from bayes_dnlr.workflows.export.cards import (
 )
 from bayes_dnlr.workflows.export.context import Context
 from bayes_dnlr.workflows.export.prony import from_parameters
-from bayes_dnlr.numbers import fmt
-from bayes_dnlr.runs.folder import write_atomic
 
 
 @dataclass(frozen=True)

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import json
 
+from bayes_dnlr.runs.folder import jsonable
 from bayes_dnlr.workflows.export.cards import Card
 from bayes_dnlr.workflows.export.context import UNITS, Context, header_lines
-from bayes_dnlr.runs.folder import jsonable
 
 
 def content(card: Card, ctx: Context) -> dict:

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 
 from bayes_dnlr.numbers import fmt, interval, pm
-from bayes_dnlr.workflows.population.run import PopulationRun, run_population
 from bayes_dnlr.report.tables import Table
 from bayes_dnlr.runs.folder import write_atomic
+from bayes_dnlr.workflows.population.run import PopulationRun, run_population
 
 FIGURE = "population.png"
 MARKDOWN = "population.md"
