@@ -9,12 +9,14 @@ Modules, one concern each:
 - ``checks``: plausibility of the read columns.
 - ``ramp``: the ramp's strain rate and the start of a relaxation hold.
 - ``smoothing``: the GCV smoothing spline of the strain.
-- ``windows``: identification windows and the baseline noise.
+- ``windows``: identification windows.
+- ``baseline``: the baseline noise of a window where the specimen is unloaded.
 - ``testdata``: ``TestData`` and ``load_test``, the assembly.
 
 Equation numbers refer to Blaise et al. (shared/paper); see docs/data-input.md.
 """
 
+from bayes_dnlr.data.baseline import baseline_sd
 from bayes_dnlr.data.conversions import (
     haward_thackray_strain,
     hencky_from_nominal,
@@ -29,7 +31,7 @@ from bayes_dnlr.data.ramp import detect_relaxation_start, ramp_strain_rate
 from bayes_dnlr.data.reading import read_table
 from bayes_dnlr.data.smoothing import gcv_lambda, segment_edges, smooth_segment, smooth_strain
 from bayes_dnlr.data.testdata import TestData, load_test
-from bayes_dnlr.data.windows import baseline_sd, window_mask
+from bayes_dnlr.data.windows import window_mask
 
 __all__ = [
     "DataError", "TestData", "baseline_sd", "detect_relaxation_start", "gcv_lambda",

@@ -7,14 +7,14 @@ import numpy as np
 
 from bayes_dnlr.data.conversions import hencky_from_nominal
 from bayes_dnlr.data.errors import DataError
-from bayes_dnlr.data.reading import _Table
+from bayes_dnlr.data.reading import Table
 
 MAX_HENCKY = 5.0          # λ = e^5 ≈ 148: larger axial strains are taken for a unit mistake (percent)
 MIN_POLYMER_MODULUS = 100.0   # MPa: an initial slope below this, in a semicrystalline polymer, is a unit slip
 FIRST_SAMPLE_NOISE = 10.0     # a first stress this many noise sd away from zero is a loaded start
 
 
-def check_increasing(table: _Table, x: np.ndarray, role: str, what: str) -> None:
+def check_increasing(table: Table, x: np.ndarray, role: str, what: str) -> None:
     """x must increase strictly; the error gives both lines and both cells."""
     bad = np.flatnonzero(np.diff(x) <= 0)
     if bad.size:
@@ -30,7 +30,7 @@ def _looks_like_time(x: np.ndarray) -> bool:
     return bool(x.size >= 5 and np.all(d > 0) and np.std(d) < 0.05 * np.mean(d) and x[0] >= 0)
 
 
-def implausible_strain(table: _Table, role: str, raw: np.ndarray, strain: np.ndarray,
+def implausible_strain(table: Table, role: str, raw: np.ndarray, strain: np.ndarray,
                        measure: str, percent_known: bool) -> None:
     """Refuse an axial Hencky strain above MAX_HENCKY, with a hint that fits the column."""
     big = np.flatnonzero(np.abs(strain) > MAX_HENCKY)
@@ -52,7 +52,7 @@ def implausible_strain(table: _Table, role: str, raw: np.ndarray, strain: np.nda
                     f"column?")
 
 
-def to_hencky(table: _Table, raw: np.ndarray, role: str, measure: str) -> np.ndarray:
+def to_hencky(table: Table, raw: np.ndarray, role: str, measure: str) -> np.ndarray:
     """Hencky strain from a strain column given as ``measure`` (eq. 1)."""
     if measure == "hencky":
         return raw

@@ -19,7 +19,7 @@ import numpy as np
 
 from bayes_dnlr.data.errors import DataError
 from bayes_dnlr.data.numbers import parse_cell
-from bayes_dnlr.data.reading import HEAD_LINES, _bytes, _Source
+from bayes_dnlr.data.reading import HEAD_LINES, Source, read_bytes
 from bayes_dnlr.data.sniff import Layout, signature_groups, sniff, specimen_groups, split
 from bayes_dnlr.data.units import lookup, split_name
 
@@ -88,7 +88,7 @@ class Guess:
         return self.layout.header is not None
 
 
-def _sample(src: _Source, layout: Layout) -> np.ndarray:
+def _sample(src: Source, layout: Layout) -> np.ndarray:
     """Up to SAMPLE_ROWS data rows, evenly spread, as floats (NaN: missing or not a number)."""
     first, last = layout.data_line, src.n_lines
     while last >= first and not src.line(last).strip():
@@ -107,8 +107,8 @@ def _sample(src: _Source, layout: Layout) -> np.ndarray:
 
 def read_columns(path: Path) -> tuple[Layout, list[Column], tuple[int, int] | None, list[str]]:
     """The sniffed layout and the columns of the first specimen (all columns without specimens)."""
-    buf, notes = _bytes(path, "utf-8")
-    src = _Source(buf, path)
+    buf, notes = read_bytes(path, "utf-8")
+    src = Source(buf, path)
     head = src.head(HEAD_LINES)
     if not any(line.strip() for line in head):
         raise DataError(f"{path}: the file is empty")

@@ -43,7 +43,7 @@ _CHUNK = 1 << 23
 
 
 @dataclass
-class _Table:
+class Table:
     """The mapped columns of a file, as floats in the package's units, with their line numbers."""
 
     path: Path
@@ -54,7 +54,7 @@ class _Table:
     columns: dict[str, int] = field(default_factory=dict)   # role -> column index (0-based)
     layout: Layout | None = None
     notes: list[str] = field(default_factory=list)
-    _source: _Source | None = None
+    _source: Source | None = None
 
     def where(self, i: int, role: str) -> str:
         """'file, line N, column 'name'' for row index i."""
@@ -67,7 +67,7 @@ class _Table:
         return self._source.cell(int(self.lines[i]), self.columns[role])
 
 
-class _Source:
+class Source:
     """The file's text as UTF-8 bytes with '\\n' line ends, and where each line starts."""
 
     def __init__(self, buf: bytes, path: Path, layout: Layout | None = None):
@@ -104,7 +104,7 @@ class _Source:
 
 # --------------------------------------------------------------------------- the bytes
 
-def _bytes(path: Path, encoding: str) -> tuple[bytes, list[str]]:
+def read_bytes(path: Path, encoding: str) -> tuple[bytes, list[str]]:
     """The file as UTF-8 bytes with '\\n' line ends; notes on encoding and line ends."""
     if path.is_dir():
         raise DataError(f"{path}: is a directory, not a data file (data.file)")
@@ -178,7 +178,7 @@ def _or_nan(x: float | None) -> float:
     return math.nan if x is None else x
 
 
-def _groups(layout: Layout, d: DataConfig, src: _Source, path: Path, notes: list[str]
+def _groups(layout: Layout, d: DataConfig, src: Source, path: Path, notes: list[str]
             ) -> tuple[int, int]:
     """(first column, number of columns) of the chosen specimen's group (the whole row without one)."""
     f = layout.n_fields
@@ -266,7 +266,7 @@ def _column_index(layout: Layout, mapped: dict[str, str | int], group: tuple[int
 
 # --------------------------------------------------------------------------- rows
 
-def _field_counts(src: _Source, first: int, last: int, layout: Layout) -> np.ndarray:
+def _field_counts(src: Source, first: int, last: int, layout: Layout) -> np.ndarray:
     """Number of fields of lines first..last (1-based, inclusive); 0 for a blank line."""
     d = layout.delimiter
     a, b = int(src.starts[first - 1]), int(src.ends[last - 1])
@@ -300,7 +300,7 @@ def _field_counts(src: _Source, first: int, last: int, layout: Layout) -> np.nda
 PLAIN_MAX_LINES = 200_000   # up to this many rows numpy's reader is tried before pandas
 
 
-def _parse_plain(src: _Source, layout: Layout, first: int, last: int, cols: list[int]
+def _parse_plain(src: Source, layout: Layout, first: int, last: int, cols: list[int]
                  ) -> dict[int, np.ndarray] | None:
     """The plain case of ``_parse`` without pandas (whose import costs 0.2-0.4 s, more than reading
     a test of a few thousand rows): decimal point, every cell of ``cols`` a finite number, one row
@@ -323,7 +323,7 @@ def _parse_plain(src: _Source, layout: Layout, first: int, last: int, cols: list
     return {c: np.ascontiguousarray(arr[:, k]) for k, c in enumerate(cols)}
 
 
-def _parse(src: _Source, layout: Layout, first: int, last: int, cols: list[int]
+def _parse(src: Source, layout: Layout, first: int, last: int, cols: list[int]
            ) -> tuple[dict[int, np.ndarray], np.ndarray]:
     """The columns ``cols`` of lines first..last as floats (NaN for a missing value or a cell that is
     not a number), via numpy's reader in the plain case (``_parse_plain``), else pandas' C parser;
@@ -368,10 +368,10 @@ def _parse(src: _Source, layout: Layout, first: int, last: int, cols: list[int]
 
 # --------------------------------------------------------------------------- the table
 
-def read_table(path: Path, d: DataConfig) -> _Table:
+def read_table(path: Path, d: DataConfig) -> Table:
     """Read the columns ``d.columns`` maps from the file at ``path`` (see the module docstring)."""
-    buf, notes = _bytes(path, d.encoding)
-    src = _Source(buf, path)
+    buf, notes = read_bytes(path, d.encoding)
+    src = Source(buf, path)
     head = src.head(HEAD_LINES)
     if not any(line.strip() for line in head):
         raise DataError(f"{path}: the file is empty" + (
@@ -428,7 +428,7 @@ def read_table(path: Path, d: DataConfig) -> _Table:
                f"the first data row (line {layout.data_line})")
         raise DataError(f"{path}, line {lines[i]}: {counts[i]} fields, but {ref} has {layout.n_fields} "
                         f"(delimiter {layout.delimiter_text()}, data.delimiter)")
-    table = _Table(path, layout.header or [], {}, names, lines, index, layout, notes, src)
+    table = Table(path, layout.header or [], {}, names, lines, index, layout, notes, src)
     empty = missing.all(axis=1)
     for role, c in index.items():
         table.values[role] = _checked(table, role, raw[c], empty)
@@ -439,7 +439,7 @@ def read_table(path: Path, d: DataConfig) -> _Table:
     return table
 
 
-def _checked(table: _Table, role: str, values: np.ndarray, empty: np.ndarray) -> np.ndarray:
+def _checked(table: Table, role: str, values: np.ndarray, empty: np.ndarray) -> np.ndarray:
     """Values of a column with every cell a finite number; else an error naming line and cell."""
     bad = np.flatnonzero(~np.isfinite(values))
     if bad.size == 0:
@@ -464,7 +464,7 @@ def _checked(table: _Table, role: str, values: np.ndarray, empty: np.ndarray) ->
     raise DataError(f"{where}: cell {text!r} is not a finite number")
 
 
-def _apply_units(table: _Table, d: DataConfig) -> None:
+def _apply_units(table: Table, d: DataConfig) -> None:
     """Convert each column to the package's unit: data.units > data.strain_unit > the file > default."""
     layout = table.layout
     converted = []

@@ -36,7 +36,7 @@ from bayes_dnlr.data.conversions import (
 from bayes_dnlr.data.errors import DataError
 from bayes_dnlr.data.initial_state import plan_start
 from bayes_dnlr.data.ramp import detect_relaxation_start, window_strain_rate
-from bayes_dnlr.data.reading import _Table, read_table
+from bayes_dnlr.data.reading import Table, read_table
 from bayes_dnlr.data.smoothing import sampling_breaks, segment_edges, smooth_strain
 from bayes_dnlr.data.windows import window_mask
 
@@ -105,7 +105,7 @@ def _nominal_stress(cfg: Config, values: dict[str, np.ndarray], strain: np.ndarr
     return None
 
 
-def _axial(cfg: Config, table: _Table) -> tuple[np.ndarray, np.ndarray, str, list[str]]:
+def _axial(cfg: Config, table: Table) -> tuple[np.ndarray, np.ndarray, str, list[str]]:
     """Measured axial Hencky strain (eq. 1), the nominal strain, the role it came from, notes."""
     d = cfg.data
     if "extension" in table.values:
@@ -126,7 +126,7 @@ def _axial(cfg: Config, table: _Table) -> tuple[np.ndarray, np.ndarray, str, lis
     return strain, nominal, role, notes
 
 
-def _time(cfg: Config, table: _Table, strain: np.ndarray, strain_role: str) -> tuple[np.ndarray, list[str]]:
+def _time(cfg: Config, table: Table, strain: np.ndarray, strain_role: str) -> tuple[np.ndarray, list[str]]:
     if "time" in table.values:
         check_increasing(table, table.values["time"], "time", "time must increase strictly")
         return table.values["time"], []
@@ -196,7 +196,7 @@ def _load_source(d) -> str:
 
 def load_test(cfg: Config) -> TestData:
     """Read the test that ``cfg.data`` describes (see docs/data-input.md)."""
-    from bayes_dnlr.runs.folder import file_sha256
+    from bayes_dnlr.digests import file_sha256
 
     d = cfg.data
     path = _check_file(cfg)
@@ -271,7 +271,7 @@ def load_test(cfg: Config) -> TestData:
     return test
 
 
-def notes_have_units(table: _Table, role: str, d) -> bool:
+def notes_have_units(table: Table, role: str, d) -> bool:
     """True when the strain's unit is known from the file or the config (no guessing needed)."""
     if role in d.units:
         return True

@@ -15,15 +15,14 @@ from pathlib import Path
 from typing import Any
 
 from bayes_dnlr.config.schema import Config
+from bayes_dnlr.digests import digest, file_sha256
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.inference.lsq.identify import FitResult, fit_test
 from bayes_dnlr.inference.lsq.joint import JointFitResult, fit_joint
 from bayes_dnlr.runs.folder import (
     check_output_dir,
     config_digest,
-    digest,
     discard_if_empty,
-    file_sha256,
     prepare_run_dir,
     resolved_config_path,
     section_digests,

@@ -7,7 +7,6 @@ that file is left untouched and the resolved config goes to ``config.resolved.ya
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import os
@@ -19,26 +18,12 @@ import numpy as np
 import yaml
 
 from bayes_dnlr.config.schema import Config
+from bayes_dnlr.digests import digest
 from bayes_dnlr.diskio import storage_error, sweep_stale_temps, temp_path
 from bayes_dnlr.errors import RunError, StorageError
 
 RESOLVED_CONFIG = "config.yaml"
 RESOLVED_CONFIG_BESIDE_SOURCE = "config.resolved.yaml"
-
-
-def file_sha256(path: Path) -> str:
-    """sha256 of a file's bytes."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
-def digest(obj: Any) -> str:
-    """sha256 of a JSON-able object in canonical form (sorted keys)."""
-    text = json.dumps(obj, sort_keys=True, separators=(",", ":"), default=str)
-    return hashlib.sha256(text.encode()).hexdigest()
 
 
 def config_digest(cfg: Config, sections: tuple[str, ...]) -> str:

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config.schema import Config, ConfigError
+from bayes_dnlr.digests import digest
 from bayes_dnlr.errors import BayesDnlrError, StaleRunError
 from bayes_dnlr.inference.mcmc.ensemble import (
     MIN_STEPS_FOR_TAU,
@@ -44,7 +45,6 @@ from bayes_dnlr.runs.chains import ChainWriter, SamplerState, StoredRun, read_at
 from bayes_dnlr.runs.fit import load_tests, sections
 from bayes_dnlr.runs.folder import (
     check_output_dir,
-    digest,
     discard_if_empty,
     jsonable,
     make_dir,

@@ -19,9 +19,10 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config.schema import PARAMETER_NAMES, RELAXATION_PARAMETERS, TENSILE_PARAMETERS, ConfigError
+from bayes_dnlr.digests import digest, file_sha256
 from bayes_dnlr.errors import BayesDnlrError, RunError
 from bayes_dnlr.numbers import fmt
-from bayes_dnlr.runs.folder import digest, file_sha256, jsonable, write_atomic, write_json
+from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
 from bayes_dnlr.workflows.design.candidates import expand
 from bayes_dnlr.workflows.design.config import DesignConfig
 from bayes_dnlr.workflows.design.fisher import Draws, NoiseDraw, Prediction, predict
