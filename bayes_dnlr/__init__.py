@@ -21,8 +21,8 @@ __version__ = "0.1.0"
 _LAZY = {
     "simulate": ("bayes_dnlr.model", "simulate"),
     "DNLR": ("bayes_dnlr.model", "DNLR"),
-    "load_config": ("bayes_dnlr.config.schema", "load_config"),
-    "ConfigError": ("bayes_dnlr.config.schema", "ConfigError"),
+    "load_config": ("bayes_dnlr.config", "load_config"),
+    "ConfigError": ("bayes_dnlr.config", "ConfigError"),
     "load_test": ("bayes_dnlr.data", "load_test"),
     "DataError": ("bayes_dnlr.data", "DataError"),
     "fit": ("bayes_dnlr.runs.fit", "fit"),

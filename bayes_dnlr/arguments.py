@@ -13,7 +13,7 @@ from pathlib import Path
 
 import yaml
 
-from bayes_dnlr.config.schema import ConfigError, load_config
+from bayes_dnlr.config import ConfigError, load_config
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.runs.folder import RESOLVED_CONFIG, RESOLVED_CONFIG_BESIDE_SOURCE
 

@@ -57,7 +57,7 @@ def _shown(path: Path) -> str:
 def _config(path: str, command: str):
     """The config of a command that starts from one: a config file, or a run folder holding it."""
     from bayes_dnlr.arguments import config_file
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
 
     return load_config(config_file(path, command))
 

@@ -23,7 +23,7 @@ EXAMPLES = ["hdpe-a-2.5e-3", "hdpe-a-5e-3", "hdpe-a-1e-2", "hdpe-b-relax-5e-3"]
 
 
 def run(example: str, tmp: Path, discrepancy: object):
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.runs.sample import sample
 
     tag = "white" if discrepancy == "none" else "disc"

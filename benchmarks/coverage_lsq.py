@@ -37,7 +37,7 @@ def summary(label: str, est: np.ndarray, sd: np.ndarray, truth: dict[str, float]
 
 
 def exact_input(n_rep: int) -> None:
-    from bayes_dnlr.config.schema import parse_config
+    from bayes_dnlr.config import parse_config
     from bayes_dnlr.data import TestData
     from bayes_dnlr.inference.lsq.identify import fit_test
     from bayes_dnlr.model import simulate
@@ -64,7 +64,7 @@ def exact_input(n_rep: int) -> None:
 
 
 def pipeline(n_rep: int, config: Path, strain_input: str) -> None:
-    from bayes_dnlr.config.schema import parse_config
+    from bayes_dnlr.config import parse_config
     from bayes_dnlr.data import load_test
     from bayes_dnlr.inference.lsq.identify import fit_test
     from bayes_dnlr.workflows.simulate import simulate_test

@@ -35,7 +35,7 @@ def finished_run(path: str | None, tmp: Path) -> Path:
     shipped = ROOT / "runs" / "hdpe-a-5e-3"
     if (shipped / "posterior.nc").is_file() and (shipped / "summary.json").is_file():
         return shipped
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.runs.sample import sample
 
     run = tmp / "hdpe-a-5e-3"

@@ -30,7 +30,7 @@ def median_time(f, repeat: int = 7) -> float:
 
 def main(argv: list[str]) -> int:
     path = Path(argv[0]) if argv else REPO / "runs" / "hdpe-a-5e-3" / "config.yaml"
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.data import load_test
     from bayes_dnlr.inference.lsq.identify import fit_test
     from bayes_dnlr.runs.fit import fit

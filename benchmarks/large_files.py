@@ -29,7 +29,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 CHILD = r"""
 import json, resource, sys, time
-from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.config import load_config
 from bayes_dnlr.data import load_test
 cfg = load_config(sys.argv[1])
 what = sys.argv[2]

@@ -38,7 +38,7 @@ def variants():
 
 
 def setup(config: str | None):
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.data import load_test
     from bayes_dnlr.inference.posterior.likelihood import build_log_posterior
     from bayes_dnlr.runs.fit import fit

@@ -51,7 +51,7 @@ def fit_time() -> float:
 
     import yaml
 
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.runs.fit import fit
 
     root = Path(__file__).resolve().parents[1] / "runs" / "hdpe-a-5e-3"
@@ -75,7 +75,7 @@ def big_joint() -> None:
 
     import yaml
 
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.runs.sample import sample
 
     root = Path(__file__).resolve().parents[1] / "runs" / "population"

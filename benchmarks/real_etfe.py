@@ -57,7 +57,7 @@ def specimens(path: Path) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
 def one_run(args: tuple) -> dict:
     """fit (and sample) one specimen, window and likelihood; returns E's numbers."""
     folder, k, window, likelihood, fit_only = args
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.errors import BayesDnlrError
     from bayes_dnlr.runs.fit import fit
     from bayes_dnlr.runs.sample import sample

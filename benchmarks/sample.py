@@ -73,7 +73,7 @@ def main() -> None:
     t_imp = time.perf_counter() - t0
     print(f"imports emcee + arviz: {t_imp:.2f} s (once per process, not counted below)")
 
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.runs.fit import fit
     from bayes_dnlr.runs.sample import sample
 

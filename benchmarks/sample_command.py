@@ -45,7 +45,7 @@ SPLIT = r"""
 import time
 t_start = time.perf_counter()
 import json, sys
-from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.config import load_config
 from bayes_dnlr.runs.sample import sample
 from bayes_dnlr.inference.mcmc.emcee_import import load_emcee
 load_emcee()
@@ -61,7 +61,7 @@ print(json.dumps(t))
 LOOPS = r"""
 import json, sys, shutil, time
 from pathlib import Path
-from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.config import load_config
 from bayes_dnlr.inference.posterior.likelihood import LogPosterior
 from bayes_dnlr.runs.sample import sample
 fused = LogPosterior.log_likelihood
@@ -91,7 +91,7 @@ print(json.dumps(rows))
 STEP = r"""
 import json, sys, time
 import numpy as np
-from bayes_dnlr.config.schema import load_config, parse_config, ParameterSpec
+from bayes_dnlr.config import load_config, ParameterSpec, parse_config
 from bayes_dnlr.runs.fit import load_tests
 from bayes_dnlr.inference.posterior.likelihood import build_log_posterior
 cfg = load_config(sys.argv[1])

@@ -42,7 +42,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-sample", action="store_true", help="least squares only (no posterior)")
     args = ap.parse_args(argv)
 
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.report.compare import compare_runs
     from bayes_dnlr.runs.fit import fit
 

@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from bayes_dnlr.config.schema import Config, parse_config
+from bayes_dnlr.config import Config, parse_config
 
 DEFAULT_DATA: dict[str, Any] = {
     "file": "test.csv",

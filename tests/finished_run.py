@@ -21,7 +21,7 @@ RATE, N = 1e-2, 300
 
 
 def make_finished_run(folder: Path) -> Path:
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.model import simulate
     from bayes_dnlr.runs.fit import fit
     from bayes_dnlr.runs.sample import sample

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.config import load_config
 from bayes_dnlr.workflows.simulate import simulate_tests
 
 RATES = {"r2.5e-3": 2.5e-3, "r5e-3": 5e-3, "r1e-2": 1e-2}

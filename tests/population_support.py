@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bayes_dnlr.config.schema import ParameterSpec
+from bayes_dnlr.config import ParameterSpec
 from bayes_dnlr.inference.analyses.population import population
 from bayes_dnlr.inference.posterior.priors import Prior
 

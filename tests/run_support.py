@@ -8,7 +8,7 @@ from typing import Any
 
 import yaml
 
-from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.config import load_config
 from bayes_dnlr.workflows.simulate import simulate_test
 
 HDPE = {"E": 2854.0, "G": 2.32, "tau_max": 5.79}

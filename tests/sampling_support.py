@@ -106,7 +106,7 @@ def write_case(folder: Path, name: str = "syn", *, params: dict[str, float] | No
 def _replicate(args: tuple) -> dict[str, dict[str, float]]:
     """One calibration replicate: fresh noise, fit, sample; per parameter mean, sd, 90 % HDI."""
     folder, r, base_seed, sampler, noise, case = args
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.runs.sample import sample
 
     path = write_case(Path(folder), f"rep{r:04d}", seed=base_seed + r, noise=noise,

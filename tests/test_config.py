@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from bayes_dnlr.config.schema import ConfigError, load_config, parse_config
+from bayes_dnlr.config import ConfigError, load_config, parse_config
 
 BASE = {
     "name": "t",

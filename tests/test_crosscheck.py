@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from bayes_dnlr.config.schema import ConfigError, CrossCheckConfig, parse_config
+from bayes_dnlr.config import ConfigError, CrossCheckConfig, parse_config
 from bayes_dnlr.crosscheck import (
     DIAMOND_E_MPA,
     apparent_modulus,

@@ -9,7 +9,7 @@ import re
 import numpy as np
 import pytest
 
-from bayes_dnlr.config.schema import ConfigError, Window
+from bayes_dnlr.config import ConfigError, Window
 from bayes_dnlr.data import (
     DataError,
     baseline_sd,

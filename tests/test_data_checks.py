@@ -123,7 +123,7 @@ def test_toe_compensation_finds_point_b(write_csv, make_config, crop):
 
 
 def test_toe_point_with_a_stress_band():
-    from bayes_dnlr.config.schema import ToeBand
+    from bayes_dnlr.config import ToeBand
 
     e = np.linspace(0, 0.05, 501)
     s = 30.0 * np.tanh(2000 * np.maximum(e - 0.002, 0) / 30.0)

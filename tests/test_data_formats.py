@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayes_dnlr.config.schema import parse_config
+from bayes_dnlr.config import parse_config
 from bayes_dnlr.data import DataError, load_test
 
 N = 60

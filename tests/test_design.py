@@ -14,7 +14,7 @@ import yaml
 from finished_run import make_finished_run
 
 from bayes_dnlr.cli import main
-from bayes_dnlr.config.schema import ConfigError, parse_config
+from bayes_dnlr.config import ConfigError, parse_config
 from bayes_dnlr.data import TestData
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.inference.discrepancy import gp

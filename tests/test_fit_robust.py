@@ -13,7 +13,7 @@ import pytest
 from run_support import WIDE_RELAXATION_PRIORS, make_run, small_ramp_relaxation_truth
 from sampling_support import write_case
 
-from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.config import load_config
 from bayes_dnlr.data import load_test
 from bayes_dnlr.inference.lsq import identify as lsq
 from bayes_dnlr.inference.lsq.plausibility import plausibility_warnings, singular_message

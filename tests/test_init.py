@@ -12,7 +12,7 @@ import pytest
 import yaml
 
 from bayes_dnlr.cli import main
-from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.config import load_config
 from bayes_dnlr.workflows.init import init_config
 
 REPO = Path(__file__).resolve().parents[1]

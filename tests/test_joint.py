@@ -25,7 +25,7 @@ def cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
 @pytest.fixture(scope="module")
 def joint_run(tmp_path_factory) -> Path:
     """A three-rate run with shared E, G and one tau_max per test, fitted and sampled (tiny chain)."""
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.runs.sample import sample
 
     path = make_joint(tmp_path_factory.mktemp("joint"))
@@ -64,7 +64,7 @@ def test_joint_posterior_names_in_summary_and_posterior_nc(joint_run):
 
 
 def test_joint_sample_is_resumable_without_resampling(joint_run):
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.runs.sample import sample
 
     post = sample(load_config(joint_run / "config.yaml"), progress=False)
@@ -72,7 +72,7 @@ def test_joint_sample_is_resumable_without_resampling(joint_run):
 
 
 def test_single_test_config_unchanged(tmp_path):
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.runs.fit import fit
 
     path = make_run(tmp_path, "one", ramp_truth(0.4, n_points=150))
@@ -208,7 +208,7 @@ def test_joint_correlation_warnings_in_one_line():
 def test_joint_report_with_model_error_in_one_test(tmp_path):
     """One test with a smooth correlated error: its own discrepancy in the joint posterior
     (disc_amplitude[r5e-3]); the others white; the report draws δ on that test's residuals only."""
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.report import build_report
     from bayes_dnlr.runs.sample import sample
     from bayes_dnlr.workflows.simulate import simulate_tests

@@ -11,7 +11,7 @@ import h5py
 import pytest
 from sampling_support import write_case
 
-from bayes_dnlr.config.schema import load_config, parse_config
+from bayes_dnlr.config import load_config, parse_config
 from bayes_dnlr.inference.discrepancy.gls import SAME_ESTIMATE_SD, choose_kernel
 from bayes_dnlr.report import build_report
 from bayes_dnlr.runs.fit import fit

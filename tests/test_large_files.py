@@ -13,7 +13,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 from large_files import write_test  # noqa: E402
 
-from bayes_dnlr.config.schema import load_config  # noqa: E402
+from bayes_dnlr.config import load_config  # noqa: E402
 from bayes_dnlr.data import load_test  # noqa: E402
 
 ROWS = 1_000_000

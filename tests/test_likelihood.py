@@ -10,7 +10,7 @@ import pytest
 from sampling_support import TRUTH, TRUTH_RELAX, make_test
 from scipy import stats
 
-from bayes_dnlr.config.schema import parse_config
+from bayes_dnlr.config import parse_config
 from bayes_dnlr.inference.posterior.likelihood import build_log_posterior
 from bayes_dnlr.inference.posterior.priors import build_priors
 from bayes_dnlr.model import simulate
@@ -129,7 +129,7 @@ def _disc_cfg(kernel: str, axis: str, relaxation: bool = False):
 
 
 def _disc_priors(high: float):
-    from bayes_dnlr.config.schema import ParameterSpec
+    from bayes_dnlr.config import ParameterSpec
 
     return {"disc_amplitude": ParameterSpec(prior="half-normal", scale=2.0),
             "disc_length": ParameterSpec(prior="log-uniform", low=1e-4, high=high)}
@@ -185,7 +185,7 @@ def test_discrepancy_likelihood_on_a_relaxation_test_with_a_window_gap() -> None
 
 
 def test_discrepancy_with_fixed_hyperparameters_and_bad_points() -> None:
-    from bayes_dnlr.config.schema import ParameterSpec
+    from bayes_dnlr.config import ParameterSpec
 
     test = make_test(n=300)
     raw = _disc_cfg("matern32", "time").model_dump(mode="json", exclude_none=True)

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import yaml
 
-from bayes_dnlr.config.schema import load_config, parse_config
+from bayes_dnlr.config import load_config, parse_config
 from bayes_dnlr.data import TestData
 from bayes_dnlr.errors import BayesDnlrError, RunError
 from bayes_dnlr.inference.lsq.identify import FitResult, fit_test, stochastic_analysis

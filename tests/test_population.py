@@ -100,7 +100,7 @@ def test_many_specimens_get_a_grid_fine_enough_for_their_narrow_posterior(tmp_pa
 @pytest.fixture(scope="module")
 def specimens(tmp_path_factory):
     """Three finished single-test runs with different true E (tiny chains)."""
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.runs.sample import sample
 
     root = tmp_path_factory.mktemp("pop")

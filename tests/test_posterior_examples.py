@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.config import load_config
 from bayes_dnlr.runs.sample import sample
 
 RUNS = Path(__file__).resolve().parents[1] / "runs"

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
-from bayes_dnlr.config.schema import ParameterSpec, SampledNoise, parse_config
+from bayes_dnlr.config import ParameterSpec, SampledNoise, parse_config
 from bayes_dnlr.inference.posterior.priors import Prior, build_priors, sampled_names
 
 CASES = [
@@ -123,7 +123,7 @@ def test_build_priors_from_config() -> None:
 def test_discrepancy_hyperparameters_are_sampled_in_log_space() -> None:
     """disc_amplitude (half-normal) and disc_length (log-uniform) follow the model parameters and
     sigma0; both are sampled in ln x, the density carrying the Jacobian x; a fixed one is left out."""
-    from bayes_dnlr.config.schema import ParameterSpec
+    from bayes_dnlr.config import ParameterSpec
 
     raw = {"name": "t", "data": {"file": "x.csv", "columns": {"time": "t", "eps11": "e", "stress": "s"},
                                  "observable": "stress"},

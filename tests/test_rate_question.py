@@ -10,7 +10,7 @@ from joint_support import make_joint
 
 
 def _verdict(tmp_path, name: str, per_decade: float):
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.report import build_report
     from bayes_dnlr.report.joint import rate_question, test_view
     from bayes_dnlr.report.tables import load_run
@@ -45,7 +45,7 @@ def test_e_rising_ten_percent_per_decade_is_rate_dependent(tmp_path):
 @pytest.mark.parametrize("per_decade", [0.0])
 def test_shared_e_gives_no_rate_verdict(tmp_path, per_decade):
     """With E shared the joint posterior cannot ask the question: no verdict is invented."""
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.report.joint import rate_question, test_view
     from bayes_dnlr.report.tables import load_run
     from bayes_dnlr.runs.fit import fit

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayes_dnlr.config.schema import parse_config
+from bayes_dnlr.config import parse_config
 from bayes_dnlr.data import load_test
 
 REAL = Path(os.environ.get("BAYES_DNLR_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"

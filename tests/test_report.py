@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.config import load_config
 from bayes_dnlr.model import simulate
 from bayes_dnlr.numbers import fmt, fmt_at
 from bayes_dnlr.report import build_report

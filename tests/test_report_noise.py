@@ -8,7 +8,7 @@ import json
 import pytest
 from sampling_support import write_case
 
-from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.config import load_config
 from bayes_dnlr.report import build_report
 from bayes_dnlr.runs.sample import sample
 

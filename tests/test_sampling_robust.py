@@ -13,7 +13,7 @@ import yaml
 from sampling_support import write_case
 
 from bayes_dnlr.cli import main
-from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.config import load_config
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.inference.mcmc.ensemble import convergence, shortfall, start_ensemble
 from bayes_dnlr.inference.posterior.priors import Prior, PriorSet

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import yaml
 
-from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.config import load_config
 from bayes_dnlr.inference.analyses.sbc import (
     ecdf,
     inside_band,

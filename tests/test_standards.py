@@ -145,7 +145,7 @@ SHIPPED = Path(__file__).resolve().parents[1] / "runs" / "hdpe-a-5e-3" / "config
 
 @pytest.mark.skipif(not SHIPPED.is_file(), reason="shipped example runs/hdpe-a-5e-3 not present")
 def test_shipped_5e_3_example_standards_well_below_E():
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
 
     cfg = load_config(SHIPPED)
     test = bd_data.load_test(cfg)

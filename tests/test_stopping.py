@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from sampling_support import write_case
 
-from bayes_dnlr.config.schema import load_config
+from bayes_dnlr.config import load_config
 from bayes_dnlr.inference.mcmc.ensemble import CHECK_FRACTION, Convergence, next_check
 from bayes_dnlr.runs.chains import read_run
 from bayes_dnlr.runs.sample import sample

@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from bayes_dnlr.cli import main
-from bayes_dnlr.config.schema import ConfigError, load_config, parse_config
+from bayes_dnlr.config import ConfigError, load_config, parse_config
 from bayes_dnlr.data import DataError, load_test
 from bayes_dnlr.model import simulate
 from bayes_dnlr.workflows.simulate import simulate_test

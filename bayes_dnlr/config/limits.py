@@ -21,13 +21,16 @@ import math
 import os
 from typing import TYPE_CHECKING
 
+from bayes_dnlr.config.noise_section import NoiseConfig, SampledNoise
+from bayes_dnlr.vocabulary import UNITS
+
 if TYPE_CHECKING:
-    from bayes_dnlr.config.schema import Config, NoiseConfig, ParameterSpec
+    from bayes_dnlr.config.parameter_section import ParameterSpec
+    from bayes_dnlr.config.schema import Config
 
 MAX_STRESS = 1.0e7      # MPa
 MAX_TIME = 1.0e12       # s
 LIMITS = {"MPa": MAX_STRESS, "s": MAX_TIME}
-PARAMETER_UNITS = {"E": "MPa", "G": "MPa", "tau_max": "s", "sigma_inf": "MPa", "tau_max_R": "s"}
 POSITIVE = ("tau_max", "tau_max_R")          # the spectrum's logarithm (eq. 12)
 POSITIVE_FIXED = ("E", "tau_max", "tau_max_R")
 SPEC_NUMBERS = ("value", "low", "high", "mean", "sd", "median", "scale")
@@ -48,12 +51,12 @@ def _magnitude(spec, key: str, unit: str) -> str | None:
 
 def _parameter(name: str, spec: ParameterSpec) -> str | None:
     key = f"parameters.{name}"
-    bad = _magnitude(spec, key, PARAMETER_UNITS[name])
+    bad = _magnitude(spec, key, UNITS[name])
     if bad:
         return bad
     if spec.fixed:
         if name in POSITIVE_FIXED and not spec.value > 0:
-            return f"{key}.value: must be > 0 {PARAMETER_UNITS[name]}, got {spec.value:g}"
+            return f"{key}.value: must be > 0 {UNITS[name]}, got {spec.value:g}"
         return None
     if name in POSITIVE and not spec.bounds()[0] >= 0:
         return (f"{key}: the prior reaches {spec.bounds()[0]:g} s, but {name} must be > 0 "
@@ -63,8 +66,6 @@ def _parameter(name: str, spec: ParameterSpec) -> str | None:
 
 
 def _noise(noise: NoiseConfig, key: str) -> str | None:
-    from bayes_dnlr.config.schema import SampledNoise
-
     s0 = noise.sigma0
     if isinstance(s0, float | int) and not isinstance(s0, bool) and s0 > MAX_STRESS:
         return f"{key}.sigma0: {s0:g} is beyond any stress noise; expected <= {MAX_STRESS:g} MPa"
@@ -89,8 +90,6 @@ def _noise(noise: NoiseConfig, key: str) -> str | None:
 def sampled_dimension(cfg: Config) -> int:
     """The most parameters the sampler can carry for ``cfg`` (model parameters, one per test where
     ``per: test``, sigma0 when sampled and the discrepancy hyperparameters of each test)."""
-    from bayes_dnlr.config.schema import SampledNoise
-
     n_tests = len(cfg.test_names)
     n = sum(n_tests if cfg.parameters[k].per_test else 1 for k in cfg.free_parameters)
     noises = [t.noise for t in cfg.tests] if cfg.tests is not None else [cfg.noise]
@@ -113,8 +112,6 @@ def physical_memory() -> float:
 def fewest_sampled(cfg: Config) -> int:
     """The fewest parameters the sampler can carry for ``cfg`` (the discrepancy's hyperparameters
     may drop out after the fit): the free model parameters and sigma0 when sampled."""
-    from bayes_dnlr.config.schema import SampledNoise
-
     n_tests = len(cfg.test_names)
     n = sum(n_tests if cfg.parameters[k].per_test else 1 for k in cfg.free_parameters)
     noises = [t.noise for t in cfg.tests] if cfg.tests is not None else [cfg.noise]

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bayes_dnlr.config.schema import Window
+from bayes_dnlr.config import Window
 from bayes_dnlr.data.errors import DataError
 from bayes_dnlr.data.testdata import TestData
 from bayes_dnlr.data.windows import describe_window, window_mask

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bayes_dnlr.config.schema import ToeBand
+from bayes_dnlr.config import ToeBand
 from bayes_dnlr.data.checks import initial_slope
 from bayes_dnlr.data.errors import DataError
 

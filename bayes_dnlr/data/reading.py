@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bayes_dnlr.config.schema import DataConfig
+from bayes_dnlr.config import DataConfig
 from bayes_dnlr.data.errors import DataError
 from bayes_dnlr.data.numbers import MISSING, parse_cell, why_not_a_number
 from bayes_dnlr.data.sniff import (

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bayes_dnlr.config.schema import Config
+from bayes_dnlr.config import Config
 from bayes_dnlr.data.checks import (
     check_increasing,
     check_load,

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bayes_dnlr.config.schema import Window
+from bayes_dnlr.config import Window
 from bayes_dnlr.data.errors import DataError
 
 MIN_ROWS = 3

@@ -17,20 +17,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bayes_dnlr.config.schema import PARAMETER_NAMES
 from bayes_dnlr.inference.lsq.problem import LsqProblem, bounded_lstsq
-from bayes_dnlr.inference.lsq.sensitivity import LINEAR_COLUMN, TIME_CONSTANTS
-
-NOISE_NAMES = ("sigma0", "disc_amplitude", "disc_length")
+from bayes_dnlr.vocabulary import LINEAR_COLUMN, NOISE_NAMES, PARAMETER_NAMES, TIME_CONSTANTS, base_name
 
 
 def joint_name(name: str, test: str) -> str:
     return f"{name}[{test}]"
-
-
-def base_name(name: str) -> str:
-    """``tau_max[r5e-3]`` -> ``tau_max``."""
-    return name.split("[", 1)[0]
 
 
 def test_of(name: str) -> str | None:

@@ -15,8 +15,7 @@ import numpy as np
 
 from bayes_dnlr.model import kernel, threads
 from bayes_dnlr.model.spectrum import tau_scale, weights
-
-LINEAR_PARAMETERS = ("E", "G", "sigma_inf")
+from bayes_dnlr.vocabulary import RELAXATION_PARAMETERS, TENSILE_PARAMETERS, pack_theta
 
 
 def haward_thackray(strain: np.ndarray) -> np.ndarray:
@@ -146,8 +145,7 @@ class DNLR:
         return Basis(out, gt, gr if self.has_relaxation else None)
 
     def parameter_names(self) -> list[str]:
-        names = ["E", "G", "tau_max"]
-        return names + (["sigma_inf", "tau_max_R"] if self.has_relaxation else [])
+        return list(TENSILE_PARAMETERS) + (list(RELAXATION_PARAMETERS) if self.has_relaxation else [])
 
     def _check_params(self, params: Mapping[str, float]) -> None:
         missing = [k for k in self.parameter_names() if k not in params]
@@ -176,12 +174,8 @@ class DNLR:
         if theta.ndim != 2 or theta.shape[1] != len(names):
             raise ValueError(f"theta has {theta.shape[-1]} columns for {len(names)} names")
         self._check_params(dict.fromkeys(names, 0.0))
-        sets = np.zeros((theta.shape[0], 5))
-        for c, k in enumerate(("E", "G", "sigma_inf", "tau_max", "tau_max_R")):
-            if k in names:
-                sets[:, c] = theta[:, names.index(k)]
-        if not self.has_relaxation:
-            sets[:, 4] = sets[:, 3]
+        sets = pack_theta(lambda k: theta[:, names.index(k)] if k in names else None,
+                          theta.shape[0], self.has_relaxation)
         bad = ~(np.isfinite(sets[:, 3:]).all(axis=1) & (sets[:, 3:] > 0).all(axis=1))
         if bad.any():
             k = int(np.flatnonzero(bad)[0])

@@ -25,10 +25,9 @@ from typing import Any
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pm
 from bayes_dnlr.report.tables import RunResults, Table, deborah, load_run
+from bayes_dnlr.vocabulary import PARAMETER_NAMES, UNITS
 
 P_CONSISTENT = 0.05
-PARAMS = ("E", "G", "tau_max", "sigma_inf", "tau_max_R")
-UNIT = {"E": "MPa", "G": "MPa", "tau_max": "s", "sigma_inf": "MPa", "tau_max_R": "s"}
 
 
 @dataclass
@@ -60,10 +59,10 @@ class Comparison:
         """Table 3/5 layout: one column per run, one row per quantity."""
         header = ["", *[r["run"] for r in self.rows]]
         lines: list[list[str]] = [["strain rate (1/s)", *[fmt(r["strain_rate"], 3) for r in self.rows]]]
-        for p in PARAMS:
+        for p in PARAMETER_NAMES:
             if not any(r.get(f"{p}_post") is not None or r.get(f"{p}_gn") is not None for r in self.rows):
                 continue
-            u = UNIT[p]
+            u = UNITS[p]
             lines.append([f"{p} posterior ({u})", *[_pm(r.get(f"{p}_post"), r.get(f"{p}_post_sd"))
                                                     for r in self.rows]])
             lines.append([f"{p} Gauss-Newton ({u})", *[_pm(r.get(f"{p}_gn"), r.get(f"{p}_gn_sd"))
@@ -117,7 +116,7 @@ def run_row(run: RunResults) -> dict[str, Any]:
     post = (run.summary or {}).get("posterior") or {}
     gn = run.gn()
     truth = run.truth or {}
-    for p in PARAMS:
+    for p in PARAMETER_NAMES:
         s = post.get(p)
         row[f"{p}_post"] = None if s is None else float(s["mean"])
         row[f"{p}_post_sd"] = None if s is None else float(s["sd"])

@@ -13,7 +13,7 @@ RESULTS = ("fit.json", "summary.json", "posterior.nc")
 
 def report_inputs(run_dir: Path) -> list[Path]:
     """The files report.html is built from: the run's configs, its data file(s) and results."""
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
 
     run_dir = Path(run_dir)
     paths = [run_dir / n for n in (RESOLVED_CONFIG, RESOLVED_CONFIG_BESIDE_SOURCE, *RESULTS)]

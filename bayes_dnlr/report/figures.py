@@ -23,14 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
+from bayes_dnlr.vocabulary import QUANTITIES
+
 DPI = 110
-LABELS = {"E": r"$E$ (MPa)", "G": r"$G$ (MPa)", "tau_max": r"$\tau_{max}$ (s)",
-          "sigma_inf": r"$\sigma_\infty$ (MPa)", "tau_max_R": r"$\tau^R_{max}$ (s)",
-          "sigma0": r"$\sigma_0$ (MPa)", "disc_amplitude": r"$\delta$ amplitude (MPa)",
-          "disc_length": r"$\delta$ length"}
-SYMBOLS = {"E": r"$E$", "G": r"$G$", "tau_max": r"$\tau_{max}$", "sigma_inf": r"$\sigma_\infty$",
-           "tau_max_R": r"$\tau^R_{max}$", "sigma0": r"$\sigma_0$", "disc_amplitude": r"$a_\delta$",
-           "disc_length": r"$\ell_\delta$"}
+SYMBOLS = {k: q.symbol for k, q in QUANTITIES.items()}
+# axis labels: the symbol and its unit (the discrepancy's length is in s or in strain, by its axis)
+LABELS = {k: q.symbol if k == "disc_length" else f"{q.symbol} ({q.unit})" for k, q in QUANTITIES.items()}
 C_DATA, C_MODEL, C_GN, C_TRUTH = "0.35", "#c0392b", "#1f5fa8", "#2e8b57"
 
 

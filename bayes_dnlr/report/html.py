@@ -24,6 +24,7 @@ from bayes_dnlr.report import model_error as rn
 from bayes_dnlr.report import tables as tb
 from bayes_dnlr.report import views
 from bayes_dnlr.report.tables import RunResults, load_run
+from bayes_dnlr.vocabulary import Z90
 
 N_DRAWS = 200          # posterior draws pushed through the model for the bands
 
@@ -125,7 +126,7 @@ def model_curves(run: RunResults, n_draws: int = N_DRAWS, seed: int = 0) -> Curv
             amp = flat.get("disc_amplitude")
             fixed_amp = (((run.summary or {}).get("noise") or {}).get("amplitude") or {}).get("value", 0.0)
             s2 += float(np.mean(amp**2)) if amp is not None else float(fixed_amp) ** 2
-        half = 1.6448536269514722 * np.sqrt(curves.var(axis=0) + s2)
+        half = Z90 * np.sqrt(curves.var(axis=0) + s2)
         mean = curves.mean(axis=0)
         plo, phi = mean - half, mean + half
         c.predictive = (plo, phi)

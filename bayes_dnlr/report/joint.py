@@ -23,11 +23,12 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr import __version__
-from bayes_dnlr.inference.layout import NOISE_NAMES, base_name, joint_name
+from bayes_dnlr.inference.layout import joint_name
 from bayes_dnlr.report import figures as figs
 from bayes_dnlr.report import model_error as rn
 from bayes_dnlr.report import tables as tb
 from bayes_dnlr.report.tables import RunResults, Table, fmt, fmt_at
+from bayes_dnlr.vocabulary import NOISE_NAMES, base_name, unit
 
 
 def _joint(name: str, test: str, per_test: list[str]) -> str:
@@ -149,9 +150,9 @@ def tables_3_5(run: RunResults, views: dict[str, RunResults]) -> Table:
                 cells.append("–")
                 continue
             cells.append(f"{fmt_at(v, sd)} ± {fmt(sd, 2)}" + (" (shared)" if k not in per_test else ""))
-        rows.append([f"{k} ({tb.UNITS.get(k, '')})", *cells])
+        rows.append([f"{k} ({unit(k)})", *cells])
     for k, v in run.cfg.fixed_values.items():
-        rows.append([f"{k} ({tb.UNITS.get(k, '')}), fixed", *[fmt(v) for _ in order]])
+        rows.append([f"{k} ({unit(k)}), fixed", *[fmt(v) for _ in order]])
     de = [tb.deborah(views[t]) for t in order]
     rows.append(["De_max = tau_max·ε̇ (eq. 45)",
                  *[fmt(d[0], 3) + (f" ± {fmt(d[1], 2)}" if d[1] else "") for d in de]])

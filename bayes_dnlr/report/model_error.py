@@ -19,6 +19,7 @@ import numpy as np
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pct, pm
 from bayes_dnlr.report import figures as figs
 from bayes_dnlr.report.tables import RunResults, Table
+from bayes_dnlr.vocabulary import Z90
 
 PAPER_BY_HAND = ("The paper widens Err(E) of A_// at 5e-3 1/s from the linearized 0.47 % to ±6.5 % "
                  "by hand, \"changing E within ±ΔE so that the model curves flank the experimental "
@@ -102,7 +103,7 @@ def interval_table(run: RunResults, parameter: str = "E") -> Table | None:
         err = sd / abs(est) if est else None
         rows.append([label, fmt_at(est, sd), fmt_sd(sd), interval(lo, hi, sd), pct(err)])
 
-    z = 1.6448536269514722
+    z = Z90
     w_est, w_sd = (fit.get("estimate") or {}).get(parameter), (fit.get("sd") or {}).get(parameter)
     if w_est is not None and w_sd is not None:
         row("white noise, linearized (the paper's eq. 32)", w_est, w_sd, w_est - z * w_sd, w_est + z * w_sd)

@@ -17,20 +17,15 @@ from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.config.schema import UNITS, Config, load_config
+from bayes_dnlr.config import Config, load_config
 from bayes_dnlr.crosscheck import crosscheck_values, deborah_max
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pct
 from bayes_dnlr.runs.folder import find_config
+from bayes_dnlr.vocabulary import NOISE_NAMES, QUANTITIES, unit
 
 SD_TOLERANCE = 0.15      # posterior sd vs linearized sd, relative
 RHO_TOLERANCE = 0.05     # posterior ρ vs linearized ρ, absolute
-NAMES_HTML = {"E": "E", "G": "G", "tau_max": "τ<sub>max</sub>", "sigma_inf": "σ<sub>∞</sub>",
-              "tau_max_R": "τ<sup>R</sup><sub>max</sub>", "sigma0": "σ<sub>0</sub>",
-              "disc_amplitude": "δ amplitude", "disc_length": "δ length"}
-NAMES_TEXT = {"E": "E", "G": "G", "tau_max": "tau_max", "sigma_inf": "sigma_inf",
-              "tau_max_R": "tau_max_R", "sigma0": "sigma0", "disc_amplitude": "disc_amplitude",
-              "disc_length": "disc_length"}
-NOISE_NAMES = ("sigma0", "disc_amplitude", "disc_length")
+NAMES_HTML = {k: q.html for k, q in QUANTITIES.items()}
 
 
 @dataclass
@@ -323,10 +318,6 @@ def attach_test(run: RunResults, cfg: Config) -> None:
 # tables
 # ---------------------------------------------------------------------------------------------
 
-def _unit(n: str) -> str:
-    return UNITS.get(n.split("[", 1)[0], "")     # tau_max[r5e-3] of a joint run: s
-
-
 def parameter_table(run: RunResults) -> Table:
     """Posterior mean, sd, median, 90 % HDI, ESS, R-hat beside the least-squares estimate ± sd (the
     generalized one when the posterior used the discrepancy) and the truth."""
@@ -343,7 +334,7 @@ def parameter_table(run: RunResults) -> Table:
         header += ["true value"]
     rows = []
     for n in run.names:
-        row = [NAMES_TEXT.get(n, n), _unit(n)]
+        row = [n, unit(n)]
         prec = (post.get(n) or {}).get("sd") or ((gn or {}).get("sd") or {}).get(n)
         if post:
             s = post.get(n, {})
@@ -389,7 +380,7 @@ def correlation_tables(run: RunResults) -> tuple[Table | None, Table | None]:
     names = run.model_names
     post_t = lin_t = None
     pc = (run.summary or {}).get("posterior_correlation")
-    hdr = [""] + [NAMES_TEXT.get(n, n) for n in names]
+    hdr = [""] + [n for n in names]
     hhdr = [""] + [NAMES_HTML.get(n, n) for n in names]
     snames = list((run.summary or {}).get("parameters") or names)
     if pc is not None:
@@ -400,7 +391,7 @@ def correlation_tables(run: RunResults) -> tuple[Table | None, Table | None]:
             post = (run.summary or {}).get("posterior") or {}
             rows = []
             for i, n in enumerate(names):
-                row = [NAMES_TEXT.get(n, n)]
+                row = [n]
                 for j in range(len(names)):
                     if i == j:
                         s = post.get(n, {})
@@ -420,7 +411,7 @@ def correlation_tables(run: RunResults) -> tuple[Table | None, Table | None]:
             d = d[np.ix_(idx, idx)]
             rows = []
             for i, n in enumerate(names):
-                row = [NAMES_TEXT.get(n, n)]
+                row = [n]
                 for j in range(len(names)):
                     row.append(pct(d[i, j]) if i == j else (
                         fmt(d[i, j], 4) if abs(d[i, j]) < 0.9995 else f"{d[i, j]:.5f}"))
@@ -455,8 +446,8 @@ def disagreements(run: RunResults) -> list[Disagreement]:
         if sl > 0 and abs(sp / sl - 1) > SD_TOLERANCE:
             word = "larger" if sp > sl else "smaller"
             out.append(Disagreement("sd", (n,), sp, sl, (
-                f"{n}: the posterior sd ({fmt(sp)} {_unit(n)}) is {abs(sp / sl - 1) * 100:.0f} % {word} than "
-                f"the linearized sd ({fmt(sl)} {_unit(n)}): the linearization "
+                f"{n}: the posterior sd ({fmt(sp)} {unit(n)}) is {abs(sp / sl - 1) * 100:.0f} % {word} than "
+                f"the linearized sd ({fmt(sl)} {unit(n)}): the linearization "
                 f"{'underestimates' if sp > sl else 'overestimates'} this uncertainty.")))
         mean, est = float(post[n]["mean"]), gn["estimate"].get(n)
         if est is not None and sl > 0 and abs(mean - est) > 0.5 * sl:
@@ -495,7 +486,7 @@ def comparison_table(run: RunResults) -> Table | None:
     for n in names:
         sp, sl = float(post[n]["sd"]), float(gn["sd"][n])
         f = " ⚑" if ("sd", (n,)) in flags else ""
-        rows.append([f"sd({n}) {_unit(n)}", fmt(sp), fmt(sl), f"{(sp / sl - 1) * 100:+.1f} %{f}"])
+        rows.append([f"sd({n}) {unit(n)}", fmt(sp), fmt(sl), f"{(sp / sl - 1) * 100:+.1f} %{f}"])
     pc = (run.summary or {}).get("posterior_correlation")
     snames = list((run.summary or {}).get("parameters") or [])
     if pc is not None and gn["correlation"] is not None:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from bayes_dnlr.config.schema import Config
+from bayes_dnlr.config import Config
 from bayes_dnlr.digests import digest, file_sha256
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.inference.lsq.identify import FitResult, fit_test

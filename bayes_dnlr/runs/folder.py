@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from bayes_dnlr.config.schema import Config
+from bayes_dnlr.config import Config
 from bayes_dnlr.digests import digest
 from bayes_dnlr.diskio import storage_error, sweep_stale_temps, temp_path
 from bayes_dnlr.errors import RunError, StorageError

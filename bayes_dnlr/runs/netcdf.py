@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.config.schema import UNITS
+from bayes_dnlr.vocabulary import UNITS
 
 SAMPLE_DIMS = ("chain", "draw")
 

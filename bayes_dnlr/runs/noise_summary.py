@@ -11,10 +11,9 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from bayes_dnlr.config.schema import Config
+from bayes_dnlr.config import Config
 from bayes_dnlr.inference.discrepancy.hyper import AMPLITUDE, LENGTH
-
-Z90 = 1.6448536269514722     # two-sided 90 % normal quantile
+from bayes_dnlr.vocabulary import NOISE_NAMES, Z90
 
 
 def _linearized(estimate: float | None, sd: float | None) -> dict[str, Any] | None:
@@ -120,7 +119,7 @@ def joint_noise_block(cfg: Config, fit: dict[str, Any], summary: dict[str, Any],
                       sigma0_source: dict, layout: dict[str, list[str]]) -> dict[str, Any]:
     """The ``noise`` block of a joint run: each test's own block (its hyperparameters, E's
     interval under white noise and under the discrepancy), under ``tests``."""
-    from bayes_dnlr.inference.layout import NOISE_NAMES, joint_name
+    from bayes_dnlr.inference.layout import joint_name
 
     per_test = set(cfg.per_test_parameters)
     singles = fit.get("single_fits") or {}

@@ -28,10 +28,10 @@ from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.config.schema import UNITS
 from bayes_dnlr.inference.mcmc import ess
 from bayes_dnlr.numbers import interval, pm
 from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
+from bayes_dnlr.vocabulary import UNITS
 
 POSTERIOR_FILE = "posterior.nc"
 SUMMARY_FILE = "summary.json"

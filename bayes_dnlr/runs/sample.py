@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.config.schema import Config, ConfigError
+from bayes_dnlr.config import Config, ConfigError
 from bayes_dnlr.digests import digest
 from bayes_dnlr.errors import BayesDnlrError, StaleRunError
 from bayes_dnlr.inference.mcmc.ensemble import (

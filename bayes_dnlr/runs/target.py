@@ -12,12 +12,13 @@ from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.config.schema import DISCREPANCY_PARAMETERS, Config, ParameterSpec, SampledNoise
+from bayes_dnlr.config import Config, ParameterSpec, SampledNoise
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.inference.discrepancy.hyper import AMPLITUDE, LENGTH, discrepancy_priors, is_white
-from bayes_dnlr.inference.layout import NOISE_NAMES, JointPosterior, Layout, base_name, test_of
+from bayes_dnlr.inference.layout import JointPosterior, Layout, test_of
 from bayes_dnlr.inference.posterior.likelihood import LogPosterior, build_log_posterior
 from bayes_dnlr.inference.posterior.priors import PriorSet, build_priors, sampled_names
+from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS, NOISE_NAMES, base_name
 
 
 @dataclass

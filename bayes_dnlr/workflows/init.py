@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from bayes_dnlr.config.schema import NAME_PATTERN, ConfigError, parse_config
+from bayes_dnlr.config import NAME_PATTERN, ConfigError, parse_config
 from bayes_dnlr.data.guess import FRACTION_MAX, Guess, Pick, guess_columns
 from bayes_dnlr.data.units import lookup
 from bayes_dnlr.errors import RunError

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bayes_dnlr.config.schema import Config, ConfigError, TruthConfig
+from bayes_dnlr.config import Config, ConfigError, TruthConfig
 from bayes_dnlr.data import DataError, nominal_from_hencky
 from bayes_dnlr.data.numbers import parse_cell
 from bayes_dnlr.data.units import factor

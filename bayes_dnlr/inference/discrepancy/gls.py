@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.config.schema import Config, SampledNoise
+from bayes_dnlr.config import Config, SampledNoise
 from bayes_dnlr.inference.discrepancy.hyper import (
     AMPLITUDE_FLOOR,
     EVIDENCE_LR,

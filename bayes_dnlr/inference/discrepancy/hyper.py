@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.config.schema import DiscrepancyConfig, ParameterSpec
+from bayes_dnlr.config import DiscrepancyConfig, ParameterSpec
 from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.inference.discrepancy import gp
 from bayes_dnlr.inference.lsq.problem import LsqProblem

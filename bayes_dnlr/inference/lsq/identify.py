@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.config.schema import UNITS, Config
+from bayes_dnlr.config import Config
 from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.inference.discrepancy.gls import discrepancy_analysis
 from bayes_dnlr.inference.lsq import optimize
@@ -43,6 +43,7 @@ from bayes_dnlr.inference.lsq.start import clip_to, fallback, physics_start, spr
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd
 from bayes_dnlr.runs.folder import jsonable
+from bayes_dnlr.vocabulary import UNITS
 
 SAME_OPTIMUM_SD = 0.01      # multi-start end points within this many sd of the best: same optimum
 SAME_OPTIMUM_REL = 1.0e-6   # ... or within this relative distance (noise-free data: sd -> 0)

@@ -19,10 +19,10 @@ from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.config.schema import UNITS, Config
+from bayes_dnlr.config import Config
 from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.inference.discrepancy.hyper import Hyper, discrepancy_priors, is_white, test_axis, whitener
-from bayes_dnlr.inference.layout import JointProblem, Layout, base_name, pooled_start
+from bayes_dnlr.inference.layout import JointProblem, Layout, pooled_start
 from bayes_dnlr.inference.lsq.identify import FitResult, fit_test
 from bayes_dnlr.inference.lsq.optimize import run_minimiser
 from bayes_dnlr.inference.lsq.problem import LsqProblem
@@ -30,6 +30,7 @@ from bayes_dnlr.inference.lsq.sensitivity import StochasticAnalysis, analyse, id
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd, pm
 from bayes_dnlr.runs.folder import jsonable
+from bayes_dnlr.vocabulary import UNITS, base_name
 
 
 @dataclass

@@ -17,8 +17,9 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 
 from bayes_dnlr.errors import BayesDnlrError
-from bayes_dnlr.inference.lsq.sensitivity import LINEAR_COLUMN, TIME_CONSTANTS, log_sensitivity
+from bayes_dnlr.inference.lsq.sensitivity import log_sensitivity
 from bayes_dnlr.model import DNLR, Basis
+from bayes_dnlr.vocabulary import LINEAR_COLUMN, PARAMETER_NAMES, TIME_CONSTANTS
 
 
 class LsqProblem:
@@ -38,7 +39,7 @@ class LsqProblem:
         self.y = np.asarray(stress, dtype=float)[:end][self.mask]
         self.names = list(names)
         self.fixed = {k: float(v) for k, v in fixed.items()}
-        self.all_names = [k for k in ("E", "G", "tau_max", "sigma_inf", "tau_max_R")
+        self.all_names = [k for k in PARAMETER_NAMES
                           if k in self.names or k in self.fixed]
         relax = [k for k in self.names if k in ("sigma_inf", "tau_max_R")]
         if relax and not self.model.has_relaxation:
@@ -141,7 +142,7 @@ class LsqProblem:
         b = y minus the fixed linear part; both whitened when a whitening operator is set."""
         v = self.basis(params).values[self.mask]
         target = self.y.copy()
-        for k in ("E", "G", "sigma_inf"):
+        for k in LINEAR_COLUMN:
             if k in self.fixed and k in params:
                 target -= self.fixed[k] * v[:, LINEAR_COLUMN[k]]
         A = np.column_stack([v[:, LINEAR_COLUMN[k]] for k in self.linear])

@@ -19,9 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bayes_dnlr.model import Basis
-
-LINEAR_COLUMN = {"E": 0, "G": 1, "sigma_inf": 2}
-TIME_CONSTANTS = ("tau_max", "tau_max_R")
+from bayes_dnlr.vocabulary import LINEAR_COLUMN
 
 # identifiability thresholds (warnings, never errors)
 RHO_WARN = 0.99

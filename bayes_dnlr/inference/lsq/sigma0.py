@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from bayes_dnlr.config.schema import BaselineNoise, Config, SampledNoise
+from bayes_dnlr.config import BaselineNoise, Config, SampledNoise
 from bayes_dnlr.errors import BayesDnlrError
 
 SOURCE_CONFIG = "config"

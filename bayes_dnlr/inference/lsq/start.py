@@ -22,10 +22,10 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from bayes_dnlr.config.schema import ParameterSpec
+from bayes_dnlr.config import ParameterSpec
 from bayes_dnlr.model import haward_thackray, tau_scale, weights
+from bayes_dnlr.vocabulary import TIME_CONSTANTS
 
-TIME_CONSTANTS = ("tau_max", "tau_max_R")
 SD_SPAN = 3.0  # normal / log-normal priors without truncation: starts within ±3 sd
 
 

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.config.schema import ConfigError
+from bayes_dnlr.config import ConfigError
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.inference.mcmc.emcee_import import load_emcee
 from bayes_dnlr.inference.mcmc.ess import next_fast_len

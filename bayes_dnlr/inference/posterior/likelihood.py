@@ -27,13 +27,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bayes_dnlr.config.schema import DISCREPANCY_PARAMETERS, Config, ParameterSpec
+from bayes_dnlr.config import Config, ParameterSpec
 from bayes_dnlr.data import TestData
 from bayes_dnlr.inference.discrepancy import gp
 from bayes_dnlr.inference.discrepancy.hyper import AMPLITUDE, LENGTH, Axis, is_white, test_axis
 from bayes_dnlr.inference.posterior import fused as fused_kernel
 from bayes_dnlr.inference.posterior.priors import PriorSet, build_priors
 from bayes_dnlr.model import DNLR
+from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS, pack_theta
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
@@ -168,10 +169,9 @@ class LogPosterior:
             return self.log_likelihood_reference(theta)
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         k = theta.shape[0]
-        e, g, t, s, tr = self._linear_and_times(theta)
-        sets = np.empty((k, 5))
-        sets[:, 0], sets[:, 1], sets[:, 2], sets[:, 3] = e, g, s, t
-        sets[:, 4] = tr if self.has_relaxation else t
+        used = self.model.parameter_names()
+        sets = pack_theta(lambda name: self._col(theta, name) if name in used else None, k,
+                          self.has_relaxation)
         sig = np.ascontiguousarray(self._col(theta, "sigma0"), dtype=float)
         if self.discrepancy is not None:
             amp = np.ascontiguousarray(self._col(theta, AMPLITUDE), dtype=float)

@@ -20,7 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bayes_dnlr.config.schema import DISCREPANCY_PARAMETERS, Config, ConfigError, ParameterSpec, SampledNoise
+from bayes_dnlr.config import Config, ConfigError, ParameterSpec, SampledNoise
+from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS
 
 LOG_SPACE_KINDS = ("log-uniform", "log-normal")
 _LOG_SQRT_2PI = 0.5 * math.log(2.0 * math.pi)

@@ -32,7 +32,7 @@ from typing import Any
 
 import yaml
 
-from bayes_dnlr.config.schema import Config, ConfigError, load_config, parse_config
+from bayes_dnlr.config import Config, ConfigError, load_config, parse_config
 from bayes_dnlr.config.yamlio import YamlError, load_yaml
 from bayes_dnlr.errors import BayesDnlrError
 

@@ -25,6 +25,7 @@ import numpy as np
 from bayes_dnlr import __version__
 from bayes_dnlr.numbers import fmt, pm
 from bayes_dnlr.report.html import CSS
+from bayes_dnlr.vocabulary import PARAMETER_NAMES
 from bayes_dnlr.workflows.batch.manifest import (
     BatchError,
     default_out,
@@ -39,7 +40,6 @@ from bayes_dnlr.workflows.batch.run import BatchResult, run_batch
 PAGE = "batch.html"
 FIGURE = "batch_E.png"
 FOREST_MAX = 80          # tests shown one by one in the forest plot
-PARAMS = ("E", "G", "tau_max", "sigma_inf", "tau_max_R")
 
 
 def _warm_up_the_end() -> None:
@@ -206,7 +206,7 @@ def write_page(result: BatchResult, step: PopulationStep | None = None) -> Path:
     failed = [r for r in rows if r.get("status") == "failed"]
     pending = [r for r in rows if r.get("status") == "pending"]
     warned = [r for r in ok if r.get("n_warnings") or r.get("converged") is False]
-    params = [p for p in PARAMS if any(r.get(f"{p}_mean") is not None for r in ok)]
+    params = [p for p in PARAMETER_NAMES if any(r.get(f"{p}_mean") is not None for r in ok)]
     sec = [f"<h1>Batch: {len(rows)} tests</h1>",
            f"<div class='meta'>{_e(out)} · {_e(result.backend)} · {result.elapsed_s:.0f} s this run · "
            f"bayes_dnlr {__version__}</div>"]

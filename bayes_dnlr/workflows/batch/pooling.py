@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from bayes_dnlr.config.schema import ConfigError, load_config
+from bayes_dnlr.config import ConfigError, load_config
 from bayes_dnlr.runs.folder import find_config
 
 MIN_TESTS = 3

@@ -32,11 +32,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from bayes_dnlr.config.schema import DISCREPANCY_PARAMETERS, PARAMETER_NAMES
 from bayes_dnlr.digests import digest
 from bayes_dnlr.errors import BayesDnlrError, StaleRunError
 from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
 from bayes_dnlr.runs.lock import run_lock
+from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS, PARAMETER_NAMES
 from bayes_dnlr.workflows.batch.manifest import BatchError, Job
 
 ROWS_DIR = "rows"

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bayes_dnlr.config.schema import ConfigError, TruthConfig, Window
+from bayes_dnlr.config import ConfigError, TruthConfig, Window
 from bayes_dnlr.workflows.design.config import DesignConfig, DesignWindow
 from bayes_dnlr.workflows.simulate import Protocol, protocol
 

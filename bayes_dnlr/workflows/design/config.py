@@ -13,17 +13,8 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from bayes_dnlr.config.schema import (
-    NAME_PATTERN,
-    PARAMETER_NAMES,
-    RELAXATION_PARAMETERS,
-    TENSILE_PARAMETERS,
-    ConfigError,
-    ModelConfig,
-    OutputConfig,
-    Window,
-    _format_errors,
-)
+from bayes_dnlr.config import NAME_PATTERN, ConfigError, ModelConfig, OutputConfig, Window, format_errors
+from bayes_dnlr.vocabulary import PARAMETER_NAMES, RELAXATION_PARAMETERS, TENSILE_PARAMETERS
 
 CRITERIA = ("D", "A")
 
@@ -258,7 +249,7 @@ def parse_design(raw: Any, source: Path | None = None) -> DesignConfig:
     try:
         cfg = DesignConfig.model_validate(raw)
     except ValidationError as err:
-        text = _format_errors(err, where)
+        text = format_errors(err, where)
         for tag in (".DesignNoise", ".FixedDiscrepancy"):
             text = text.replace(tag, "")
         raise ConfigError(text.replace("docs/config.md", "docs/design.md")) from None

@@ -20,11 +20,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bayes_dnlr.config.schema import RELAXATION_PARAMETERS
 from bayes_dnlr.inference.discrepancy import gp
 from bayes_dnlr.inference.discrepancy.hyper import make_axis
 from bayes_dnlr.inference.lsq.sensitivity import correlation, covariance, sensitivity_matrix
 from bayes_dnlr.model import DNLR
+from bayes_dnlr.vocabulary import RELAXATION_PARAMETERS
 from bayes_dnlr.workflows.design.candidates import Candidate, planned_protocol, window_mask
 
 

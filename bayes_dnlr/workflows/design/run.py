@@ -18,11 +18,12 @@ from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.config.schema import PARAMETER_NAMES, RELAXATION_PARAMETERS, TENSILE_PARAMETERS, ConfigError
+from bayes_dnlr.config import ConfigError
 from bayes_dnlr.digests import digest, file_sha256
 from bayes_dnlr.errors import BayesDnlrError, RunError
 from bayes_dnlr.numbers import fmt
 from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
+from bayes_dnlr.vocabulary import PARAMETER_NAMES, RELAXATION_PARAMETERS, TENSILE_PARAMETERS
 from bayes_dnlr.workflows.design.candidates import expand
 from bayes_dnlr.workflows.design.config import DesignConfig
 from bayes_dnlr.workflows.design.fisher import Draws, NoiseDraw, Prediction, predict
@@ -79,7 +80,7 @@ def resolve_draws(cfg: DesignConfig) -> tuple[Draws, list[str], dict[str, Any]]:
                       start="stationary" if d == "none" else d.start)
         default_free = [k for k in PARAMETER_NAMES if k in cfg.parameters]
         return draws, cfg.free or default_free, {"parameters": "guess"}
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.runs.draws import load_run_draws
     from bayes_dnlr.runs.folder import find_config
 

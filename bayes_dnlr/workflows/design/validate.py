@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bayes_dnlr.config.schema import DEFAULT_PRIORS, parse_config
+from bayes_dnlr.config import DEFAULT_PRIORS, parse_config
 from bayes_dnlr.data import TestData
 from bayes_dnlr.inference.discrepancy import gp
 from bayes_dnlr.model import simulate

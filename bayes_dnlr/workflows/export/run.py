@@ -115,7 +115,7 @@ def material_name(name: str) -> str:
 
 
 def _config(run_dir: Path):
-    from bayes_dnlr.config.schema import load_config
+    from bayes_dnlr.config import load_config
     from bayes_dnlr.runs.folder import find_config
 
     try:

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from bayes_dnlr.config.schema import ConfigError, load_config
+from bayes_dnlr.config import ConfigError, load_config
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.inference.analyses.population import Population, population
 from bayes_dnlr.inference.posterior.priors import Prior

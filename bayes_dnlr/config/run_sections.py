@@ -1,0 +1,155 @@
+"""The sections that say how to run, not what to fit: ``sampler:``, ``fit:``, ``truth:`` (for
+``simulate``), ``crosscheck:`` and ``output:``."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field, field_validator, model_validator
+
+from bayes_dnlr.config.base import Strict
+from bayes_dnlr.vocabulary import PARAMETER_NAMES, RELAXATION_PARAMETERS, TENSILE_PARAMETERS
+
+
+class SamplerConfig(Strict):
+    walkers: int = Field(default=32, ge=2)
+    max_steps: int = Field(default=20000, ge=1)
+    target_ess: float = Field(default=1000.0, gt=0)
+    seed: int = Field(default=1, ge=0, lt=2**32, description="numpy's RandomState takes 0 <= seed < 2**32")
+    checkpoint_every: int = Field(default=100, ge=1)
+    moves: Literal["de-snooker", "stretch", "de"] = Field(
+        default="de", description="emcee moves; DEMove alone mixes best here (benchmarks/moves.py)")
+    burn_in_tau: float = Field(default=5.0, ge=0, description="burn-in, in autocorrelation times")
+    min_tau_multiple: float = Field(default=50.0, gt=0, description="chain length >= this many tau")
+    threads: int | None = Field(
+        default=None, ge=1, description="threads of the compiled likelihood (walkers in parallel); "
+                                         "null: NUMBA_NUM_THREADS lowered to OMP_NUM_THREADS, which "
+                                         "also cap a number given here; the chain does not depend on it")
+
+
+class FitConfig(Strict):
+    method: Literal["lm", "gauss-newton"] = "lm"
+    multistart: int = Field(default=8, ge=0)
+    max_iterations: int = Field(default=200, ge=1)
+
+
+class TruthCorrelated(Strict):
+    """A smooth correlated error added to the observable stress of a synthetic test: a zero-mean
+    Gaussian process on the time axis with the kernels of noise.discrepancy (exp: Ornstein-Uhlenbeck,
+    matern32), to test the model-discrepancy likelihood on data it describes."""
+
+    kernel: Literal["exp", "matern32"] = "exp"
+    amplitude: float = Field(ge=0, description="MPa, the process sd")
+    length: float = Field(gt=0, description="s, the correlation length")
+
+
+class TruthNoise(Strict):
+    strain_sd: float = Field(default=1.0e-4, ge=0)
+    stress_sd: float = Field(default=0.3, ge=0, description="MPa, on the observable stress")
+    force_sd: float = Field(default=0.0, ge=0, description="N, on the force signal")
+    correlated: TruthCorrelated | None = None
+
+
+class TruthConfig(Strict):
+    """Known parameters and test protocol for ``simulate`` (a synthetic test)."""
+
+    params: dict[str, float]
+    strain_rate: float = Field(gt=0, description="true (Hencky) strain rate of the ramp, 1/s")
+    strain_max: float = Field(gt=0, description="Hencky strain at the end of the ramp")
+    hold: float = Field(default=0.0, ge=0, description="length of the relaxation hold, s")
+    n_points: int | None = Field(default=None, ge=3)
+    sample_rate: float | None = Field(default=None, gt=0, description="Hz")
+    time_jitter: float = Field(default=0.0, ge=0, lt=0.5, description="relative, uniform ±")
+    noise: TruthNoise = Field(default_factory=TruthNoise)
+    seed: int = Field(default=0, ge=0, lt=2**32)
+    layout: Literal["plain", "bluehill", "zwick"] = Field(
+        default="plain", description="plain CSV; bluehill: Instron-like metadata block, units row, "
+                                     "quoted thousands, strain in %; zwick: ';' and decimal comma, "
+                                     "metadata, units row, strain in %")
+
+    @field_validator("params")
+    @classmethod
+    def _known_names(cls, v: dict[str, float]) -> dict[str, float]:
+        unknown = sorted(set(v) - set(PARAMETER_NAMES))
+        if unknown:
+            raise ValueError(f"unknown parameter(s) {unknown}; expected {list(PARAMETER_NAMES)}")
+        missing = [k for k in TENSILE_PARAMETERS if k not in v]
+        if missing:
+            raise ValueError(f"missing {missing}")
+        return v
+
+    @model_validator(mode="after")
+    def _sampling(self) -> TruthConfig:
+        if (self.n_points is None) == (self.sample_rate is None):
+            raise ValueError("give exactly one of n_points or sample_rate")
+        if self.hold > 0 and not all(k in self.params for k in RELAXATION_PARAMETERS):
+            raise ValueError("a hold needs params sigma_inf and tau_max_R")
+        return self
+
+
+class PulseEchoCheck(Strict):
+    """Pulse-echo measurement (eq. 38-39): a modulus as given, or density with wave speeds (m/s),
+    or density with thickness (mm) and echo periods (µs)."""
+
+    modulus: float | None = Field(default=None, gt=0, description="MPa, when already computed")
+    sd: float | None = Field(default=None, ge=0, description="MPa, reported uncertainty")
+    density: float | None = Field(default=None, gt=0, description="kg/m³")
+    v_l: float | None = Field(default=None, gt=0, description="longitudinal wave speed, m/s")
+    v_t: float | None = Field(default=None, gt=0, description="transverse wave speed, m/s")
+    thickness: float | None = Field(default=None, gt=0, description="sample thickness e, mm")
+    period_l: float | None = Field(default=None, gt=0, description="longitudinal echo period, µs")
+    period_t: float | None = Field(default=None, gt=0, description="transverse echo period, µs")
+
+    @model_validator(mode="after")
+    def _one_form(self) -> PulseEchoCheck:
+        speeds = self.v_l is not None or self.v_t is not None
+        periods = any(v is not None for v in (self.thickness, self.period_l, self.period_t))
+        if self.modulus is not None:
+            if speeds or periods or self.density is not None:
+                raise ValueError("give either modulus, or density with speeds/periods, not both")
+            return self
+        if self.density is None:
+            raise ValueError("give modulus (MPa), or density (kg/m³) with v_l, v_t or "
+                             "thickness, period_l, period_t")
+        if speeds == periods:
+            raise ValueError("give either v_l and v_t (m/s) or thickness (mm), period_l and "
+                             "period_t (µs)")
+        if speeds and (self.v_l is None or self.v_t is None):
+            raise ValueError("needs both v_l and v_t")
+        if periods and None in (self.thickness, self.period_l, self.period_t):
+            raise ValueError("needs thickness, period_l and period_t")
+        return self
+
+
+class NanoindentationCheck(Strict):
+    """CSM nanoindentation (eq. 40-44): a modulus as given, or S_m (N/m), h (m), F (N)."""
+
+    modulus: float | None = Field(default=None, gt=0, description="MPa, when already computed")
+    sd: float | None = Field(default=None, ge=0, description="MPa, reported uncertainty")
+    S_m: float | None = Field(default=None, gt=0, description="modulated contact stiffness, N/m")
+    h: float | None = Field(default=None, gt=0, description="indentation depth, m")
+    F: float | None = Field(default=None, ge=0, description="force at depth h, N")
+    nu: float = Field(default=0.5, ge=-1, le=0.5, description="Poisson ratio of the sample")
+    phase_deg: float = Field(default=0.0, ge=0, lt=90, description="phase lag φ of eq. 40, degrees")
+    indenter_correction: bool = Field(default=False, description="eq. 42 with E_i = 1040 GPa")
+
+    @model_validator(mode="after")
+    def _one_form(self) -> NanoindentationCheck:
+        raw = [k for k in ("S_m", "h", "F") if getattr(self, k) is not None]
+        if self.modulus is not None and raw:
+            raise ValueError(f"give either modulus or S_m, h, F, not both (found {raw})")
+        if self.modulus is None and len(raw) != 3:
+            raise ValueError("give modulus (MPa), or all of S_m (N/m), h (m) and F (N)")
+        return self
+
+
+class CrossCheckConfig(Strict):
+    """Independent measurements of E shown beside the model's in the report (paper Table 4)."""
+
+    manufacturer: float | None = Field(default=None, gt=0, description="data-sheet modulus, MPa")
+    pulse_echo: PulseEchoCheck | None = None
+    nanoindentation: NanoindentationCheck | None = None
+
+
+class OutputConfig(Strict):
+    dir: str | None = None
