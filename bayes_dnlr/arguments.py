@@ -15,7 +15,7 @@ import yaml
 
 from bayes_dnlr.config import ConfigError, load_config
 from bayes_dnlr.errors import RunError
-from bayes_dnlr.runs.folder import RESOLVED_CONFIG, RESOLVED_CONFIG_BESIDE_SOURCE
+from bayes_dnlr.runs.layout import RESOLVED_CONFIG, RESOLVED_CONFIG_BESIDE_SOURCE
 
 EXAMPLE_RUN = "runs/hdpe-a-5e-3"
 CONFIG_SUFFIXES = (".yaml", ".yml")

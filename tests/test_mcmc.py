@@ -13,7 +13,7 @@ from sampling_support import TRUTH, write_case
 from bayes_dnlr.cli import main
 from bayes_dnlr.config import ConfigError, load_config
 from bayes_dnlr.errors import RunError
-from bayes_dnlr.inference.mcmc.ensemble import convergence
+from bayes_dnlr.inference.mcmc.stopping import convergence
 from bayes_dnlr.runs.chains import read_run
 from bayes_dnlr.runs.sample import sample
 

@@ -11,8 +11,8 @@ from sampling_support import write_case
 
 import bayes_dnlr.inference.mcmc.ensemble as mcmc
 from bayes_dnlr.config import load_config
-from bayes_dnlr.inference.mcmc.ensemble import Convergence
 from bayes_dnlr.inference.mcmc.progress import EssProgress, credited_ess
+from bayes_dnlr.inference.mcmc.stopping import Convergence
 from bayes_dnlr.runs.sample import sample
 
 

@@ -15,7 +15,8 @@ from sampling_support import write_case
 from bayes_dnlr.cli import main
 from bayes_dnlr.config import load_config
 from bayes_dnlr.errors import RunError
-from bayes_dnlr.inference.mcmc.ensemble import convergence, shortfall, start_ensemble
+from bayes_dnlr.inference.mcmc.ensemble import start_ensemble
+from bayes_dnlr.inference.mcmc.stopping import convergence, shortfall
 from bayes_dnlr.inference.posterior.priors import Prior, PriorSet
 from bayes_dnlr.runs.chains import read_run
 from bayes_dnlr.runs.fit import fit

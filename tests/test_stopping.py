@@ -10,7 +10,8 @@ import pytest
 from sampling_support import write_case
 
 from bayes_dnlr.config import load_config
-from bayes_dnlr.inference.mcmc.ensemble import CHECK_FRACTION, Convergence, next_check
+from bayes_dnlr.inference.mcmc.ensemble import CHECK_FRACTION, next_check
+from bayes_dnlr.inference.mcmc.stopping import Convergence
 from bayes_dnlr.runs.chains import read_run
 from bayes_dnlr.runs.sample import sample
 
@@ -72,7 +73,7 @@ def test_resume_after_an_early_stop_gives_the_same_chain(tmp_path, ess_bound_run
 def test_tau_equals_emcee() -> None:
     from emcee.autocorr import integrated_time
 
-    from bayes_dnlr.inference.mcmc.ensemble import _tau
+    from bayes_dnlr.inference.mcmc.stopping import _tau
 
     rng = np.random.default_rng(0)
     for n in (20, 57, 401):

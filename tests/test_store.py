@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayes_dnlr.runs.chains import ChainWriter, SamplerState, read_attrs, read_run
+from bayes_dnlr.inference.mcmc.state import SamplerState
+from bayes_dnlr.runs.chains import ChainWriter, read_attrs, read_run
 
 W, D = 8, 3
 

@@ -25,6 +25,7 @@ from typing import Any
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pm
 from bayes_dnlr.report.tables import RunResults, Table, deborah, load_run
+from bayes_dnlr.runs.layout import SUMMARY_FILE
 from bayes_dnlr.vocabulary import PARAMETER_NAMES, UNITS
 
 P_CONSISTENT = 0.05
@@ -238,7 +239,7 @@ def compare_runs(run_dirs: Sequence[Path | str], out_dir: Path | str | None = No
         d = Path(d)
         if not d.is_dir():
             raise RunError(f"{d}: not a run directory")
-        need_data = not (d / "summary.json").is_file()
+        need_data = not (d / SUMMARY_FILE).is_file()
         run = load_run(d, load_data=need_data)
         if run.cfg.is_joint:
             raise RunError(f"{d}: a run with several tests (tests:) is compared within itself: its "

@@ -5,10 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from bayes_dnlr.runs.folder import RESOLVED_CONFIG, RESOLVED_CONFIG_BESIDE_SOURCE, find_config
-
-REPORT_FILE = "report.html"
-RESULTS = ("fit.json", "summary.json", "posterior.nc")
+from bayes_dnlr.runs.folder import find_config
+from bayes_dnlr.runs.layout import REPORT_FILE, RESOLVED_CONFIG, RESOLVED_CONFIG_BESIDE_SOURCE, RESULT_FILES
 
 
 def report_inputs(run_dir: Path) -> list[Path]:
@@ -16,7 +14,7 @@ def report_inputs(run_dir: Path) -> list[Path]:
     from bayes_dnlr.config import load_config
 
     run_dir = Path(run_dir)
-    paths = [run_dir / n for n in (RESOLVED_CONFIG, RESOLVED_CONFIG_BESIDE_SOURCE, *RESULTS)]
+    paths = [run_dir / n for n in (RESOLVED_CONFIG, RESOLVED_CONFIG_BESIDE_SOURCE, *RESULT_FILES)]
     try:
         cfg = load_config(find_config(run_dir))
         paths += [t.data_path for t in cfg.test_configs()]

@@ -9,7 +9,7 @@
 - ``rank_plot``: ArviZ's rank plot (Δ-ECDF of fractional ranks and the multi-chain uniformity test),
   computed by report/rank.py.
 
-Figures are rendered once (``_save`` crops the canvas instead of savefig's second, measuring
+Figures are rendered once (``save_figure`` crops the canvas instead of savefig's second, measuring
 rendering for bbox_inches="tight"); neither ArviZ nor xarray is imported (docs/report.md).
 - ``acf_plot``: autocorrelation of the residuals (white fit, and whitened by the discrepancy).
 """
@@ -32,7 +32,7 @@ LABELS = {k: q.symbol if k == "disc_length" else f"{q.symbol} ({q.unit})" for k,
 C_DATA, C_MODEL, C_GN, C_TRUTH = "0.35", "#c0392b", "#1f5fa8", "#2e8b57"
 
 
-def _plt():
+def pyplot():
     import matplotlib
 
     if matplotlib.get_backend().lower() != "agg":
@@ -71,7 +71,7 @@ def _arviz_corner(*args, **kwargs):
 PAD_INCHES = 0.1      # matplotlib's pad around a bbox_inches="tight" figure
 
 
-def _save(fig, path: Path) -> Path:
+def save_figure(fig, path: Path) -> Path:
     """Write the figure as PNG, cropped to its content plus PAD_INCHES like bbox_inches="tight",
     from a single rendering: savefig(bbox_inches="tight") renders the figure twice (once to measure
     it). Content reaching beyond the canvas (the crop could not hold it) falls back to savefig."""
@@ -93,7 +93,7 @@ def _save(fig, path: Path) -> Path:
         mimage.imsave(path, crop, format="png", dpi=DPI)
     else:
         fig.savefig(path, dpi=DPI, bbox_inches="tight")
-    _plt().close(fig)
+    pyplot().close(fig)
     return path
 
 
@@ -131,7 +131,7 @@ def corner_plot(samples: np.ndarray, names: Sequence[str], path: Path,
     posterior contour on top of its ellipse means the linearization holds.
     """
     corner_impl = _corner_impl()
-    plt = _plt()
+    plt = pyplot()
     samples = np.asarray(samples, dtype=float)
     p = samples.shape[1]
     est = None if gn_estimate is None else np.asarray(gn_estimate, dtype=float)
@@ -181,7 +181,7 @@ def corner_plot(samples: np.ndarray, names: Sequence[str], path: Path,
         handles.append(Line2D([], [], color=C_TRUTH, lw=1.5, label="true value (synthetic test)"))
     fig.legend(handles=handles, loc="upper right", frameon=False, fontsize=10,
                bbox_to_anchor=(0.98, 0.98))
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 # candidate places (axes fractions: x0, y0, width, height) for the zoom inset and the legend
@@ -253,7 +253,7 @@ def fit_plot(x: np.ndarray, data: np.ndarray, path: Path, *, window: np.ndarray,
     ``inset_xmax``: a zoom on x <= inset_xmax, placed where it hides no data (the legend too).
     discrepancy: the posterior mean of the model discrepancy δ on the window (drawn on the residuals).
     """
-    plt = _plt()
+    plt = pyplot()
     x, data = np.asarray(x), np.asarray(data)
     window = np.asarray(window, bool)
     centre = median if median is not None else gn_curve
@@ -316,7 +316,7 @@ def fit_plot(x: np.ndarray, data: np.ndarray, path: Path, *, window: np.ndarray,
     if sigma0 is not None:
         axr.text(0.01, 0.95, f"dotted: ±σ0 = ±{sigma0:.3g} MPa", transform=axr.transAxes, fontsize=8,
                  va="top")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def acf_plot(lags: np.ndarray, series: Mapping[str, np.ndarray], n: int, path: Path,
@@ -324,7 +324,7 @@ def acf_plot(lags: np.ndarray, series: Mapping[str, np.ndarray], n: int, path: P
     """Autocorrelation of residual series against the lag, with the ±1.96/√n band of white noise.
 
     series: label -> autocorrelation at ``lags`` (the same length)."""
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(9.0, 3.4))
     colors = (C_DATA, C_TRUTH, C_MODEL)
     for (label, acf), c in zip(series.items(), colors, strict=False):
@@ -337,14 +337,14 @@ def acf_plot(lags: np.ndarray, series: Mapping[str, np.ndarray], n: int, path: P
     ax.set_ylabel("autocorrelation")
     ax.grid(alpha=0.3)
     ax.legend(loc="upper right", fontsize=8, frameon=False)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def sensitivity_plot(strain: np.ndarray, sens: Mapping[str, np.ndarray], path: Path,
                      window: np.ndarray | None = None,
                      xlabel: str = r"true strain $\varepsilon_{11}$") -> Path:
     """Normalised sensitivities X̃_j = β_j ∂σ/∂β_j in MPa (eq. 37) against strain (Fig. 11)."""
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(9.0, 4.8))
     for name, s in sens.items():
         ax.plot(strain, s, lw=1.4, label=rf"$\tilde X$({SYMBOLS.get(name, name)})")
@@ -356,7 +356,7 @@ def sensitivity_plot(strain: np.ndarray, sens: Mapping[str, np.ndarray], path: P
     ax.set_ylabel(r"$\beta_j\,\partial\sigma/\partial\beta_j$ (MPa)")
     ax.legend(fontsize=9, frameon=False)
     ax.grid(alpha=0.3)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def sensitivity_xy_plot(x_tau: np.ndarray, x_e: np.ndarray, colour: np.ndarray, path: Path, *,
@@ -368,7 +368,7 @@ def sensitivity_xy_plot(x_tau: np.ndarray, x_e: np.ndarray, colour: np.ndarray, 
     through the origin would mean E and tau_max cannot be told apart. The sample ``mark`` (an
     index) is circled; a right panel zooms on the samples where ``zoom`` is True (the paper's
     insert: the part of the test where the two sensitivities part), when it holds 3 or more."""
-    plt = _plt()
+    plt = pyplot()
     from matplotlib.colors import LogNorm, Normalize
 
     x_tau, x_e, colour = (np.asarray(v, dtype=float) for v in (x_tau, x_e, colour))
@@ -402,7 +402,7 @@ def sensitivity_xy_plot(x_tau: np.ndarray, x_e: np.ndarray, colour: np.ndarray, 
         ax.grid(alpha=0.3)
         if title:
             ax.set_title(title, fontsize=10)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _pooled(draws: Mapping[str, np.ndarray], max_chains: int | None, max_draws: int,
@@ -433,7 +433,7 @@ def trace_plot(draws: Mapping[str, np.ndarray], path: Path, max_draws: int = 100
     (thin lines): groups that disagree mean the chain is not converged. Right: each walker's kept
     draws against the step after burn-in (thinned to at most ``max_draws`` per walker; ``step``:
     steps between stored draws)."""
-    plt = _plt()
+    plt = pyplot()
     names = list(draws)
     fig, axes = plt.subplots(len(names), 2, figsize=(11.0, 2.3 * len(names) + 0.6), squeeze=False,
                              gridspec_kw={"width_ratios": [1.0, 1.6], "hspace": 0.55, "wspace": 0.22})
@@ -469,7 +469,7 @@ def trace_plot(draws: Mapping[str, np.ndarray], path: Path, max_draws: int = 100
     axes[0, 0].set_title(f"marginal density: all walkers (grey), {len(parts)} walker groups (lines)",
                          fontsize=9)
     axes[0, 1].set_title("kept draws of every walker", fontsize=9)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def rank_plot(draws: Mapping[str, np.ndarray], path: Path, groups: int = 8, max_draws: int = 400,
@@ -481,7 +481,7 @@ def rank_plot(draws: Mapping[str, np.ndarray], path: Path, groups: int = 8, max_
     ``max_draws`` draws per group are kept."""
     from bayes_dnlr.report import rank
 
-    plt = _plt()
+    plt = pyplot()
     pooled = _pooled(draws, groups, max_draws, thin)
     names = list(pooled)
     cols = min(4, len(names))
@@ -509,4 +509,4 @@ def rank_plot(draws: Mapping[str, np.ndarray], path: Path, groups: int = 8, max_
         ax.grid(alpha=0.3)
     for ax in axes.ravel()[len(names):]:
         ax.set_visible(False)
-    return _save(fig, path)
+    return save_figure(fig, path)

@@ -24,6 +24,15 @@ from bayes_dnlr.report import model_error as rn
 from bayes_dnlr.report import tables as tb
 from bayes_dnlr.report import views
 from bayes_dnlr.report.tables import RunResults, load_run
+from bayes_dnlr.runs.layout import (
+    CHAINS_FILE,
+    FIGURES_DIR,
+    FIT_FILE,
+    POSTERIOR_FILE,
+    REPORT_FILE,
+    RESOLVED_CONFIG,
+    SUMMARY_FILE,
+)
 from bayes_dnlr.vocabulary import Z90
 
 N_DRAWS = 200          # posterior draws pushed through the model for the bands
@@ -243,14 +252,14 @@ def build_report(run_dir: Path | str) -> Path:
     t0 = time.perf_counter()
     run_dir = Path(run_dir)
     run = load_run(run_dir)
-    figdir = run_dir / "figures"
+    figdir = run_dir / FIGURES_DIR
     figdir.mkdir(exist_ok=True)
     for old in figdir.glob("*.png"):     # figures of an earlier report that may not apply any more
         old.unlink()
     if run.cfg.is_joint:
         from bayes_dnlr.report.joint import build_joint_report
 
-        out = run_dir / "report.html"
+        out = run_dir / REPORT_FILE
         out.write_text(build_joint_report(run, figdir, t0), encoding="utf-8")
         return out
     std = None
@@ -437,7 +446,7 @@ def build_report(run_dir: Path | str) -> Path:
             "not a proof.")))
 
     elapsed = time.perf_counter() - t0
-    files = ", ".join(f for f in ("config.yaml", "fit.json", "summary.json", "posterior.nc", "chains.h5")
+    files = ", ".join(f for f in (RESOLVED_CONFIG, FIT_FILE, SUMMARY_FILE, POSTERIOR_FILE, CHAINS_FILE)
                       if (run_dir / f).exists())
     now = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     sec.append(f"<footer>bayes_dnlr {__version__} · {now} · run directory {html.escape(str(run_dir))} "
@@ -447,6 +456,6 @@ def build_report(run_dir: Path | str) -> Path:
             f"<meta name='viewport' content='width=device-width, initial-scale=1'>"
             f"<title>{html.escape(run.name)} report</title><style>{CSS}</style></head><body>"
             + "\n".join(sec) + "</body></html>")
-    out = run_dir / "report.html"
+    out = run_dir / REPORT_FILE
     out.write_text(page, encoding="utf-8")
     return out

@@ -21,6 +21,7 @@ from bayes_dnlr.config import Config, load_config
 from bayes_dnlr.crosscheck import crosscheck_values, deborah_max
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pct
 from bayes_dnlr.runs.folder import find_config
+from bayes_dnlr.runs.layout import FIT_FILE, POSTERIOR_FILE, SUMMARY_FILE
 from bayes_dnlr.vocabulary import NOISE_NAMES, QUANTITIES, unit
 
 SD_TOLERANCE = 0.15      # posterior sd vs linearized sd, relative
@@ -291,9 +292,9 @@ def load_run(run_dir: Path | str, load_data: bool = True) -> RunResults:
     cfg = load_config(cfg_path)
     problems: list[str] = []
     run = RunResults(run_dir=run_dir, cfg=cfg, problems=problems)
-    run.fit = _read_json(run_dir / "fit.json", problems)
-    run.summary = _read_json(run_dir / "summary.json", problems)
-    nc = run_dir / "posterior.nc"
+    run.fit = _read_json(run_dir / FIT_FILE, problems)
+    run.summary = _read_json(run_dir / SUMMARY_FILE, problems)
+    nc = run_dir / POSTERIOR_FILE
     if nc.is_file():
         try:
             run.draws = read_draws(nc) or None
@@ -637,7 +638,7 @@ def deborah(run: RunResults) -> tuple[float | None, float | None, str]:
         if src and src.get("deborah_max") is not None:
             v = src["deborah_max"]
             v = v.get("mean", v.get("value")) if isinstance(v, dict) else v
-            return float(v), None, "summary" if src is run.summary else "fit.json"
+            return float(v), None, "summary" if src is run.summary else FIT_FILE
     tau = run.point().get("tau_max")
     return (None, None, "no tau_max") if tau is None else (deborah_max(tau, rate), None, "point estimate")
 

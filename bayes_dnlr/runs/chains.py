@@ -50,6 +50,7 @@ import h5py
 import numpy as np
 
 from bayes_dnlr.diskio import ensure_free, fsync_dir, kill_point, storage_error
+from bayes_dnlr.inference.mcmc.state import SamplerState
 
 FORMAT = "bayes_dnlr-chains/2"
 READABLE_FORMATS = ("bayes_dnlr-chains/1", FORMAT)   # /1: finished state in attrs, no /finish
@@ -79,19 +80,6 @@ KILL_POINTS = (
     "finish.flushed",      # finish record flushed, file not closed
     "finish.closed",       # file closed
 )
-
-
-@dataclass
-class SamplerState:
-    """The ensemble state emcee needs to continue exactly: positions, log-probs, RNG state."""
-
-    coords: np.ndarray              # (walkers, ndim) sampling coordinates
-    log_prob: np.ndarray            # (walkers,)
-    rng: tuple                      # numpy RandomState.get_state(): ('MT19937', key, pos, has_gauss, g)
-
-    @staticmethod
-    def rng_tuple(key: np.ndarray, pos: int, has_gauss: int, gauss: float) -> tuple:
-        return ("MT19937", np.asarray(key, dtype=np.uint32), int(pos), int(has_gauss), float(gauss))
 
 
 @dataclass

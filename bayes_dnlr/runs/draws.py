@@ -17,10 +17,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.errors import RunError
-
-POSTERIOR_FILE = "posterior.nc"
-SUMMARY_FILE = "summary.json"
-FIT_FILE = "fit.json"
+from bayes_dnlr.runs.layout import FIT_FILE, POSTERIOR_FILE, SUMMARY_FILE
 
 
 @dataclass(frozen=True)

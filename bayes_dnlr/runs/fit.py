@@ -28,8 +28,8 @@ from bayes_dnlr.runs.folder import (
     section_digests,
     write_json,
 )
+from bayes_dnlr.runs.layout import FIT_FILE
 
-FIT_FILE = "fit.json"
 SECTIONS = ("data", "model", "parameters", "noise", "fit")
 
 
@@ -69,7 +69,7 @@ def load_tests(cfg: Config):
     return TestSet({t: load_test(cfg.for_test(t)) for t in cfg.test_names})
 
 
-def _data_sha(cfg: Config) -> str | None:
+def data_sha256(cfg: Config) -> str | None:
     """The data fingerprint without loading (None when a data file is missing)."""
     paths = [c.data_path for c in cfg.test_configs()]
     if not all(p.is_file() for p in paths):
@@ -110,7 +110,7 @@ def fit_is_current(cfg: Config, data_sha256: str | None = None) -> bool:
     """True when ``cfg.run_dir/fit.json`` exists and was made from this config and data file
     (``data_sha256``: the data file's hash when the caller already has it)."""
     path = _fit_path(cfg.run_dir)
-    sha = data_sha256 or _data_sha(cfg)
+    sha = data_sha256 or data_sha256(cfg)
     if not path.is_file() or sha is None:
         return False
     try:

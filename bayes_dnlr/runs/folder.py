@@ -21,9 +21,7 @@ from bayes_dnlr.config import Config
 from bayes_dnlr.digests import digest
 from bayes_dnlr.diskio import storage_error, sweep_stale_temps, temp_path
 from bayes_dnlr.errors import RunError, StorageError
-
-RESOLVED_CONFIG = "config.yaml"
-RESOLVED_CONFIG_BESIDE_SOURCE = "config.resolved.yaml"
+from bayes_dnlr.runs.layout import RESOLVED_CONFIG, RESOLVED_CONFIG_BESIDE_SOURCE
 
 
 def config_digest(cfg: Config, sections: tuple[str, ...]) -> str:

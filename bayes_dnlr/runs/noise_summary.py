@@ -1,4 +1,4 @@
-"""summary.json's ``noise`` block: which noise model the posterior used, its hyperparameters, and
+"""The ``noise`` block of summary.json: which noise model the posterior used, its hyperparameters, and
 the interval of E under white noise and under the model discrepancy, with a verdict in words.
 
 The white interval is the paper's linearized one (fit.json, eq. 32: estimate ± 1.645 sd, which the

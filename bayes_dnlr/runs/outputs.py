@@ -31,10 +31,9 @@ import numpy as np
 from bayes_dnlr.inference.mcmc import ess
 from bayes_dnlr.numbers import interval, pm
 from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
+from bayes_dnlr.runs.layout import CHAINS_FILE, POSTERIOR_FILE, SUMMARY_FILE
 from bayes_dnlr.vocabulary import UNITS
 
-POSTERIOR_FILE = "posterior.nc"
-SUMMARY_FILE = "summary.json"
 RHAT_GROUPS = 4
 HDI_PROB = 0.9
 
@@ -277,7 +276,7 @@ class Posterior:
             lines.append(f"noise: {noise['model']} likelihood. {noise['verdict']}")
         warn = s.get("warnings") or []
         lines += [f"warning: {w}" for w in warn]
-        lines.append(f"outputs: {self.run_dir}/{{chains.h5, {POSTERIOR_FILE}, {SUMMARY_FILE}}}")
+        lines.append(f"outputs: {self.run_dir}/{{{CHAINS_FILE}, {POSTERIOR_FILE}, {SUMMARY_FILE}}}")
         return "\n".join(lines)
 
 

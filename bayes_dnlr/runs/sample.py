@@ -27,21 +27,19 @@ import numpy as np
 from bayes_dnlr.config import Config, ConfigError
 from bayes_dnlr.digests import digest
 from bayes_dnlr.errors import BayesDnlrError, StaleRunError
-from bayes_dnlr.inference.mcmc.ensemble import (
+from bayes_dnlr.inference.mcmc.ensemble import MOVES, make_moves, run_ensemble, start_ensemble
+from bayes_dnlr.inference.mcmc.state import SamplerState
+from bayes_dnlr.inference.mcmc.stopping import (
     MIN_STEPS_FOR_TAU,
-    MOVES,
     Convergence,
     StopRule,
     convergence,
-    make_moves,
-    run_ensemble,
     shortfall,
-    start_ensemble,
     stop_reason,
 )
 from bayes_dnlr.inference.posterior.priors import build_priors, sampled_names
 from bayes_dnlr.interrupt import Interrupted
-from bayes_dnlr.runs.chains import ChainWriter, SamplerState, StoredRun, read_attrs, read_run
+from bayes_dnlr.runs.chains import ChainWriter, StoredRun, read_attrs, read_run
 from bayes_dnlr.runs.fit import load_tests, sections
 from bayes_dnlr.runs.folder import (
     check_output_dir,
@@ -52,12 +50,11 @@ from bayes_dnlr.runs.folder import (
     resolved_config_text,
     section_digests,
 )
+from bayes_dnlr.runs.layout import CHAINS_FILE, FIT_FILE, POSTERIOR_FILE, SAMPLE_LOCK, SUMMARY_FILE
 from bayes_dnlr.runs.lock import run_lock
 from bayes_dnlr.runs.netcdf import PosteriorDraws
 from bayes_dnlr.runs.noise_summary import joint_noise_block, noise_block, residual_warnings
 from bayes_dnlr.runs.outputs import (
-    POSTERIOR_FILE,
-    SUMMARY_FILE,
     Posterior,
     gauss_newton_block,
     load_posterior,
@@ -67,8 +64,6 @@ from bayes_dnlr.runs.outputs import (
 )
 from bayes_dnlr.runs.target import joint_target, single_target
 
-CHAINS_FILE = "chains.h5"
-LOCK_FILE = "sample.lock"
 # config sections that change the posterior or the chain; max_steps, target_ess, checkpoint_every,
 # burn_in_tau and min_tau_multiple only decide how long to sample and what to keep.
 POSTERIOR_SECTIONS = ("data", "model", "parameters", "noise")
@@ -130,7 +125,7 @@ def _standards(test) -> dict[str, float | None] | None:
         return None
 
 
-def _settings(cfg: Config) -> dict[str, Any]:
+def stopping_settings(cfg: Config) -> dict[str, Any]:
     s = cfg.sampler
     return {"burn_in_tau": s.burn_in_tau, "min_tau_multiple": s.min_tau_multiple,
             "target_ess": s.target_ess, "max_steps": s.max_steps}
@@ -179,7 +174,7 @@ def sample(cfg: Config, *, restart: bool = False, progress: bool = True,
 def _run_lock(run_dir: Path):
     """One ``sample`` per run directory at a time (bayes_dnlr/runs/lock.py: released even on SIGKILL,
     removed when the command ends)."""
-    return run_lock(run_dir, LOCK_FILE, f"{run_dir}: another `sample` is running on this run "
+    return run_lock(run_dir, SAMPLE_LOCK, f"{run_dir}: another `sample` is running on this run "
                     "directory; wait for it or stop it (its chain is kept and resumes)")
 
 
@@ -192,7 +187,7 @@ def _current_fit(cfg: Config, test, *, replace: bool, progress: bool) -> dict[st
     if not fit_is_current(cfg, test.sha256):
         reason = None if replace else stale_fit_reason(cfg, test.sha256)
         if reason is not None:
-            path = cfg.run_dir / "fit.json"
+            path = cfg.run_dir / FIT_FILE
             config = cfg.source if cfg.source is not None else "<config.yaml>"
             chain = ("the chain in chains.h5 still matches the config and is kept"
                      if (cfg.run_dir / CHAINS_FILE).exists() else "nothing is lost")
@@ -373,7 +368,7 @@ def _finished_result(cfg: Config, test, stored: StoredRun, fp: str) -> Posterior
     note = (f"{cfg.run_dir / CHAINS_FILE}: finished earlier ({reason} at step {n}); nothing sampled "
             "(sample --restart to sample again)")
     if (summary is not None and summary.get("fingerprint") == fp and summary.get("steps") == n
-            and summary.get("settings") == _settings(cfg)
+            and summary.get("settings") == stopping_settings(cfg)
             and (cfg.run_dir / POSTERIOR_FILE).is_file()):
         return load_posterior(cfg.run_dir, note=note)
     # outputs missing or made with other burn-in/stopping settings: rebuild them from the chain
@@ -420,7 +415,7 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
         "storage_time_s": store_time, "storage_overhead": store_time / sampling,
         "log_prob_evals": int(evals), "log_prob_evals_per_s": evals / sampling,
         "check_time_s": check_time,
-        "settings": _settings(cfg), "fingerprint": fp, "data_sha256": test.sha256,
+        "settings": stopping_settings(cfg), "fingerprint": fp, "data_sha256": test.sha256,
         "version": _version(),
     }
     attrs = {"burn_in": int(burn), "stop_reason": reason, "walkers": int(run.chain.shape[1]),

@@ -18,6 +18,7 @@ from bayes_dnlr.inference.discrepancy.hyper import AMPLITUDE, LENGTH, discrepanc
 from bayes_dnlr.inference.layout import JointPosterior, Layout, test_of
 from bayes_dnlr.inference.posterior.likelihood import LogPosterior, build_log_posterior
 from bayes_dnlr.inference.posterior.priors import PriorSet, build_priors, sampled_names
+from bayes_dnlr.runs.layout import FIT_FILE
 from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS, NOISE_NAMES, base_name
 
 
@@ -159,7 +160,7 @@ def single_target(cfg: Config, test, fit: dict[str, Any], stored=None) -> Target
     sigma0, source, sigma0_start = resolve_sigma0(cfg, fit, test)
     disc_priors = _stored_priors(stored) or discrepancy_priors(fit)
     if cfg.noise.has_discrepancy and disc_priors is None:
-        raise RunError(f"{cfg.run_dir / 'fit.json'} has no discrepancy analysis for this config "
+        raise RunError(f"{cfg.run_dir / FIT_FILE} has no discrepancy analysis for this config "
                        "(made by another version?): run `fit --force`")
     kernel = _kernel(stored, fit)
     priors = build_priors(cfg, disc_priors)

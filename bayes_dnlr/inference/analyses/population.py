@@ -96,7 +96,7 @@ def _weighted_stats(x: np.ndarray, w: np.ndarray) -> dict[str, Any]:
 
 
 @njit(cache=True, parallel=True)
-def _add_log_mean_weight(x, logpi, mu_grid, s_grid, logL):
+def add_log_mean_weight(x, logpi, mu_grid, s_grid, logL):
     """logL[i, j] += ln (1/N) Σ_n N(x_n | μ_i, s_j) / π(x_n): one specimen's factor of L(μ, s), by
     the log-sum-exp of its draws (compiled: no (N_MU, N) temporaries, threads over μ)."""
     n = x.size
@@ -124,7 +124,7 @@ def _grid_posterior(x: Mapping[str, np.ndarray], logpi: Mapping[str, np.ndarray]
     half-normal prior of s."""
     logL = np.zeros((mu_grid.size, s_grid.size))
     for k in x:
-        _add_log_mean_weight(np.ascontiguousarray(x[k], dtype=float),
+        add_log_mean_weight(np.ascontiguousarray(x[k], dtype=float),
                              np.ascontiguousarray(logpi[k], dtype=float), mu_grid, s_grid, logL)
     log_prior_s = -0.5 * (s_grid / scale) ** 2
     logpost = logL + log_prior_s[None, :]

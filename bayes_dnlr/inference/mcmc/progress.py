@@ -1,6 +1,6 @@
 """Progress of a sampling run as the stopping rule sees it: the ESS it credits, toward the target.
 
-The stopping rule (mcmc.convergence) stops when every emcee ESS >= target, the kept chain is
+The stopping rule (stopping.convergence) stops when every emcee ESS >= target, the kept chain is
 >= ``min_tau_multiple`` τ long, no walker is stuck, and ArviZ's bulk/tail ESS >= target with R-hat
 <= 1.01. The bar counts one number toward one fixed total, ``target_ess``: the ESS the rule would
 credit now, the least of the emcee ESS, ArviZ's (when evaluated) and ``target × kept / (m τ)``
@@ -12,10 +12,8 @@ stays below it otherwise (issue 15: the total no longer jumps with the predicted
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:
-    from bayes_dnlr.inference.mcmc.ensemble import Convergence
+from bayes_dnlr.inference.mcmc.stopping import Convergence
 
 
 def credited_ess(conv: Convergence | None, target_ess: float, min_tau_multiple: float) -> float:

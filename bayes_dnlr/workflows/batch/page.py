@@ -25,6 +25,7 @@ import numpy as np
 from bayes_dnlr import __version__
 from bayes_dnlr.numbers import fmt, pm
 from bayes_dnlr.report.html import CSS
+from bayes_dnlr.runs.layout import FIGURES_DIR
 from bayes_dnlr.vocabulary import PARAMETER_NAMES
 from bayes_dnlr.workflows.batch.manifest import (
     BatchError,
@@ -47,12 +48,12 @@ def _warm_up_the_end() -> None:
     page need (matplotlib, the compiled grid likelihood, the netCDF reader) so that the end of a
     batch does not wait for it (1.3 s after the last result of 8 tests before, 0.6 s when warm)."""
     try:
-        from bayes_dnlr.inference.analyses.population import _add_log_mean_weight
-        from bayes_dnlr.report.figures import _plt
+        from bayes_dnlr.inference.analyses.population import add_log_mean_weight
+        from bayes_dnlr.report.figures import pyplot
         from bayes_dnlr.runs import draws  # noqa: F401 - posterior.nc reader
 
-        _plt()
-        _add_log_mean_weight(np.zeros(1), np.zeros(1), np.zeros(1), np.ones(1), np.zeros((1, 1)))
+        pyplot()
+        add_log_mean_weight(np.zeros(1), np.zeros(1), np.zeros(1), np.ones(1), np.zeros((1, 1)))
     except Exception:  # noqa: BLE001 - a warm-up only: the step itself reports any real problem
         pass
 
@@ -117,9 +118,9 @@ def e_figure(rows: list[dict[str, Any]], path: Path) -> Path | None:
     ok = [r for r in rows if r.get("status") == "ok" and r.get("E_mean") is not None]
     if not ok:
         return None
-    from bayes_dnlr.report.figures import _plt, _save
+    from bayes_dnlr.report.figures import pyplot, save_figure
 
-    plt = _plt()
+    plt = pyplot()
     forest = len(ok) <= FOREST_MAX
     fig, axes = plt.subplots(1, 2 if forest else 1, figsize=(11 if forest else 6, max(3.6, 0.18 * len(ok)
                                                                                       if forest else 3.6)),
@@ -153,7 +154,7 @@ def e_figure(rows: list[dict[str, Any]], path: Path) -> Path | None:
         ax2.set_xlabel("E (MPa): posterior mean and 90 % HDI")
         ax2.set_title("each test")
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 # ---------------------------------------------------------------- page
@@ -201,7 +202,7 @@ def write_page(result: BatchResult, step: PopulationStep | None = None) -> Path:
     return its path."""
     out = result.out
     rows = result.rows
-    fig = e_figure(rows, out / "figures" / FIGURE)
+    fig = e_figure(rows, out / FIGURES_DIR / FIGURE)
     ok = [r for r in rows if r.get("status") == "ok"]
     failed = [r for r in rows if r.get("status") == "failed"]
     pending = [r for r in rows if r.get("status") == "pending"]

@@ -35,6 +35,7 @@ from typing import Any
 from bayes_dnlr.digests import digest
 from bayes_dnlr.errors import BayesDnlrError, StaleRunError
 from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
+from bayes_dnlr.runs.layout import FIT_FILE, REPORT_FILE, SUMMARY_FILE
 from bayes_dnlr.runs.lock import run_lock
 from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS, PARAMETER_NAMES
 from bayes_dnlr.workflows.batch.manifest import BatchError, Job
@@ -103,7 +104,7 @@ def single_threaded() -> Iterator[None]:
 
 
 def _stale_report(run_dir: Path) -> bool:
-    report, summary = run_dir / "report.html", run_dir / "summary.json"
+    report, summary = run_dir / REPORT_FILE, run_dir / SUMMARY_FILE
     return not report.is_file() or report.stat().st_mtime < summary.stat().st_mtime
 
 
@@ -144,20 +145,20 @@ def run_job(job: Job, report: Reporter | None = None) -> dict[str, Any]:
 def fingerprint(cfg) -> dict[str, Any]:
     """What a finished test's outputs depend on: the chain's fingerprint (config sections, sampler
     walkers/seed/moves, data file sha256) and the settings that decide its length and burn-in."""
-    from bayes_dnlr.runs.fit import _data_sha
-    from bayes_dnlr.runs.sample import _settings, fingerprint_parts
+    from bayes_dnlr.runs.fit import data_sha256
+    from bayes_dnlr.runs.sample import fingerprint_parts, stopping_settings
 
-    sha = _data_sha(cfg)            # the data file's sha256 (a digest of them for a run with tests:)
+    sha = data_sha256(cfg)            # the data file's sha256 (a digest of them for a run with tests:)
     if sha is None:
         raise BatchError(f"{cfg.name}: a data file is missing")
-    return {"chain": digest(fingerprint_parts(cfg, sha)), "settings": _settings(cfg)}
+    return {"chain": digest(fingerprint_parts(cfg, sha)), "settings": stopping_settings(cfg)}
 
 
 def result_row(job: Job, cfg) -> dict[str, Any]:
     """A finished run's numbers, flat: one column per parameter statistic (summary.json, fit.json)."""
     run_dir = cfg.run_dir
-    summary = json.loads((run_dir / "summary.json").read_text())
-    fit_path = run_dir / "fit.json"
+    summary = json.loads((run_dir / SUMMARY_FILE).read_text())
+    fit_path = run_dir / FIT_FILE
     fit = json.loads(fit_path.read_text()) if fit_path.is_file() else {}
     post = summary.get("posterior") or {}
     tau = summary.get("autocorr_time") or {}
@@ -202,7 +203,7 @@ def result_row(job: Job, cfg) -> dict[str, Any]:
         w for w in (fit.get("warnings") or []) if w not in (summary.get("warnings") or [])]
     row["n_warnings"] = len(warnings)
     row["warnings"] = " | ".join(warnings)
-    row["report"] = str(run_dir / "report.html") if (run_dir / "report.html").is_file() else None
+    row["report"] = str(run_dir / REPORT_FILE) if (run_dir / REPORT_FILE).is_file() else None
     row["fingerprint"] = fingerprint(cfg)
     return row
 
@@ -224,7 +225,7 @@ def current_row(job: Job, out: Path, want_report: bool) -> dict[str, Any] | None
             return None
         cfg = job.config()
         fp = fingerprint(cfg)
-        summary = json.loads((cfg.run_dir / "summary.json").read_text())
+        summary = json.loads((cfg.run_dir / SUMMARY_FILE).read_text())
     except (OSError, ValueError, BayesDnlrError):
         return None
     if row.get("fingerprint") != fp or summary.get("fingerprint") != fp["chain"]:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from bayes_dnlr.report.figures import _plt, _save
+from bayes_dnlr.report.figures import pyplot, save_figure
 from bayes_dnlr.workflows.design.config import DesignConfig
 from bayes_dnlr.workflows.design.run import FIGURE_FILE, DesignResult, run_design
 
@@ -14,7 +14,7 @@ from bayes_dnlr.workflows.design.run import FIGURE_FILE, DesignResult, run_desig
 def err_figure(res: DesignResult, path: Path, parameter: str = "E") -> Path:
     """Err(parameter) in % against the strain rate (log-log), one line per strain_max; open markers
     outside the constraints; a star at the recommendation."""
-    plt = _plt()
+    plt = pyplot()
     r = res.recommended.candidate
     same = [p for p in res.predictions
             if p.candidate.sample_rate == r.sample_rate and p.candidate.n_points == r.n_points
@@ -46,7 +46,7 @@ def err_figure(res: DesignResult, path: Path, parameter: str = "E") -> Path:
                  fontsize=9)
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=8, title="open: outside the constraints", title_fontsize=7)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def design_with_figure(cfg: DesignConfig, *, overwrite: bool = False) -> DesignResult:

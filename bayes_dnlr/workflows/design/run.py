@@ -23,6 +23,7 @@ from bayes_dnlr.digests import digest, file_sha256
 from bayes_dnlr.errors import BayesDnlrError, RunError
 from bayes_dnlr.numbers import fmt
 from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
+from bayes_dnlr.runs.layout import POSTERIOR_FILE
 from bayes_dnlr.vocabulary import PARAMETER_NAMES, RELAXATION_PARAMETERS, TENSILE_PARAMETERS
 from bayes_dnlr.workflows.design.candidates import expand
 from bayes_dnlr.workflows.design.config import DesignConfig
@@ -119,7 +120,7 @@ def resolve_draws(cfg: DesignConfig) -> tuple[Draws, list[str], dict[str, Any]]:
     draws = Draws(params, noise, kernel, axis,
                   source=f"{keep.size} posterior draws of {cfg.run_path}; noise: {what}", start=start)
     free = cfg.free or [k for k in run.parameters if k in PARAMETER_NAMES]
-    nc = Path(cfg.run_path) / "posterior.nc"
+    nc = Path(cfg.run_path) / POSTERIOR_FILE
     facts = {"run": str(cfg.run_path), "posterior_sha256": file_sha256(nc), "draws": int(keep.size)}
     return draws, free, facts
 

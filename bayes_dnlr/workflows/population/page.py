@@ -62,9 +62,9 @@ def markdown(pr: PopulationRun) -> str:
 def figure(pr: PopulationRun, path: Path) -> Path:
     """Left: each specimen's own and shrunk estimate (90 % intervals) with μ's HDI; right: the
     posterior of (μ, s) on the grid."""
-    from bayes_dnlr.report.figures import _plt, _save
+    from bayes_dnlr.report.figures import pyplot, save_figure
 
-    plt = _plt()
+    plt = pyplot()
     r = pr.result
     n = len(r.names)
     # a batch of a few hundred tests: narrower rows past 40 specimens (18 in for them, 0.1 in at least)
@@ -115,7 +115,7 @@ def figure(pr: PopulationRun, path: Path) -> Path:
         pad = 0.1 * (m_hi - m_lo)
         b.set_xlim(m_lo - pad, m_hi + pad)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def population_report(run_dirs: list[Path | str], *, parameter: str = "E", out: Path | str | None = None,

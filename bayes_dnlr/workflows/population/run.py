@@ -24,6 +24,7 @@ from bayes_dnlr.inference.analyses.population import Population, population
 from bayes_dnlr.inference.posterior.priors import Prior
 from bayes_dnlr.runs.draws import load_run_draws
 from bayes_dnlr.runs.folder import find_config, write_json
+from bayes_dnlr.runs.layout import SUMMARY_FILE
 
 POPULATION_FILE = "population.json"
 
@@ -143,7 +144,7 @@ def current_population(run_dirs: list[Path | str], *, parameter: str = "E",
     runs, fps = {}, {}
     for d in dirs:
         try:
-            summary = json.loads((d / "summary.json").read_text())
+            summary = json.loads((d / SUMMARY_FILE).read_text())
             name = str(summary.get("name") or load_config(find_config(d)).name)
         except (OSError, ValueError, FileNotFoundError, ConfigError):
             return None
