@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from bayes_dnlr.model.dnlr import haward_thackray
+from bayes_dnlr.data.conversions import haward_thackray_strain as haward_thackray
 from bayes_dnlr.model.spectrum import tau_scale, weights
 
 X_RELAXED = 40.0      # exp(-40) = 4e-18: a mode this fast has no memory of the previous step

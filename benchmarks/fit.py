@@ -40,7 +40,7 @@ def main(argv: list[str]) -> int:
         print(f"{cfg.data_path} not found: run `python -m bayes_dnlr simulate {path}` first")
         return 1
     t0 = time.perf_counter()
-    first = fit(cfg, write=False)
+    first = fit(cfg, write=False).only
     cold = time.perf_counter() - t0
     test = load_test(cfg)
     n_ms = cfg.fit.multistart or 8

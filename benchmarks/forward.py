@@ -36,10 +36,10 @@ from scipy.integrate import solve_ivp
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from baseline_forward import OldDNLR  # noqa: E402
 
+from bayes_dnlr.data.conversions import haward_thackray_strain as haward_thackray  # noqa: E402
 from bayes_dnlr.model import (  # noqa: E402
     DNLR,
     get_threads,
-    haward_thackray,
     kernel,
     relaxation_times,
     set_threads,

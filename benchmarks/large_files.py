@@ -42,7 +42,7 @@ if what == "load":
     extra = {"note": next(x for x in test.notes if x.startswith("strain_input"))}
 else:
     from bayes_dnlr.runs.fit import fit
-    r = fit(cfg, write=False)
+    r = fit(cfg, write=False).only
     n = r.n_points
     extra = {"E": r.estimate["E"], "converged": bool(r.converged)}
 wall = time.perf_counter() - t0

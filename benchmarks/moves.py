@@ -40,7 +40,7 @@ def variants():
 def setup(config: str | None):
     from bayes_dnlr.config import load_config
     from bayes_dnlr.data import load_test
-    from bayes_dnlr.inference.posterior.likelihood import build_log_posterior
+    from bayes_dnlr.inference.posterior.density import build_log_posterior
     from bayes_dnlr.runs.fit import fit
 
     if config is None:
@@ -48,7 +48,7 @@ def setup(config: str | None):
 
         config = str(write_case(Path(tempfile.mkdtemp()), "moves"))
     cfg = load_config(config)
-    res = fit(cfg, write=False)
+    res = fit(cfg, write=False).only
     fitd = res.to_dict()
     test = load_test(cfg)
     post = build_log_posterior(cfg, test, float(res.sigma0))

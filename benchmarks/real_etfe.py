@@ -86,7 +86,7 @@ def one_run(args: tuple) -> dict:
     out = {"k": k, "window": window, "likelihood": likelihood}
     t0 = time.perf_counter()
     try:
-        r = fit(cfg)
+        r = fit(cfg).only
         d = r.discrepancy
         src = d if (d and likelihood != "white") else None
         est = (src or {}).get("estimate", r.estimate)["E"]

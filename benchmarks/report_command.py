@@ -50,7 +50,7 @@ for name in dir(figures):
     if name.endswith("_plot"):
         setattr(figures, name, timed("figure " + name, getattr(figures, name)))
 html.load_run = timed("load run (config, data, fit, summary, posterior.nc)", html.load_run)
-html.model_curves = timed("model curves (posterior draws through the model)", html.model_curves)
+html.model_curves = timed("model curves (posterior draws through the model)", html.model_curves)  # noqa: E501
 t1, c1 = time.perf_counter(), time.process_time()
 html.build_report(sys.argv[1])
 total, total_cpu = time.perf_counter() - t1, time.process_time() - c1

@@ -21,9 +21,9 @@ def arviz_trace(draws: dict[str, np.ndarray], path: Path, max_draws: int = 1000)
     """The trace plot the report drew before (ArviZ 1.x plot_trace_dist, no units)."""
     import arviz as az
 
-    from bayes_dnlr.report.figures import _plt, _pooled
+    from bayes_dnlr.report.figures import _pooled, pyplot
 
-    plt = _plt()
+    plt = pyplot()
     tree = az.from_dict({"posterior": _pooled(draws, None, max_draws, 1)})
     pc = az.plot_trace_dist(tree, sample_dims=["chain", "draw"], compact=True)
     pc.savefig(str(path), dpi=110, bbox_inches="tight")

@@ -9,7 +9,7 @@ On a copy of the shipped run (the shipped folder is not touched), warm numba cac
    fit.json), data and start (numba loads its cache here), the sampling loop, the outputs; CPU / wall
    during the loop.
 3. The loop against the old per-walker likelihood (one basis integration and a matrix product per
-   walker in Python, ``LogPosterior.log_likelihood_reference``), and against one thread, in the
+   walker in Python, ``TestLikelihood.log_likelihood_reference``), and against one thread, in the
    same process, alternately, best of ``--loops``.
 4. Issue 8: the discrepancy likelihood per ensemble step (32 walkers, 2000 points: two calls of
    16, as emcee makes them) against the white one; and ``sample`` with the discrepancy to ESS >=
@@ -62,9 +62,9 @@ LOOPS = r"""
 import json, sys, shutil, time
 from pathlib import Path
 from bayes_dnlr.config import load_config
-from bayes_dnlr.inference.posterior.likelihood import LogPosterior
+from bayes_dnlr.inference.posterior.likelihood import TestLikelihood
 from bayes_dnlr.runs.sample import sample
-fused = LogPosterior.log_likelihood
+fused = TestLikelihood.log_likelihood
 src, loops = Path(sys.argv[1]), int(sys.argv[2])
 rows = {"fused, default threads": [], "fused, 1 thread": [], "per-walker (old)": []}
 
@@ -74,7 +74,7 @@ def run(label):
         shutil.rmtree(d)
     shutil.copytree(src, d, ignore=shutil.ignore_patterns("chains.h5", "posterior.nc",
                                                            "summary.json", "sample.lock"))
-    LogPosterior.log_likelihood = (LogPosterior.log_likelihood_reference
+    TestLikelihood.log_likelihood = (TestLikelihood.log_likelihood_reference
                                    if label.startswith("per-walker") else fused)
     post = sample(load_config(d / "config.yaml"), progress=False,
                   threads=1 if "1 thread" in label else None)
@@ -92,10 +92,10 @@ STEP = r"""
 import json, sys, time
 import numpy as np
 from bayes_dnlr.config import load_config, ParameterSpec, parse_config
-from bayes_dnlr.runs.fit import load_tests
-from bayes_dnlr.inference.posterior.likelihood import build_log_posterior
+from bayes_dnlr.runs.testset import load_tests
+from bayes_dnlr.inference.posterior.density import build_log_posterior
 cfg = load_config(sys.argv[1])
-test = load_tests(cfg)
+test = load_tests(cfg).tests[cfg.name]
 raw = cfg.model_dump(mode="json", exclude_none=True)
 priors = {"disc_amplitude": ParameterSpec(prior="half-normal", scale=1.0),
           "disc_length": ParameterSpec(prior="log-uniform", low=1.0, high=400.0)}

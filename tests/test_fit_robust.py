@@ -34,7 +34,7 @@ def g_on_bound(tmp_path_factory):
 
 def test_a_parameter_on_its_lower_bound_gives_results_with_a_warning(g_on_bound):
     cfg = load_config(g_on_bound)
-    result = fit(cfg)
+    result = fit(cfg).only
     assert result.estimate["G"] <= 1e-12
     [warning] = [w for w in result.warnings if w.startswith("G = ")]
     assert warning.startswith("G = 0 (its lower bound; prior [0, 50])")
@@ -136,7 +136,7 @@ def test_a_relaxed_modulus_above_the_instantaneous_one_is_flagged(tmp_path):
                     parameters={"E": {"prior": "uniform", "low": 100, "high": 20000},
                                 "G": {"prior": "uniform", "low": 0, "high": 5000},
                                 "tau_max": {"prior": "log-uniform", "low": 0.01, "high": 10000}})
-    result = fit(load_config(path))
+    result = fit(load_config(path)).only
     assert 3 * result.estimate["G"] > result.estimate["E"]
     assert any(w.startswith("3G = ") and "exceeds E = " in w for w in result.warnings)
     assert plausibility_warnings({"E": 2854.0, "G": 2.32}) == []

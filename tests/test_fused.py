@@ -9,7 +9,7 @@ from sampling_support import TRUTH, TRUTH_RELAX, make_test
 from test_likelihood import _cfg, _disc_cfg, _disc_priors, _wobbly
 
 from bayes_dnlr.config import parse_config
-from bayes_dnlr.inference.posterior.likelihood import build_log_posterior
+from bayes_dnlr.inference.posterior.density import build_log_posterior
 from bayes_dnlr.model import get_threads, set_threads
 from bayes_dnlr.model.threads import available_threads
 

@@ -71,7 +71,7 @@ def test_fit_accepts_the_config_after_the_listed_edits(tmp_path, case):
         else:
             assert e.action == "check", f"{e.key}: init asks for a value the test does not know"
     out.write_text(yaml.safe_dump(raw, sort_keys=False))
-    r = fit(load_config(out), write=False)
+    r = fit(load_config(out), write=False).only
     assert r.converged
     lo, hi = E_RANGE[case]
     assert lo < r.estimate["E"] < hi, r.estimate
@@ -136,7 +136,7 @@ def test_extension_in_mm_and_force_in_kn_ask_for_gauge_length_and_area(tmp_path)
     raw["data"].update(gauge_length=50.0, area0=40.0)
     raw["data"]["window"] = {}                              # the check: the whole test (homogeneous)
     out.write_text(yaml.safe_dump(raw, sort_keys=False))
-    r = fit(load_config(out), write=False)
+    r = fit(load_config(out), write=False).only
     assert r.converged and abs(r.estimate["E"] - truth["E"]) < 3 * r.sd["E"], (r.estimate, r.sd)
 
 
@@ -155,6 +155,6 @@ def test_a_relaxation_hold_is_seen_and_the_window_keeps_it(tmp_path):
     raw = yaml.safe_load(out.read_text())
     raw["data"].update(area0=24.0, strain_measure="hencky")          # the shipped config's values
     out.write_text(yaml.safe_dump(raw, sort_keys=False))
-    r = fit(load_config(out), write=False)
+    r = fit(load_config(out), write=False).only
     assert r.converged and {"sigma_inf", "tau_max_R"} <= set(r.estimate)
     assert abs(r.estimate["E"] - 2270.0) < 4 * r.sd["E"], (r.estimate, r.sd)

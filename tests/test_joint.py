@@ -50,7 +50,7 @@ def test_joint_fit_json_names_and_uses_every_test(joint_run):
 
 
 def test_joint_posterior_names_in_summary_and_posterior_nc(joint_run):
-    from bayes_dnlr.report.tables import read_draws
+    from bayes_dnlr.runs.results import read_draws
 
     summary = json.loads((joint_run / "summary.json").read_text())
     assert list(summary["posterior"])[:5] == JOINT_NAMES
@@ -189,7 +189,7 @@ def test_compare_refuses_a_joint_run_in_one_line(joint_run, tmp_path):
 
 def test_joint_correlation_warnings_in_one_line():
     """A shared E ties every test's tau_max to it and so to each other: one warning, every pair."""
-    from bayes_dnlr.inference.lsq.joint import _joint_identifiability
+    from bayes_dnlr.inference.lsq.run_fit import _joint_identifiability
     from bayes_dnlr.inference.lsq.sensitivity import analyse
 
     rng = np.random.default_rng(0)

@@ -106,11 +106,11 @@ def test_a_resumed_chain_keeps_the_kernel_it_started_with() -> None:
     """fit.json may be re-made with another choice; the chain's own record wins, per test too."""
     from types import SimpleNamespace
 
-    from bayes_dnlr.runs.target import _kernel
+    from bayes_dnlr.runs.target import stored_per_test
 
-    fit_json = {"discrepancy": {"kernel": "exp"}}
-    assert _kernel(None, fit_json) == "exp"
+    assert stored_per_test(None, "discrepancy_kernel", True, ["t"]) == {}      # fresh: fit.json's
     stored = SimpleNamespace(attrs={"discrepancy_kernel": json.dumps("matern32")})
-    assert _kernel(stored, fit_json) == "matern32"
+    assert stored_per_test(stored, "discrepancy_kernel", True, ["t"]) == {"t": "matern32"}
     joint = SimpleNamespace(attrs={"discrepancy_kernel": json.dumps({"a": "matern32", "b": "exp"})})
-    assert _kernel(joint, {}, "a") == "matern32" and _kernel(joint, {}, "b") == "exp"
+    assert stored_per_test(joint, "discrepancy_kernel", False, ["a", "b"]) == {"a": "matern32",
+                                                                            "b": "exp"}

@@ -42,7 +42,7 @@ def test_a_million_rows_load_and_the_smoothing_succeeds(million: Path) -> None:
 def test_a_million_rows_fit_with_the_default_config(million: Path) -> None:
     from bayes_dnlr.runs.fit import fit
 
-    result = fit(load_config(million), write=False)
+    result = fit(load_config(million), write=False).only
     assert result.converged
     assert result.n_points == ROWS
     assert result.estimate["E"] == pytest.approx(2854.0, rel=0.01)

@@ -11,7 +11,7 @@ from sampling_support import TRUTH, TRUTH_RELAX, make_test
 from scipy import stats
 
 from bayes_dnlr.config import parse_config
-from bayes_dnlr.inference.posterior.likelihood import build_log_posterior
+from bayes_dnlr.inference.posterior.density import build_log_posterior
 from bayes_dnlr.inference.posterior.priors import build_priors
 from bayes_dnlr.model import simulate
 

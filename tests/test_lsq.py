@@ -103,7 +103,7 @@ def test_shipped_example_recovers_table3_within_3sd_from_every_start(path: Path,
         raw["data"]["file"] = "data.csv"
         cfg = parse_config(raw, source=tmp_path / "config.yaml")
         simulate_test(cfg)
-    r = fit(cfg)
+    r = fit(cfg).only
     truth = {**cfg.truth.params}
     z = within_sd(r, truth)
     print(f"{cfg.name}: estimate {r.estimate}, sd {r.sd}, (est - truth)/sd {z}")
@@ -280,7 +280,7 @@ def test_known_sigma0_scales_the_covariance_not_the_correlation():
 def test_fit_writes_fit_json_with_the_contract_keys(tmp_path: Path):
     t, e, y, _ = synthetic(seed=21)
     cfg = write_run(tmp_path, t, e, y, fit={"multistart": 3})
-    r = fit(cfg)
+    r = fit(cfg).only
     saved = load_fit(cfg.run_dir)
     assert FIT_JSON_KEYS <= set(saved)
     assert saved["parameters"] == ["E", "G", "tau_max"]
@@ -317,7 +317,7 @@ def test_fit_refuses_to_overwrite_a_fit_from_another_config_or_data(tmp_path: Pa
     assert not fit_is_current(again)
     with pytest.raises(RunError, match="different data file"):
         fit(again)
-    r = fit(again, write=False)                           # nothing written: allowed
+    r = fit(again, write=False).only                           # nothing written: allowed
     assert r.data_sha256 != load_fit(again.run_dir)["data_sha256"]
 
 
@@ -346,7 +346,7 @@ def test_real_etfe_specimen_converges_and_its_residuals_are_called_biased(tmp_pa
     keep = np.isfinite(t) & np.isfinite(e) & np.isfinite(s)
     cfg = write_run(tmp_path, t[keep], e[keep], s[keep], fit={"multistart": 4},
                     data={"strain_input": "smoothed"})
-    r = fit(cfg)
+    r = fit(cfg).only
     print("ETFE specimen 0:", r.estimate, "rms", r.diagnostics["rms"])
     assert r.converged and r.multistart["same_optimum"]
     assert 1500 < r.estimate["E"] < 3000                 # README: roughly 1.9-2.4 GPa

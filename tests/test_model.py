@@ -7,7 +7,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import bayes_dnlr as bd
-from bayes_dnlr.model import DNLR, haward_thackray, relaxation_times, weights
+from bayes_dnlr.data.conversions import haward_thackray_strain as haward_thackray
+from bayes_dnlr.model import DNLR, relaxation_times, weights
 
 TABLE3_5E3 = {"E": 2854.0, "G": 2.32, "tau_max": 5.79}   # paper Table 3, interval II, 5e-3 1/s
 RELAX = {**TABLE3_5E3, "sigma_inf": 90.0, "tau_max_R": 40.0}

@@ -37,7 +37,8 @@ def test_one_value_one_string_everywhere(finished, capsys):
     from bayes_dnlr.cli import main
     from bayes_dnlr.report.compare import compare_runs
     from bayes_dnlr.report.html import _headline
-    from bayes_dnlr.report.tables import load_run, parameter_table
+    from bayes_dnlr.report.tables import parameter_table
+    from bayes_dnlr.runs.results import load_run
 
     assert main(["sample", str(finished / "config.yaml"), "--quiet"]) == 0
     console = capsys.readouterr().out

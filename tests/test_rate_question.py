@@ -13,7 +13,7 @@ def _verdict(tmp_path, name: str, per_decade: float):
     from bayes_dnlr.config import load_config
     from bayes_dnlr.report import build_report
     from bayes_dnlr.report.joint import rate_question, test_view
-    from bayes_dnlr.report.tables import load_run
+    from bayes_dnlr.runs.results import load_run
     from bayes_dnlr.runs.sample import sample
 
     path = make_joint(tmp_path, name, per_test=("E", "tau_max"), e_per_decade=per_decade,
@@ -47,8 +47,8 @@ def test_shared_e_gives_no_rate_verdict(tmp_path, per_decade):
     """With E shared the joint posterior cannot ask the question: no verdict is invented."""
     from bayes_dnlr.config import load_config
     from bayes_dnlr.report.joint import rate_question, test_view
-    from bayes_dnlr.report.tables import load_run
     from bayes_dnlr.runs.fit import fit
+    from bayes_dnlr.runs.results import load_run
 
     path = make_joint(tmp_path, "shared", e_per_decade=per_decade)
     fit(load_config(path))

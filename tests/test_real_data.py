@@ -74,11 +74,11 @@ def test_cropped_toe_from_a_config_only(tmp_path, start, low, high):
     from bayes_dnlr.runs.fit import fit
 
     params = {"G": {"value": 0.0}}
-    result = fit(rhdpe_config(tmp_path, params, window={"strain_max": 0.07}, **start), write=False)
+    result = fit(rhdpe_config(tmp_path, params, window={"strain_max": 0.07}, **start), write=False).only
     assert result.converged
     assert low < result.estimate["E"] < high, result.estimate
     assert result.diagnostics["rms"] < 0.3
-    plain = fit(rhdpe_config(tmp_path, params, window={"strain_max": 0.07}), write=False)
+    plain = fit(rhdpe_config(tmp_path, params, window={"strain_max": 0.07}), write=False).only
     assert plain.estimate["E"] > 3000 and plain.diagnostics["rms"] > 1.0
 
 
@@ -96,7 +96,7 @@ def test_etfe_specimens_split_by_column_group_and_padding_dropped(tmp_path, spec
 def test_etfe_specimen_fits_from_a_config_only(tmp_path):
     from bayes_dnlr.runs.fit import fit
 
-    r = fit(etfe_config(tmp_path, 1, strain_input="smoothed"), write=False)
+    r = fit(etfe_config(tmp_path, 1, strain_input="smoothed"), write=False).only
     assert r.converged
     assert 1500 < r.estimate["E"] < 3000                 # README: roughly 1.9-2.4 GPa
     assert 1.0 < r.diagnostics["rms"] < 2.5              # README: 1.3-2.0 MPa

@@ -91,7 +91,7 @@ def _capture(monkeypatch) -> list:
         figures.append(fig)
         return Path(path)
 
-    monkeypatch.setattr(figs, "_save", keep)
+    monkeypatch.setattr(figs, "save_figure", keep)
     return figures
 
 

@@ -1,6 +1,6 @@
 """The config: YAML -> a validated ``Config`` whose every error names the file and the key.
 
-Modules, one section or concern each (they import only ``errors``, ``vocabulary``, ``data.units``
+Modules, one section or concern each (they import only ``errors``, ``vocabulary``, ``units``
 and each other; nothing else of the package):
 
 - ``yamlio``: reading the YAML a user wrote (UTF-8, no duplicated key, line numbers in errors).

@@ -137,7 +137,7 @@ class DataConfig(Strict):
     @field_validator("units")
     @classmethod
     def _units(cls, v: dict[str, str]) -> dict[str, str]:
-        from bayes_dnlr.data.units import factor, known_units
+        from bayes_dnlr.units import factor, known_units
 
         for role, unit in v.items():
             if role not in UNIT_ROLES:

@@ -194,4 +194,4 @@ class Config(Strict):
         """The config as resolved, as plain data that ``parse_config`` reads back (a run with tests:
         has each test's noise under tests[i]: the top-level default is left out)."""
         return self.model_dump(mode="json", exclude_none=True,
-                               exclude={"noise"} if self.is_joint else None)
+                               exclude={"noise"} if self.tests is not None else None)

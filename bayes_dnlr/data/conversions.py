@@ -45,7 +45,7 @@ def nominal_from_true_stress(stress: np.ndarray, eps11: np.ndarray) -> np.ndarra
 
 
 def haward_thackray_strain(strain: np.ndarray) -> np.ndarray:
-    """ε_HT = λ² - 1/λ = exp(2ε) - exp(-ε) (eq. 7-8), the same function the model uses."""
-    from bayes_dnlr.model import haward_thackray  # lazy: the model package loads numba
-
-    return haward_thackray(strain)
+    """ε_HT = λ² - 1/λ = exp(2ε) - exp(-ε), λ = exp(ε) (eq. 7-8): the Haward-Thackray strain
+    measure that drives the model's relaxed state (eq. 17)."""
+    strain = np.asarray(strain, dtype=float)
+    return np.exp(2.0 * strain) - np.exp(-strain)

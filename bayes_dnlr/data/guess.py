@@ -21,7 +21,7 @@ from bayes_dnlr.data.errors import DataError
 from bayes_dnlr.data.numbers import parse_cell
 from bayes_dnlr.data.reading import HEAD_LINES, Source, read_bytes
 from bayes_dnlr.data.sniff import Layout, signature_groups, sniff, specimen_groups, split
-from bayes_dnlr.data.units import lookup, split_name
+from bayes_dnlr.units import lookup, split_name
 
 SAMPLE_ROWS = 4000          # rows read (evenly spread over the file) to guess from the values
 FRACTION_MAX = 3.0          # a strain column in fractions stays below this (Hencky 3 is extreme)

@@ -32,7 +32,7 @@ from bayes_dnlr.data.sniff import (
     specimen_groups,
     split,
 )
-from bayes_dnlr.data.units import PACKAGE_UNIT, ROLE_KIND, factor, lookup, split_name
+from bayes_dnlr.units import PACKAGE_UNIT, ROLE_KIND, factor, lookup, split_name
 
 ROLES = ("time", "force", "eps11", "eps22", "stress", "strain", "extension")
 STRAIN_ROLES = ("eps11", "eps22", "strain")

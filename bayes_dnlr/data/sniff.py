@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 from bayes_dnlr.data.errors import DataError
 from bayes_dnlr.data.numbers import MISSING, has_thousands, parse_cell
-from bayes_dnlr.data.units import is_unit_cell, lookup, split_name
+from bayes_dnlr.units import is_unit_cell, lookup, split_name
 
 DELIMITERS = (",", ";", "\t", "|", "whitespace")
 HEAD_LINES = 2000          # the structure (metadata, header, units, first data rows) must lie in these

@@ -13,15 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bayes_dnlr.data.conversions import haward_thackray_strain
 from bayes_dnlr.model import kernel, threads
 from bayes_dnlr.model.spectrum import tau_scale, weights
 from bayes_dnlr.vocabulary import RELAXATION_PARAMETERS, TENSILE_PARAMETERS, pack_theta
-
-
-def haward_thackray(strain: np.ndarray) -> np.ndarray:
-    """ε_HT = λ² - 1/λ = exp(2ε) - exp(-ε), λ = exp(ε) (eq. 7-8)."""
-    strain = np.asarray(strain, dtype=float)
-    return np.exp(2.0 * strain) - np.exp(-strain)
 
 
 @dataclass(frozen=True)
@@ -83,7 +78,7 @@ class DNLR:
         else:
             # a step i (t_i -> t_{i+1}) is a relaxation step when it ends after the switch
             self.n_tensile = int(np.searchsorted(self.time[1:], self.relaxation_start, "right"))
-        self.h = haward_thackray(self.strain)
+        self.h = haward_thackray_strain(self.strain)
 
     @property
     def h(self) -> np.ndarray:

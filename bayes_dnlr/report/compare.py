@@ -24,8 +24,10 @@ from typing import Any
 
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pm
-from bayes_dnlr.report.tables import RunResults, Table, deborah, load_run
+from bayes_dnlr.report.tables import Table, deborah
 from bayes_dnlr.runs.layout import SUMMARY_FILE
+from bayes_dnlr.runs.results import RunResults, load_run
+from bayes_dnlr.runs.testset import plain_names
 from bayes_dnlr.vocabulary import PARAMETER_NAMES, UNITS
 
 P_CONSISTENT = 0.05
@@ -241,7 +243,7 @@ def compare_runs(run_dirs: Sequence[Path | str], out_dir: Path | str | None = No
             raise RunError(f"{d}: not a run directory")
         need_data = not (d / SUMMARY_FILE).is_file()
         run = load_run(d, load_data=need_data)
-        if run.cfg.is_joint:
+        if not plain_names(run.cfg):
             raise RunError(f"{d}: a run with several tests (tests:) is compared within itself: its "
                            f"report (python -m bayes_dnlr report {d}) has the Tables 3/5 layout and the "
                            "rate question from the joint posterior; compare takes one-test runs")

@@ -7,11 +7,9 @@ the posterior predictive band, the posterior/linearized comparison and the ArviZ
 
 from __future__ import annotations
 
-import base64
 import datetime as _dt
 import html
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +21,8 @@ from bayes_dnlr.report import figures as figs
 from bayes_dnlr.report import model_error as rn
 from bayes_dnlr.report import tables as tb
 from bayes_dnlr.report import views
-from bayes_dnlr.report.tables import RunResults, load_run
+from bayes_dnlr.report.page_parts import CSS, bullets, img, para
+from bayes_dnlr.runs.curves import N_DRAWS, model_curves, run_white_curve
 from bayes_dnlr.runs.layout import (
     CHAINS_FILE,
     FIGURES_DIR,
@@ -33,154 +32,8 @@ from bayes_dnlr.runs.layout import (
     RESOLVED_CONFIG,
     SUMMARY_FILE,
 )
-from bayes_dnlr.vocabulary import Z90
-
-N_DRAWS = 200          # posterior draws pushed through the model for the bands
-
-
-@dataclass
-class Curves:
-    """Model curves on the data grid (up to the last window sample)."""
-
-    x: np.ndarray
-    xlabel: str
-    data: np.ndarray
-    window: np.ndarray
-    strain: np.ndarray
-    median: np.ndarray | None = None
-    band: tuple[np.ndarray, np.ndarray] | None = None
-    predictive: tuple[np.ndarray, np.ndarray] | None = None
-    gn_curve: np.ndarray | None = None
-    sensitivities: dict[str, np.ndarray] | None = None
-
-
-def _model(run: RunResults):
-    from bayes_dnlr.model import DNLR
-
-    t = run.test
-    n = t.model_end
-    return DNLR(t.time[:n], t.strain_input[:n], run.cfg.model.modes, run.cfg.model.decades,
-                t.relaxation_start), n
-
-
-def _stress(basis_values: np.ndarray, p: dict[str, float]) -> np.ndarray:
-    s = p["E"] * basis_values[:, 0] + p["G"] * basis_values[:, 1]
-    if "sigma_inf" in p:
-        s = s + p["sigma_inf"] * basis_values[:, 2]
-    return s
-
-
-def sensitivities(model, params: dict[str, float], names: list[str]) -> dict[str, np.ndarray]:
-    """Normalised sensitivities X̃_j = β_j ∂σ/∂β_j (eq. 37), MPa, on the model grid."""
-    b = model.basis(params["tau_max"], params.get("tau_max_R"), grad=True)
-    out = {}
-    for n in names:
-        if n in ("E", "G", "sigma_inf"):
-            out[n] = params[n] * b.values[:, {"E": 0, "G": 1, "sigma_inf": 2}[n]]
-        elif n in ("tau_max", "tau_max_R"):
-            g = b.grad_tau_max if n == "tau_max" else b.grad_tau_max_R
-            if g is not None:
-                out[n] = _stress(g, params)   # ∂σ/∂ln tau = tau ∂σ/∂tau
-    return out
-
-
-def run_white_curve(run: RunResults, curves: Curves) -> np.ndarray:
-    """The white least-squares fit (fit.json's estimate) on the data grid."""
-    gn = run.gn()
-    if gn is None:
-        return curves.gn_curve
-    model, _ = _model(run)
-    p = dict(run.cfg.fixed_values)
-    p.update(gn["estimate"])
-    return _stress(model.basis(p["tau_max"], p.get("tau_max_R")).values, p)
-
-
-def model_curves(run: RunResults, n_draws: int = N_DRAWS, seed: int = 0) -> Curves:
-    """Data, posterior median and 90 % bands (credible and predictive), the GN curve, sensitivities."""
-    t = run.test
-    model, n = _model(run)
-    relax = t.relaxation_start is not None
-    x = t.time[:n] if relax else t.strain_input[:n]
-    c = Curves(x=x, xlabel="time (s)" if relax else r"true strain $\varepsilon_{11}$",
-               data=np.asarray(t.stress[:n], dtype=float), window=np.asarray(t.window[:n], bool),
-               strain=np.asarray(t.strain_input[:n], dtype=float))
-    fixed = run.cfg.fixed_values
-    point = run.point()
-    if all(k in point for k in model.parameter_names()):
-        if run.gn() is not None:
-            c.gn_curve = _stress(model.basis(point["tau_max"], point.get("tau_max_R")).values, point)
-        c.sensitivities = sensitivities(model, point, [k for k in model.parameter_names()
-                                                       if k in run.model_names])
-    if run.draws is not None and all(k in run.draws or k in fixed for k in model.parameter_names()):
-        rng = np.random.default_rng(seed)
-        total = next(iter(run.draws.values())).size
-        pick = rng.choice(total, size=min(n_draws, total), replace=False)
-        flat = {k: v.reshape(-1)[pick] for k, v in run.draws.items()}
-        sig = flat.get("sigma0")
-        s0 = run.sigma0()
-        curves = np.empty((pick.size, n))
-        for i in range(pick.size):
-            p = dict(fixed)
-            p.update({k: float(flat[k][i]) for k in model.parameter_names() if k in flat})
-            curves[i] = _stress(model.basis(p["tau_max"], p.get("tau_max_R")).values, p)
-        c.median = np.median(curves, axis=0)
-        lo, hi = np.quantile(curves, [0.05, 0.95], axis=0)
-        c.band = (lo, hi)
-        # predictive band: model spread, noise and model discrepancy combined as a normal (a smooth
-        # band; 200 replicates per point would make it ragged): mean ± 1.645 sqrt(var_model + E[σ0²]
-        # (+ E[a²] with the discrepancy))
-        s2 = float(np.mean(sig**2)) if sig is not None else (s0**2 if s0 is not None else 0.0)
-        if run.uses_discrepancy:
-            # the model error enters the prediction too: var(δ) = a² at every point
-            amp = flat.get("disc_amplitude")
-            fixed_amp = (((run.summary or {}).get("noise") or {}).get("amplitude") or {}).get("value", 0.0)
-            s2 += float(np.mean(amp**2)) if amp is not None else float(fixed_amp) ** 2
-        half = Z90 * np.sqrt(curves.var(axis=0) + s2)
-        mean = curves.mean(axis=0)
-        plo, phi = mean - half, mean + half
-        c.predictive = (plo, phi)
-    return c
-
-
-# ---------------------------------------------------------------------------------------------
-
-CSS = """
-body{font-family:-apple-system,"Segoe UI",Roboto,Helvetica,Arial,sans-serif;color:#222;max-width:1080px;
-margin:0 auto;padding:24px 28px 60px;line-height:1.45;background:#fff}
-h1{font-size:1.7em;margin:0 0 4px}h2{font-size:1.3em;margin:34px 0 10px;border-bottom:1px solid #ddd;
-padding-bottom:4px}h3{font-size:1.05em;margin:20px 0 6px}
-.meta{color:#666;font-size:.9em;margin-bottom:18px}
-.box{background:#f5f7fa;border:1px solid #dde3ea;border-radius:6px;padding:12px 16px;margin:14px 0}
-.warn{background:#fff6e5;border-color:#f0c36d}.bad{color:#a61b1b;font-weight:600}.ok{background:#eef8f0;border-color:#a6d8b0}
-table{border-collapse:collapse;margin:10px 0 6px;font-size:.92em}
-caption{text-align:left;font-weight:600;padding:4px 0;color:#333}
-th,td{border:1px solid #d8dde3;padding:4px 9px}thead th{background:#eef1f5}
-tbody th{text-align:left;font-weight:600;background:#fafbfc}
-table.num td{text-align:right;font-variant-numeric:tabular-nums}
-td.flag{background:#fde2d4;font-weight:600}
-table.num td{white-space:nowrap}table.num td.text{white-space:normal;text-align:left}
-.pair{display:flex;gap:28px;flex-wrap:wrap;align-items:flex-start}
-figure{margin:14px 0 22px}figure img{max-width:100%;border:1px solid #eee}
-figcaption{color:#444;font-size:.92em;margin-top:4px}
-.note{color:#555;font-size:.88em;margin:2px 0 12px}
-ul.flags li{margin:4px 0}code{background:#f1f3f5;padding:1px 4px;border-radius:3px}
-footer{margin-top:40px;color:#888;font-size:.85em;border-top:1px solid #eee;padding-top:8px}
-"""
-
-
-def _img(path: Path, alt: str, caption: str) -> str:
-    data = base64.b64encode(Path(path).read_bytes()).decode("ascii")
-    return (f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,{data}">'
-            f"<figcaption>{caption}</figcaption></figure>")
-
-
-def _p(text: str) -> str:
-    return f"<p>{html.escape(text)}</p>"
-
-
-def _ul(items: list[str], cls: str = "") -> str:
-    c = f' class="{cls}"' if cls else ""
-    return f"<ul{c}>" + "".join(f"<li>{html.escape(i)}</li>" for i in items) + "</ul>"
+from bayes_dnlr.runs.results import RunResults, load_run
+from bayes_dnlr.runs.testset import plain_names
 
 
 def _headline(run: RunResults, std: dict | None) -> str:
@@ -256,7 +109,7 @@ def build_report(run_dir: Path | str) -> Path:
     figdir.mkdir(exist_ok=True)
     for old in figdir.glob("*.png"):     # figures of an earlier report that may not apply any more
         old.unlink()
-    if run.cfg.is_joint:
+    if not plain_names(run.cfg):
         from bayes_dnlr.report.joint import build_joint_report
 
         out = run_dir / REPORT_FILE
@@ -294,7 +147,7 @@ def build_report(run_dir: Path | str) -> Path:
                    "fit</code>.</div>")
     warns = _warnings(run)
     if warns:
-        sec.append('<div class="box warn"><b>Warnings</b>' + _ul(warns) + "</div>")
+        sec.append('<div class="box warn"><b>Warnings</b>' + bullets(warns) + "</div>")
 
     # 1. parameters
     sec.append("<h2>1. Parameters</h2>")
@@ -318,14 +171,14 @@ def build_report(run_dir: Path | str) -> Path:
                    if run.uses_discrepancy and run.gls() else
                    "the Gauss-Newton estimate and the linearized 1σ and 2σ ellipses of Δ = σ0²(XᵀX)⁻¹ "
                    "(eq. 32, blue)")
-        sec.append(_img(p, "corner plot", (
+        sec.append(img(p, "corner plot", (
             "Posterior of the free parameters (grey: histograms and the 39 % / 86 % contours) with "
             + lin_txt
             + ("; green: the true values of this synthetic test" if truths else "")
             + ". Where the grey contours and the blue ellipses coincide, the linearization holds.")))
     elif run.has_posterior:
         sec.append("<h2>2. Posterior and its linearization</h2>")
-        sec.append(_p("posterior.nc is missing or unreadable: no corner plot (summary tables below)."))
+        sec.append(para("posterior.nc is missing or unreadable: no corner plot (summary tables below)."))
 
     # 3. correlations and disagreements
     post_t, lin_t = tb.correlation_tables(run)
@@ -340,7 +193,7 @@ def build_report(run_dir: Path | str) -> Path:
             notes = [d for d in tb.disagreements(run) if d.kind == "mean"]
             if dis:
                 sec.append('<div class="box warn"><b>Where the linearization fails</b>'
-                           + _ul([d.text for d in dis], "flags") + "</div>")
+                           + bullets([d.text for d in dis], "flags") + "</div>")
             elif (run.fit or {}).get("residuals", {}).get("white"):
                 sec.append('<div class="box ok">The posterior agrees with the linearized analysis: '
                            f"every sd within {100 * tb.SD_TOLERANCE:.0f} % and every correlation within "
@@ -352,7 +205,7 @@ def build_report(run_dir: Path | str) -> Path:
                            "posterior is close to Gaussian, not that the model fits. See section 5 for "
                            "which uncertainty to believe.</div>")
             if notes:
-                sec.append(_ul([d.text for d in notes]))
+                sec.append(bullets([d.text for d in notes]))
 
     # 4. fit and residuals
     sec.append("<h2>4. Fit and residuals</h2>")
@@ -374,16 +227,16 @@ def build_report(run_dir: Path | str) -> Path:
                 if curves.median is not None else "the least-squares fit")
         if disc is not None:
             what += "; green on the residuals: the posterior mean of the model discrepancy δ"
-        sec.append(_img(p, "fit and residuals", (
+        sec.append(img(p, "fit and residuals", (
             f"Data (grey dots) and {what}; the dashed blue line is the least-squares fit"
             + (f"; {inset.caption}" if inset else "") + ". Residuals "
             "(data - model) below, with ±σ0 dotted: without model bias they scatter evenly around zero "
             "(paper Figs 6-10).")))
     else:
-        sec.append(_p("No fit figure: the test data could not be loaded."))
+        sec.append(para("No fit figure: the test data could not be loaded."))
     fit_sigma0 = (run.fit or {}).get("sigma0", run.sigma0())   # the white analysis' own σ0
     sec.append("<h3>Residual diagnostics of the white fit (fit.json)</h3>"
-               + _ul(tb.residual_words(run.fit, fit_sigma0)))
+               + bullets(tb.residual_words(run.fit, fit_sigma0)))
 
     # 5. model error
     sec.append("<h2>5. Model error: which uncertainty to believe</h2>")
@@ -397,7 +250,7 @@ def build_report(run_dir: Path | str) -> Path:
         sec.append("<h2>6. Sensitivities (eq. 37)</h2>")
         p = figs.sensitivity_plot(curves.x, curves.sensitivities, figdir / "sensitivity.png",
                                   window=curves.window, xlabel=curves.xlabel)
-        sec.append(_img(p, "sensitivities", (
+        sec.append(img(p, "sensitivities", (
             "Normalised sensitivities X̃<sub>j</sub> = β<sub>j</sub> ∂σ/∂β<sub>j</sub> (eq. 37, MPa) at the "
             "least-squares estimate (paper Fig. 11). Parameters are identifiable where their curves differ "
             "in shape; proportional curves mean correlated parameters.")))
@@ -408,7 +261,7 @@ def build_report(run_dir: Path | str) -> Path:
                                          colour_label=view.colour_label, zoom=view.zoom,
                                          zoom_title=view.zoom_title, mark=view.mark,
                                          mark_label=view.mark_label, log_colour=view.log_colour)
-            sec.append(_img(p, "X(E) against X(tau_max)", view.caption))
+            sec.append(img(p, "X(E) against X(tau_max)", view.caption))
 
     # 7. standards, Deborah, cross-checks
     sec.append("<h2>7. Standards, Deborah number and independent measurements</h2>")
@@ -426,7 +279,7 @@ def build_report(run_dir: Path | str) -> Path:
             sec.append(st.html())
         model_draws = {n: run.draws[n] for n in run.names if n in run.draws}
         p = figs.trace_plot(model_draws, figdir / "trace.png")
-        sec.append(_img(p, "trace plot", (
+        sec.append(img(p, "trace plot", (
             "Trace plot, one row per parameter. Left: the marginal density of all kept draws (grey) and "
             "of the walkers pooled into 8 groups (lines); right: the kept draws of every walker against "
             "the step after burn-in. Walkers that wander off, stay flat (stuck) or groups whose "
@@ -436,7 +289,7 @@ def build_report(run_dir: Path | str) -> Path:
                 if isinstance(v, int | float) and np.isfinite(v)]
         thin = max(1, int(np.ceil(max(taus)))) if taus else 1
         p = figs.rank_plot(model_draws, figdir / "rank.png", thin=thin)
-        sec.append(_img(p, "rank plot", (
+        sec.append(img(p, "rank plot", (
             f"Rank plot (ArviZ's plot_rank): walkers thinned by their autocorrelation time ({thin} "
             "steps) and pooled into 8 groups; each line is the ECDF of one group's fractional "
             "ranks minus the uniform one (flat near zero when the groups sample the same "

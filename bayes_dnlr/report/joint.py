@@ -27,7 +27,10 @@ from bayes_dnlr.inference.layout import joint_name
 from bayes_dnlr.report import figures as figs
 from bayes_dnlr.report import model_error as rn
 from bayes_dnlr.report import tables as tb
-from bayes_dnlr.report.tables import RunResults, Table, fmt, fmt_at
+from bayes_dnlr.report.page_parts import CSS, bullets, img, para
+from bayes_dnlr.report.tables import Table, fmt, fmt_at
+from bayes_dnlr.runs.curves import N_DRAWS, model_curves, run_white_curve
+from bayes_dnlr.runs.results import RunResults, attach_test
 from bayes_dnlr.vocabulary import NOISE_NAMES, base_name, unit
 
 
@@ -88,7 +91,7 @@ def test_view(run: RunResults, test: str) -> RunResults:
         draws = {k: run.draws[_joint(k, test, per_test)] for k in (*local, *NOISE_NAMES)
                  if _joint(k, test, per_test) in run.draws}
     view = RunResults(run_dir=run.run_dir, cfg=cfg, fit=vfit, summary=vsum, draws=draws)
-    tb.attach_test(view, cfg)
+    attach_test(view, cfg)
     return view
 
 
@@ -197,13 +200,13 @@ def _rate_section(run: RunResults, views: dict[str, RunResults], ra) -> list[str
     sec = ["<h2>3. Is E rate-independent?</h2>"]
     if ra is None:
         if "E" not in run.cfg.per_test_parameters:
-            sec.append(tb_p("E is shared by all tests in this run (one E by construction): the joint "
+            sec.append(para("E is shared by all tests in this run (one E by construction): the joint "
                             "posterior cannot say whether the rates disagree. To ask the data, give E "
                             "one value per test (parameters.E: {per: test}); the model comparison then "
                             "weighs one E against one E per rate. The paper's way, each test alone, "
                             "is below."))
         else:
-            sec.append(tb_p("No posterior draws of E per test yet (run sample), or fewer than two "
+            sec.append(para("No posterior draws of E per test yet (run sample), or fewer than two "
                             "distinct strain rates."))
     else:
         sec.append(rate_table(ra).html())
@@ -215,7 +218,7 @@ def _rate_section(run: RunResults, views: dict[str, RunResults], ra) -> list[str
                    f"rate: ln BF<sub>01</sub> = {ra.log_bf01:+.2f}, method: {html.escape(method)}, "
                    f"under the likelihood of each test ({_likelihoods(views)}).</div>")
         if ra.notes:
-            sec.append(tb_ul(ra.notes))
+            sec.append(bullets(ra.notes))
     rows = []
     for t, v in views.items():
         s = ((run.fit or {}).get("single_fits") or {}).get(t) or {}
@@ -223,7 +226,7 @@ def _rate_section(run: RunResults, views: dict[str, RunResults], ra) -> list[str
             (s.get("estimate") or {}).keys()), "strain_rate": v.strain_rate()})
         rows.append(run_row(alone))
     c = consistency_of_e(rows)
-    sec.append("<h3>The paper's way: each test alone, χ² of one E</h3>" + tb_p(c.verdict))
+    sec.append("<h3>The paper's way: each test alone, χ² of one E</h3>" + para(c.verdict))
     return sec
 
 
@@ -235,18 +238,8 @@ def _likelihoods(views: dict[str, RunResults]) -> str:
     return ", ".join(parts)
 
 
-def tb_p(text: str) -> str:
-    return f"<p>{html.escape(text)}</p>"
-
-
-def tb_ul(items: list[str]) -> str:
-    return "<ul>" + "".join(f"<li>{html.escape(i)}</li>" for i in items) + "</ul>"
-
-
 def build_joint_report(run: RunResults, figdir: Path, t0: float) -> str:
     """The HTML page of a joint run (figures written into ``figdir``)."""
-    from bayes_dnlr.report.html import CSS, N_DRAWS, _img, model_curves, run_white_curve
-
     cfg = run.cfg
     views = {t: test_view(run, t) for t in cfg.test_names}
     names = run.names
@@ -266,7 +259,7 @@ def build_joint_report(run: RunResults, figdir: Path, t0: float) -> str:
     warns = list((run.summary or {}).get("warnings") or (run.fit or {}).get("warnings") or [])
     warns += [f"{t}: the data could not be loaded ({v.data_error})" for t, v in views.items() if v.data_error]
     if warns:
-        sec.append('<div class="box warn"><b>Warnings</b>' + tb_ul(warns) + "</div>")
+        sec.append('<div class="box warn"><b>Warnings</b>' + bullets(warns) + "</div>")
     if not run.has_posterior:
         sec.append('<div class="box warn"><b>No posterior yet.</b> Run <code>python -m bayes_dnlr sample '
                    f"{html.escape(str(run.run_dir))}/config.yaml</code>, then this report again.</div>")
@@ -291,7 +284,7 @@ def build_joint_report(run: RunResults, figdir: Path, t0: float) -> str:
         p = figs.corner_plot(samples, model_names, figdir / "corner.png", est, cov, truths,
                              linearized_label="joint GLS" if run.uses_discrepancy and run.gls()
                              else "joint Gauss-Newton")
-        sec.append(_img(p, "corner plot", (
+        sec.append(img(p, "corner plot", (
             "Joint posterior of the model parameters of all tests (grey: histograms and the 39 % / 86 % "
             "contours) with the joint least-squares estimate and the linearized 1σ and 2σ ellipses of "
             "Δ = (Σ X<sub>t</sub>ᵀW<sub>t</sub>X<sub>t</sub>)⁻¹ (eq. 32 over the stacked tests, blue)"
@@ -302,7 +295,7 @@ def build_joint_report(run: RunResults, figdir: Path, t0: float) -> str:
     for t, v in views.items():
         sec.append(f"<h3>{html.escape(t)} ({fmt(_rate(v), 3)} 1/s)</h3>")
         if v.test is None:
-            sec.append(tb_p(f"No fit figure: {v.data_error}"))
+            sec.append(para(f"No fit figure: {v.data_error}"))
             continue
         curves = model_curves(v, N_DRAWS)
         slug = "".join(c if c.isalnum() or c in "._-" else "_" for c in t)
@@ -318,7 +311,7 @@ def build_joint_report(run: RunResults, figdir: Path, t0: float) -> str:
                 else "the joint least-squares fit")
         if disc is not None:
             what += "; green on the residuals: the posterior mean of this test's model discrepancy δ"
-        sec.append(_img(p, f"fit {t}", f"Data (grey dots) and {what}; dashed blue: the joint "
+        sec.append(img(p, f"fit {t}", f"Data (grey dots) and {what}; dashed blue: the joint "
                                        "least-squares fit. Residuals below, ±σ0 dotted."))
         resid = None
         if curves.gn_curve is not None:
@@ -329,7 +322,7 @@ def build_joint_report(run: RunResults, figdir: Path, t0: float) -> str:
             alone = (((run.fit or {}).get("tests") or {}).get(t) or {}).get("rms_single_fit")
             words.append(f"rms of the residuals at the joint estimate: {fmt(rms, 3)} MPa (this test "
                          f"fitted alone: {fmt(alone, 3)} MPa)")
-        sec.append(tb_ul(words))
+        sec.append(bullets(words))
         noise = (v.summary or {}).get("noise") or {}
         if noise.get("verdict"):
             sec.append(f'<p class="note">Model error: {html.escape(noise["verdict"])}</p>')
@@ -341,7 +334,7 @@ def build_joint_report(run: RunResults, figdir: Path, t0: float) -> str:
         if st is not None:
             sec.append(st.html())
         p = figs.trace_plot({n: run.draws[n] for n in names if n in run.draws}, figdir / "trace.png")
-        sec.append(_img(p, "trace plot", "Trace plot of every sampled parameter of the joint vector "
+        sec.append(img(p, "trace plot", "Trace plot of every sampled parameter of the joint vector "
                                          "(left: marginals of 8 walker groups; right: the kept draws)."))
     elapsed = time.perf_counter() - t0
     now = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")

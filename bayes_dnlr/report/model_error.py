@@ -18,7 +18,9 @@ import numpy as np
 
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pct, pm
 from bayes_dnlr.report import figures as figs
-from bayes_dnlr.report.tables import RunResults, Table
+from bayes_dnlr.report.page_parts import img, para
+from bayes_dnlr.report.tables import Table
+from bayes_dnlr.runs.results import RunResults
 from bayes_dnlr.vocabulary import Z90
 
 PAPER_BY_HAND = ("The paper widens Err(E) of A_// at 5e-3 1/s from the linearized 0.47 % to ±6.5 % "
@@ -169,8 +171,6 @@ def noise_section(run: RunResults, figdir: Path, disc: Discrepancy | None,
                   resid: np.ndarray | None) -> list[str]:
     """HTML of the section; the ACF figure of ``resid`` (the white fit's residuals on the window,
     in window order) when given."""
-    from bayes_dnlr.report.html import _img, _p
-
     out: list[str] = []
     noise = (run.summary or {}).get("noise") or {}
     fit = run.fit or {}
@@ -200,13 +200,13 @@ def noise_section(run: RunResults, figdir: Path, disc: Discrepancy | None,
         m = len(next(iter(series.values())))
         lags = np.arange(m) * step
         p = figs.acf_plot(lags, series, resid.size, figdir / "acf.png", xlabel=f"lag ({unit})")
-        out.append(_img(p, "residual autocorrelation", (
+        out.append(img(p, "residual autocorrelation", (
             "Autocorrelation of the residuals against the lag. White residuals stay inside the shaded "
             "band; long positive correlation is the model error the white likelihood ignores. Whitened "
             "by the discrepancy (green) they should fall into the band; what stays outside is model "
             "error the kernel does not describe.")))
     elif not fit:
-        out.append(_p("No fit.json: no residual autocorrelation."))
+        out.append(para("No fit.json: no residual autocorrelation."))
     return out
 
 

@@ -10,15 +10,12 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from bayes_dnlr.config import Config
-from bayes_dnlr.digests import digest, file_sha256
 from bayes_dnlr.errors import RunError
-from bayes_dnlr.inference.lsq.identify import FitResult, fit_test
-from bayes_dnlr.inference.lsq.joint import JointFitResult, fit_joint
+from bayes_dnlr.inference.lsq.run_fit import RunFit, fit_run
 from bayes_dnlr.runs.folder import (
     check_output_dir,
     config_digest,
@@ -29,54 +26,8 @@ from bayes_dnlr.runs.folder import (
     write_json,
 )
 from bayes_dnlr.runs.layout import FIT_FILE
+from bayes_dnlr.runs.testset import data_fingerprint, load_tests, sections
 
-SECTIONS = ("data", "model", "parameters", "noise", "fit")
-
-
-def sections(cfg: Config, base: tuple[str, ...] = SECTIONS) -> tuple[str, ...]:
-    """The config sections a result depends on: ``base``, and ``tests`` in a run with tests."""
-    return (*base, "tests") if cfg.is_joint else base
-
-
-@dataclass(frozen=True)
-class TestSet:
-    """The tests of a run with ``tests:``, loaded, in config order, with one fingerprint."""
-
-    __test__ = False  # not a pytest test class despite its name
-
-    tests: dict[str, Any]        # name -> TestData
-
-    @property
-    def sha256(self) -> str:
-        return digest({t: d.sha256 for t, d in self.tests.items()})
-
-    @property
-    def n_points(self) -> int:
-        return int(sum(d.n_points for d in self.tests.values()))
-
-    @property
-    def path(self) -> str:
-        """The data files, for the record."""
-        return ", ".join(str(d.path) for d in self.tests.values())
-
-
-def load_tests(cfg: Config):
-    """The TestData of a one-test config, or the TestSet of a run with tests."""
-    from bayes_dnlr.data import load_test
-
-    if not cfg.is_joint:
-        return load_test(cfg)
-    return TestSet({t: load_test(cfg.for_test(t)) for t in cfg.test_names})
-
-
-def data_sha256(cfg: Config) -> str | None:
-    """The data fingerprint without loading (None when a data file is missing)."""
-    paths = [c.data_path for c in cfg.test_configs()]
-    if not all(p.is_file() for p in paths):
-        return None
-    if not cfg.is_joint:
-        return file_sha256(paths[0])
-    return digest(dict(zip(cfg.test_names, (file_sha256(p) for p in paths), strict=True)))
 
 def _fit_path(run_dir: Path) -> Path:
     return Path(run_dir) / FIT_FILE
@@ -110,7 +61,7 @@ def fit_is_current(cfg: Config, data_sha256: str | None = None) -> bool:
     """True when ``cfg.run_dir/fit.json`` exists and was made from this config and data file
     (``data_sha256``: the data file's hash when the caller already has it)."""
     path = _fit_path(cfg.run_dir)
-    sha = data_sha256 or data_sha256(cfg)
+    sha = data_sha256 or data_fingerprint(cfg)
     if not path.is_file() or sha is None:
         return False
     try:
@@ -132,11 +83,11 @@ def stale_fit_reason(cfg: Config, data_sha256: str) -> str | None:
         return f"an unreadable file ({err})"
 
 
-def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) -> FitResult | JointFitResult:
+def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) -> RunFit:
     """Least-squares fit of the configured test(s); writes ``cfg.run_dir/fit.json`` (unless
-    write=False). Returns a FitResult, or a JointFitResult for a run with ``tests:``.
+    write=False). ``RunFit.only`` is the test's fit of a run with one test.
 
-    ``test``: the TestData (or TestSet) of ``cfg`` when the caller has already loaded it.
+    ``test``: the TestSet of ``cfg`` when the caller has already loaded it.
     An existing fit.json made from another config (sections data, model, parameters, noise, fit,
     tests) or other data is never replaced silently: RunError unless ``overwrite`` (CLI ``--force``).
     """
@@ -151,10 +102,7 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
         if reason is not None:
             raise RunError(f"{path} exists and was made from {reason}; pass --force "
                            "(overwrite=True) to replace it")
-    if cfg.is_joint:
-        result = fit_joint(cfg, test.tests)
-    else:
-        result = fit_test(cfg, test)
+    result = fit_run(cfg, test.tests, plain=test.plain)
     secs = sections(cfg)
     result.config_digest = config_digest(cfg, secs)
     result.config_sections = section_digests(cfg, secs)

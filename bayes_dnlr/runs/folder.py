@@ -46,11 +46,8 @@ def resolved_config_path(cfg: Config) -> Path:
 def resolved_config_text(cfg: Config) -> str:
     """The config as resolved (defaults filled in), with paths that work from the run directory."""
     raw = cfg.as_dict()
-    if cfg.is_joint:
-        for t, spec in zip(raw["tests"], cfg.test_configs(), strict=True):
-            t["data"]["file"] = os.path.relpath(spec.data_path, cfg.run_dir)
-    else:
-        raw["data"]["file"] = os.path.relpath(cfg.data_path, cfg.run_dir)
+    for section, view in zip(raw.get("tests") or [raw], cfg.test_configs(), strict=True):
+        section["data"]["file"] = os.path.relpath(view.data_path, cfg.run_dir)
     raw["output"] = {"dir": "."}
     return yaml.safe_dump(raw, sort_keys=False)
 

@@ -13,7 +13,8 @@ from typing import Any
 
 from bayes_dnlr.config import Config
 from bayes_dnlr.inference.discrepancy.hyper import AMPLITUDE, LENGTH
-from bayes_dnlr.vocabulary import NOISE_NAMES, Z90
+from bayes_dnlr.inference.layout import Layout
+from bayes_dnlr.vocabulary import Z90
 
 
 def _linearized(estimate: float | None, sd: float | None) -> dict[str, Any] | None:
@@ -115,25 +116,21 @@ def residual_warnings(fit: dict[str, Any]) -> list[str]:
     return [w for w in (fit.get("warnings") or []) if any(k in w for k in keys)]
 
 
-def joint_noise_block(cfg: Config, fit: dict[str, Any], summary: dict[str, Any], sigma0: dict,
-                      sigma0_source: dict, layout: dict[str, list[str]]) -> dict[str, Any]:
-    """The ``noise`` block of a joint run: each test's own block (its hyperparameters, E's
-    interval under white noise and under the discrepancy), under ``tests``."""
-    from bayes_dnlr.inference.layout import joint_name
-
-    per_test = set(cfg.per_test_parameters)
+def noise_summary(cfg: Config, fit: dict[str, Any], summary: dict[str, Any], layout: Layout,
+                  sigma0: dict[str, float], sigma0_source: dict[str, str]) -> dict[str, Any]:
+    """summary.json's ``noise`` block of a run: each test's own block (its hyperparameters, E's
+    interval under white noise and under the discrepancy); a run with one test writes its block
+    itself, a run with several puts them under ``tests`` with a verdict over all."""
+    post = summary.get("posterior") or {}
     singles = fit.get("single_fits") or {}
     blocks = {}
-    for t in cfg.test_names:
-        post = summary.get("posterior") or {}
-        local = {}
-        for k in layout.get(t, []):
-            g = joint_name(k, t) if (k in NOISE_NAMES or k in per_test) else k
-            if g in post:
-                local[k] = post[g]
-        view = {"posterior": local}
-        blocks[t] = noise_block(cfg.for_test(t), singles.get(t) or {}, view, sigma0.get(t),
-                                (sigma0_source or {}).get(t, ""))
+    for t in layout.tests:
+        local = {k: post[layout.name(k, t)] for k in layout.local[t] if layout.name(k, t) in post}
+        own = fit if layout.plain else singles.get(t) or {}
+        blocks[t] = noise_block(cfg.for_test(t), own, {"posterior": local}, sigma0.get(t),
+                                sigma0_source.get(t, ""))
+    if layout.plain:
+        return layout.collapse(blocks)
     models = {b["model"] for b in blocks.values()}
     groups: dict[str, list[str]] = {}
     for t, b in blocks.items():

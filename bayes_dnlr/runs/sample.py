@@ -27,6 +27,7 @@ import numpy as np
 from bayes_dnlr.config import Config, ConfigError
 from bayes_dnlr.digests import digest
 from bayes_dnlr.errors import BayesDnlrError, StaleRunError
+from bayes_dnlr.inference.layout import Layout
 from bayes_dnlr.inference.mcmc.ensemble import MOVES, make_moves, run_ensemble, start_ensemble
 from bayes_dnlr.inference.mcmc.state import SamplerState
 from bayes_dnlr.inference.mcmc.stopping import (
@@ -37,10 +38,9 @@ from bayes_dnlr.inference.mcmc.stopping import (
     shortfall,
     stop_reason,
 )
-from bayes_dnlr.inference.posterior.priors import build_priors, sampled_names
+from bayes_dnlr.inference.posterior.priors import build_priors
 from bayes_dnlr.interrupt import Interrupted
 from bayes_dnlr.runs.chains import ChainWriter, StoredRun, read_attrs, read_run
-from bayes_dnlr.runs.fit import load_tests, sections
 from bayes_dnlr.runs.folder import (
     check_output_dir,
     discard_if_empty,
@@ -53,7 +53,7 @@ from bayes_dnlr.runs.folder import (
 from bayes_dnlr.runs.layout import CHAINS_FILE, FIT_FILE, POSTERIOR_FILE, SAMPLE_LOCK, SUMMARY_FILE
 from bayes_dnlr.runs.lock import run_lock
 from bayes_dnlr.runs.netcdf import PosteriorDraws
-from bayes_dnlr.runs.noise_summary import joint_noise_block, noise_block, residual_warnings
+from bayes_dnlr.runs.noise_summary import noise_summary, residual_warnings
 from bayes_dnlr.runs.outputs import (
     Posterior,
     gauss_newton_block,
@@ -62,7 +62,9 @@ from bayes_dnlr.runs.outputs import (
     summarize,
     write_outputs,
 )
-from bayes_dnlr.runs.target import joint_target, single_target
+from bayes_dnlr.runs.records import FitRecord
+from bayes_dnlr.runs.target import build_target
+from bayes_dnlr.runs.testset import TestSet, load_tests, sections
 
 # config sections that change the posterior or the chain; max_steps, target_ess, checkpoint_every,
 # burn_in_tau and min_tau_multiple only decide how long to sample and what to keep.
@@ -151,9 +153,6 @@ def sample(cfg: Config, *, restart: bool = False, progress: bool = True,
 
     t0 = time.perf_counter()
     use_threads(threads if threads is not None else cfg.sampler.threads)
-    names = sampled_names(cfg)
-    if not cfg.is_joint:             # a joint run knows its names after the fit
-        check_sampler(cfg, names)
     build_priors(cfg)               # validate the model priors early
     make_moves(cfg.sampler.moves)
     check_output_dir(cfg.run_dir, writable=False)
@@ -161,7 +160,7 @@ def sample(cfg: Config, *, restart: bool = False, progress: bool = True,
     created = make_dir(cfg.run_dir)
     try:
         with _run_lock(cfg.run_dir):
-            post = _sample(cfg, test, names, restart=restart, progress=progress)
+            post = _sample(cfg, test, restart=restart, progress=progress)
     except BaseException:
         if created:
             discard_if_empty(cfg.run_dir)   # nothing half-made is left by a failed first command
@@ -202,7 +201,7 @@ def _current_fit(cfg: Config, test, *, replace: bool, progress: bool) -> dict[st
     return load_fit(cfg.run_dir)
 
 
-def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: bool) -> Posterior:
+def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool) -> Posterior:
     run_dir = cfg.run_dir
     chains = run_dir / CHAINS_FILE
     parts = fingerprint_parts(cfg, test.sha256)
@@ -236,8 +235,7 @@ def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: boo
     fit = _current_fit(cfg, test, replace=restart, progress=progress)
     t_fit = time.perf_counter() - t_fit
     prepare_run_dir(cfg)
-    target = (joint_target(cfg, test.tests, fit, stored) if cfg.is_joint
-              else single_target(cfg, test, fit, stored))
+    target = build_target(cfg, test, FitRecord.from_dict(fit, cfg.test_names), stored)
     post, priors, names = target.post, target.priors, target.names
     sigma0, sigma0_source = target.sigma0, target.sigma0_source
     check_sampler(cfg, names)
@@ -317,24 +315,28 @@ def _json_attr(v: Any) -> Any:
         return v
 
 
-def _sigma0_used(run: StoredRun, draws: np.ndarray, cfg: Config) -> Any:
-    """σ0 (MPa) of the likelihood: the fixed value, or the posterior mean when sampled; per test
-    ({test: value}) in a joint run."""
+def _chain_layout(run: StoredRun, cfg: Config, plain: bool) -> Layout:
+    """The run's layout of a stored chain (a run with several tests stores each test's names)."""
+    local = {cfg.test_names[0]: run.names} if plain else json.loads(run.attrs.get("layout", "{}"))
+    return Layout.build(local, cfg.per_test_parameters, plain)
+
+
+def _sigma0_used(run: StoredRun, draws: np.ndarray, layout: Layout) -> dict[str, float]:
+    """σ0 (MPa) of each test's likelihood: the fixed value, or the posterior mean when sampled."""
     names = run.names
-    stored = _json_attr(run.attrs.get("sigma0"))
+    stored = layout.expand(_json_attr(run.attrs.get("sigma0")))
 
     def value(name: str, fixed: Any) -> float:
         if name in names:
             return float(draws[:, :, names.index(name)].mean())
         return float("nan") if fixed is None else float(fixed)
 
-    if cfg.is_joint:
-        return {t: value(f"sigma0[{t}]", (stored or {}).get(t)) for t in cfg.test_names}
-    return value("sigma0", stored)
+    return {t: value(layout.name("sigma0", t), stored.get(t)) for t in layout.tests}
 
 
 def _sigma0_attr(sigma0: Any) -> Any:
-    """σ0 as a chain attribute: a number, NaN when sampled, JSON for a joint run's per-test values."""
+    """σ0 as a chain attribute: a number, NaN when sampled; JSON of the per-test values of a run
+    with several tests."""
     if isinstance(sigma0, dict):
         return json.dumps({t: (None if v is None else float(v)) for t, v in sigma0.items()})
     return float("nan") if sigma0 is None else float(sigma0)
@@ -393,7 +395,9 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
     burn = conv.burn_in
     draws = run.chain[burn:]
     lp = run.log_prob[burn:]
-    sigma0 = _sigma0_used(run, draws, cfg)
+    layout = _chain_layout(run, cfg, test.plain)
+    sigma0 = _sigma0_used(run, draws, layout)
+    singles = fit.get("single_fits") or {}
     sampling = max(wall_time - store_time, 1e-12)
     acc = float(run.accepted[burn:].mean()) if run.accepted.size else float("nan")
     warnings = []
@@ -402,12 +406,11 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
                         f"{shortfall(conv, names, sc.target_ess, sc.min_tau_multiple)} "
                         f"(about {conv.needed_steps} steps needed)")
     extra = {
-        "sigma0": sigma0, "n_points": int(test.n_points), "steps": int(run.steps),
+        "sigma0": layout.collapse(sigma0), "n_points": int(test.n_points), "steps": int(run.steps),
         "wall_time_s": wall_time,
-        "standards": ({t: _standards(d) for t, d in test.tests.items()} if cfg.is_joint
-                      else _standards(test)),
-        "deborah_max": ({t: f.get("deborah_max") for t, f in (fit.get("single_fits") or {}).items()}
-                        if cfg.is_joint else fit.get("deborah_max")),
+        "standards": layout.collapse({t: _standards(d) for t, d in test.tests.items()}),
+        "deborah_max": layout.collapse({t: (fit if layout.plain else singles.get(t) or {}).get("deborah_max")
+                                        for t in layout.tests}),
         "name": cfg.name, "stop_reason": reason, "converged": reason == "converged",
         "burn_in": int(burn), "target_ess": sc.target_ess, "moves": MOVES.get(sc.moves, sc.moves),
         "seed": sc.seed, "threads": _threads_in_use(), "acceptance_fraction": acc,
@@ -425,11 +428,8 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
                                                      strict=False)})}
     dt = PosteriorDraws(names, draws, lp, attrs)     # posterior.nc without importing xarray
     summary = summarize(names, draws, fit=fit, tau=conv.tau, extra=extra)
-    if cfg.is_joint:
-        summary["noise"] = jsonable(joint_noise_block(cfg, fit, summary, sigma0, sigma0_source,
-                                                      json.loads(run.attrs.get("layout", "{}"))))
-    else:
-        summary["noise"] = jsonable(noise_block(cfg, fit, summary, sigma0, sigma0_source))
+    summary["noise"] = jsonable(noise_summary(cfg, fit, summary, layout, sigma0,
+                                              layout.expand(sigma0_source)))
     if summary["noise"]["model"] == "discrepancy" and fit.get("discrepancy"):
         summary["generalized_least_squares"] = gauss_newton_block(
             {"parameters": fit.get("parameters"), **fit["discrepancy"]})

@@ -20,9 +20,9 @@ import yaml
 
 from bayes_dnlr.config import NAME_PATTERN, ConfigError, parse_config
 from bayes_dnlr.data.guess import FRACTION_MAX, Guess, Pick, guess_columns
-from bayes_dnlr.data.units import lookup
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.numbers import fmt
+from bayes_dnlr.units import lookup
 
 PEAK_DROP = 0.05        # the load falls this far below its maximum after it: a peak (yield)
 

@@ -27,7 +27,7 @@ import numpy as np
 from bayes_dnlr.config import Config, ConfigError, TruthConfig
 from bayes_dnlr.data import DataError, nominal_from_hencky
 from bayes_dnlr.data.numbers import parse_cell
-from bayes_dnlr.data.units import factor
+from bayes_dnlr.units import factor
 
 FORMAT = "%.10g"
 # per layout: delimiter, decimal mark, quote every cell, thousands separator, default unit per role kind
@@ -413,13 +413,11 @@ def simulate_test(cfg: Config, overwrite: bool = False) -> SimulationResult:
 def simulate_tests(cfg: Config, overwrite: bool = False) -> list[SimulationResult]:
     """Every test's synthetic file: ``[simulate_test(cfg)]`` for one test; for a run with
     ``tests:``, each test from its own ``tests[i].truth`` (all are checked before any is written)."""
-    if not cfg.is_joint:
-        return [simulate_test(cfg, overwrite)]
     views = cfg.test_configs()
     where = cfg.source if cfg.source is not None else "config"
     for i, v in enumerate(views):
-        if v.truth is None:
+        if v.truth is None and cfg.tests is not None:
             raise ConfigError(f"{where}: tests[{i}].truth: section is missing: simulate needs each "
                               "test's known parameters and protocol (see docs/joint.md)")
-        _check(v)
+        _check(v)            # every test checked before any file is written
     return [simulate_test(v, overwrite) for v in views]

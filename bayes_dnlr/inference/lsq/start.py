@@ -23,7 +23,8 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from bayes_dnlr.config import ParameterSpec
-from bayes_dnlr.model import haward_thackray, tau_scale, weights
+from bayes_dnlr.data.conversions import haward_thackray_strain
+from bayes_dnlr.model import tau_scale, weights
 from bayes_dnlr.vocabulary import TIME_CONSTANTS
 
 SD_SPAN = 3.0  # normal / log-normal priors without truncation: starts within ±3 sd
@@ -80,7 +81,7 @@ def physics_start(time: np.ndarray, strain: np.ndarray, stress: np.ndarray,
     asymptote = None
     if span >= 0.4:
         large = et >= et[0] + 0.6 * span
-        h = haward_thackray(et[large])
+        h = haward_thackray_strain(et[large])
         if large.sum() >= 3 and np.ptp(h) > 0:
             slope, intercept = np.polynomial.polynomial.polyfit(h, st[large], 1)[::-1]
             if np.isfinite(slope):

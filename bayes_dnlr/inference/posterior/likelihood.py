@@ -1,8 +1,5 @@
-"""The log-posterior of the sampled parameters, vectorised over emcee walkers.
-
-    log p(z | y) = log prior(z) + log L(θ(z)),
-
-over the n samples of the identification window, with r = y - σ_model(θ):
+"""The log-likelihood of one test, vectorised over emcee walkers: log L(θ) over the n samples of
+the identification window, with r = y - σ_model(θ):
 
 - white (``noise.discrepancy: none``): log L = -½ Σ r_i² / σ0² - n ln σ0 - (n/2) ln 2π, the paper's
   least-squares criterion (eq. 27 is -2 σ0² log L up to constants);
@@ -12,17 +9,17 @@ over the n samples of the identification window, with r = y - σ_model(θ):
   ``disc_amplitude`` and ``disc_length`` are sampled with the others, or fixed.
 
 All walkers of a call are evaluated by one compiled call, in parallel over walkers
-(inference/posterior/fused.py: the stress by the exponential integrator, the residual and the likelihood,
-white or discrepancy, without Python per walker); ``fused=False`` keeps the reference path, one
-basis integration (``DNLR.basis``) and a (n, 3) matrix-vector product per walker in Python. Outside
-the prior support the model is not run and the result is ``-inf``; a model failure (non-finite
-stress) also gives ``-inf``: the function never returns NaN and never raises for a bad point.
+(inference/posterior/fused.py: the stress by the exponential integrator, the residual and the
+likelihood, white or discrepancy, without Python per walker); ``fused=False`` keeps the reference
+path, one basis integration (``DNLR.basis``) and a (n, 3) matrix-vector product per walker in
+Python. A model failure (non-finite stress) gives ``-inf``: the function never returns NaN and never
+raises for a bad point. The run's log-posterior sums these over its tests (density.py).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -32,7 +29,6 @@ from bayes_dnlr.data import TestData
 from bayes_dnlr.inference.discrepancy import gp
 from bayes_dnlr.inference.discrepancy.hyper import AMPLITUDE, LENGTH, Axis, is_white, test_axis
 from bayes_dnlr.inference.posterior import fused as fused_kernel
-from bayes_dnlr.inference.posterior.priors import PriorSet, build_priors
 from bayes_dnlr.model import DNLR
 from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS, pack_theta
 
@@ -54,8 +50,8 @@ def window_rows(test: TestData) -> slice | np.ndarray:
     return rows
 
 
-class LogPosterior:
-    """Callable ``z (k, ndim) -> (k,)`` log-posterior in sampling coordinates (emcee vectorize=True).
+class TestLikelihood:
+    """log L (k,) of one test at physical parameters theta (k, ndim) over the test's own ``names``.
 
     ``sigma0``: the fixed noise sd (MPa), or None when ``sigma0`` is one of the sampled parameters.
     ``fused``: evaluate the likelihood by one compiled parallel call per batch of walkers
@@ -63,15 +59,14 @@ class LogPosterior:
     """
 
     def __init__(self, model: DNLR, observed: np.ndarray, rows: slice | np.ndarray,
-                 priors: PriorSet, fixed: Mapping[str, float], sigma0: float | None,
+                 names: Sequence[str], fixed: Mapping[str, float], sigma0: float | None,
                  discrepancy: Discrepancy | None = None, fused: bool = True) -> None:
         self.model = model
         self.rows = rows
         self.y = np.ascontiguousarray(observed, dtype=float)
         self.n = int(self.y.size)
-        self.priors = priors
-        self.names = priors.names
-        self.ndim = priors.ndim
+        self.names = list(names)
+        self.ndim = len(self.names)
         model_names = model.parameter_names()
         noise_names = ("sigma0", *DISCREPANCY_PARAMETERS)
         unknown = [k for k in self.names if k not in model_names and k not in noise_names]
@@ -102,7 +97,6 @@ class LogPosterior:
             else:
                 self._source[k] = float(fixed[k])
         self.has_relaxation = model.has_relaxation
-        self.n_evals = 0  # model evaluations (points inside the prior support)
         self.fused = fused
         self._prepare_fused()
 
@@ -219,17 +213,6 @@ class LogPosterior:
         out[bad] = -np.inf
         return out
 
-    def __call__(self, z: np.ndarray) -> np.ndarray:
-        z = np.atleast_2d(np.asarray(z, dtype=float))
-        lp = self.priors.log_prior(z)
-        ok = np.flatnonzero(np.isfinite(lp))
-        if ok.size:
-            theta = self.priors.to_physical(z[ok])
-            lp[ok] += self.log_likelihood(theta)
-            self.n_evals += ok.size
-        lp[~np.isfinite(lp)] = -np.inf
-        return lp
-
 
 @dataclass(frozen=True)
 class Discrepancy:
@@ -240,11 +223,11 @@ class Discrepancy:
     fixed: dict[str, float] = field(default_factory=dict)   # disc_amplitude / disc_length values
 
 
-def build_log_posterior(cfg: Config, test: TestData, sigma0: float | None,
-                        priors: PriorSet | None = None,
-                        discrepancy_priors: Mapping[str, ParameterSpec] | None = None,
-                        kernel: str | None = None) -> LogPosterior:
-    """The log-posterior of a config and its test data; sigma0 None when it is sampled.
+def build_likelihood(cfg: Config, test: TestData, sigma0: float | None, names: Sequence[str],
+                     discrepancy_priors: Mapping[str, ParameterSpec] | None = None,
+                     kernel: str | None = None) -> TestLikelihood:
+    """The likelihood of a (single-test) config and its test data over the sampled ``names``;
+    sigma0 None when it is sampled.
 
     ``discrepancy_priors``: the resolved priors (or fixed values) of disc_amplitude and
     disc_length (fit.json's discrepancy block); needed when the config has a discrepancy.
@@ -264,5 +247,4 @@ def build_log_posterior(cfg: Config, test: TestData, sigma0: float | None,
             raise ValueError("kernel: auto needs the kernel that fit chose (fit.json's discrepancy block)")
         disc = Discrepancy(kernel, axis,
                            {k: float(v.value) for k, v in discrepancy_priors.items() if v.fixed})
-    priors = priors or build_priors(cfg, discrepancy_priors)
-    return LogPosterior(model, observed, rows, priors, cfg.fixed_values, sigma0, disc)
+    return TestLikelihood(model, observed, rows, names, cfg.fixed_values, sigma0, disc)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -68,6 +68,10 @@ class Prior:
     scale: float = 1.0      # normal: sd; log-normal: sd_log; half-normal: scale
     log_space: bool = False
     _log_norm: float = field(default=0.0, repr=False)  # log of the normalising constant
+
+    def renamed(self, name: str) -> Prior:
+        """The same prior under another name (a test's parameter in the run's vector)."""
+        return replace(self, name=name)
 
     @classmethod
     def from_spec(cls, name: str, spec: ParameterSpec | SampledNoise, key: str | None = None,

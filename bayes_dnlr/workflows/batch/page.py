@@ -24,7 +24,7 @@ import numpy as np
 
 from bayes_dnlr import __version__
 from bayes_dnlr.numbers import fmt, pm
-from bayes_dnlr.report.html import CSS
+from bayes_dnlr.report.page_parts import CSS
 from bayes_dnlr.runs.layout import FIGURES_DIR
 from bayes_dnlr.vocabulary import PARAMETER_NAMES
 from bayes_dnlr.workflows.batch.manifest import (

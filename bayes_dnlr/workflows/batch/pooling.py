@@ -14,6 +14,7 @@ from typing import Any
 
 from bayes_dnlr.config import ConfigError, load_config
 from bayes_dnlr.runs.folder import find_config
+from bayes_dnlr.runs.testset import plain_names
 
 MIN_TESTS = 3
 PARAMETER = "E"
@@ -52,7 +53,7 @@ def _excluded_reason(row: dict[str, Any]) -> str | None:
         cfg = load_config(find_config(Path(run_dir)))
     except (OSError, FileNotFoundError, ConfigError) as err:
         return f"its config cannot be read ({err})"
-    if cfg.is_joint:
+    if not plain_names(cfg):
         return "a run with tests: (one E shared by several tests, not one specimen)"
     spec = cfg.parameters.get(PARAMETER)
     if spec is None or spec.fixed:

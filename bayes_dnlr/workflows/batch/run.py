@@ -145,10 +145,10 @@ def run_job(job: Job, report: Reporter | None = None) -> dict[str, Any]:
 def fingerprint(cfg) -> dict[str, Any]:
     """What a finished test's outputs depend on: the chain's fingerprint (config sections, sampler
     walkers/seed/moves, data file sha256) and the settings that decide its length and burn-in."""
-    from bayes_dnlr.runs.fit import data_sha256
+    from bayes_dnlr.runs.fit import data_fingerprint
     from bayes_dnlr.runs.sample import fingerprint_parts, stopping_settings
 
-    sha = data_sha256(cfg)            # the data file's sha256 (a digest of them for a run with tests:)
+    sha = data_fingerprint(cfg)          # the data file's sha256 (a digest of them for a run with tests:)
     if sha is None:
         raise BatchError(f"{cfg.name}: a data file is missing")
     return {"chain": digest(fingerprint_parts(cfg, sha)), "settings": stopping_settings(cfg)}

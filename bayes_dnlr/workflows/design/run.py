@@ -24,6 +24,7 @@ from bayes_dnlr.errors import BayesDnlrError, RunError
 from bayes_dnlr.numbers import fmt
 from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
 from bayes_dnlr.runs.layout import POSTERIOR_FILE
+from bayes_dnlr.runs.testset import plain_names
 from bayes_dnlr.vocabulary import PARAMETER_NAMES, RELAXATION_PARAMETERS, TENSILE_PARAMETERS
 from bayes_dnlr.workflows.design.candidates import expand
 from bayes_dnlr.workflows.design.config import DesignConfig
@@ -90,7 +91,7 @@ def resolve_draws(cfg: DesignConfig) -> tuple[Draws, list[str], dict[str, Any]]:
         run_cfg = load_config(find_config(cfg.run_path))
     except FileNotFoundError as err:
         raise RunError(f"from_run: {err}") from None
-    if run_cfg.is_joint:
+    if not plain_names(run_cfg):
         raise BayesDnlrError(f"from_run: {cfg.run_path} is a run with several tests; give one test's run "
                              "(joint runs are not supported by design yet)")
     fixed = run_cfg.fixed_values

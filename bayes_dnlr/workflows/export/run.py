@@ -21,6 +21,7 @@ import numpy as np
 from bayes_dnlr.errors import BayesDnlrError, RunError
 from bayes_dnlr.numbers import fmt
 from bayes_dnlr.runs.folder import write_atomic
+from bayes_dnlr.runs.testset import plain_names
 from bayes_dnlr.workflows.export import FORMAT_NAMES, abaqus, ansys, lsdyna, table
 from bayes_dnlr.workflows.export.cards import (
     RAMP_CHECK_STRAIN,
@@ -185,7 +186,7 @@ def export(run_dir: str | Path, fmt_name: str, *, terms: int | None = None, draw
     run_dir = Path(run_dir)
     run = load_run_draws(run_dir, key="export")
     cfg = _config(run_dir)
-    if cfg.is_joint:
+    if not plain_names(cfg):
         raise BayesDnlrError(f"export: {run_dir} is a run with several tests (tests:); export one "
                              "test's own run directory instead (not supported yet for joint runs)")
     modes, decades = cfg.model.modes, cfg.model.decades

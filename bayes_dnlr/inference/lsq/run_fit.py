@@ -1,5 +1,4 @@
-"""The least-squares fit of several tests at once (a run with ``tests:``), and its stochastic
-analysis: the joint Δ (eq. 32) and Δ̃ (eq. 35) with every test weighted by its own noise.
+"""The least-squares fit of a run, one test or several, and its stochastic analysis.
 
 1. Each test alone (``fit_test`` on its single-test view): its estimate, its σ0 and, with the model
    discrepancy, its maximum-likelihood hyperparameters and the evidence of model error.
@@ -8,12 +7,15 @@ analysis: the joint Δ (eq. 32) and Δ̃ (eq. 35) with every test weighted by it
 3. With the discrepancy (where a test shows model error): the joint generalized least squares,
    each such test whitened by its own K_t (hyperparameters held at the single-test ML values),
    Δ = (Σ X_tᵀ K_t⁻¹ X_t)⁻¹.
+
+A run with one test (plain names, ``Layout.plain``) stops after step 1: its test's fit is the run's.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -22,20 +24,22 @@ import numpy as np
 from bayes_dnlr.config import Config
 from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.inference.discrepancy.hyper import Hyper, discrepancy_priors, is_white, test_axis, whitener
-from bayes_dnlr.inference.layout import JointProblem, Layout, pooled_start
+from bayes_dnlr.inference.layout import Layout, test_of
 from bayes_dnlr.inference.lsq.identify import FitResult, fit_test
 from bayes_dnlr.inference.lsq.optimize import run_minimiser
 from bayes_dnlr.inference.lsq.problem import LsqProblem
+from bayes_dnlr.inference.lsq.run_problem import RunProblem
 from bayes_dnlr.inference.lsq.sensitivity import StochasticAnalysis, analyse, identifiability_warnings
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd, pm
 from bayes_dnlr.runs.folder import jsonable
-from bayes_dnlr.vocabulary import UNITS, base_name
+from bayes_dnlr.vocabulary import TIME_CONSTANTS, base_name, unit
 
 
 @dataclass
-class JointFitResult:
-    """Outcome of the joint fit: estimates of the joint vector, Δ̃, and each test's own fit."""
+class RunFit:
+    """The fit of a run: estimates of its parameter vector, Δ̃, and each test's own fit (for a run
+    with one test, that test's fit is the run's: ``only``)."""
 
     name: str
     names: list[str]
@@ -59,18 +63,42 @@ class JointFitResult:
     config_sections: dict[str, str] = field(default_factory=dict)
     data_sha256: str = ""
     wall_time_s: float = 0.0
+    plain: bool = False                    # one test, plain names: fit.json is that test's fit
+
+    @classmethod
+    def of_one_test(cls, fit: FitResult) -> RunFit:
+        """The run fit of a run with one test: that test's fit."""
+        return cls(name=fit.name, names=fit.names, estimate=fit.estimate, sd=fit.sd, err=fit.err,
+                   covariance=fit.covariance, correlation=fit.correlation,
+                   delta_tilde=fit.delta_tilde, tests={}, singles={fit.name: fit},
+                   criterion=fit.criterion, converged=fit.converged, message=fit.message,
+                   iterations=fit.iterations, condition_number=fit.condition_number,
+                   warnings=fit.warnings, discrepancy=fit.discrepancy, plain=True)
+
+    @property
+    def only(self) -> FitResult:
+        """The test's fit of a run with one test."""
+        if len(self.singles) != 1:
+            raise ValueError(f"the run has {len(self.singles)} tests: use .singles[name]")
+        return next(iter(self.singles.values()))
 
     @property
     def n_points(self) -> int:
-        return int(sum(t["n_points"] for t in self.tests.values()))
+        return int(sum(r.n_points for r in self.singles.values()))
 
     def to_dict(self) -> dict[str, Any]:
+        """JSON-able content of fit.json: a run with one test writes its test's fit."""
         from bayes_dnlr import __version__
 
+        if self.plain:
+            single = self.only
+            single.config_digest, single.config_sections = self.config_digest, self.config_sections
+            single.data_sha256, single.wall_time_s = self.data_sha256, self.wall_time_s
+            return single.to_dict()
         return jsonable({
             "name": self.name, "joint": True, "parameters": self.names, "per_test": self.per_test,
             "estimate": self.estimate, "sd": self.sd, "err": self.err,
-            "units": {k: UNITS.get(base_name(k), "") for k in self.names},
+            "units": {k: unit(k) for k in self.names},
             "covariance": self.covariance, "correlation": self.correlation,
             "delta_tilde": self.delta_tilde, "n_points": self.n_points,
             "tests": self.tests,
@@ -87,6 +115,9 @@ class JointFitResult:
         })
 
     def table(self) -> str:
+        """The console table of the fit."""
+        if self.plain:
+            return self.only.table()
         d = self.discrepancy
         lines = [f"joint fit {self.name}: {len(self.tests)} tests, {self.n_points} points, "
                  f"{'converged' if self.converged else 'NOT converged'}"]
@@ -106,7 +137,7 @@ class JointFitResult:
             if d:
                 gs = d["sd"][k]
                 row += f"  {fmt_at(d['estimate'][k], gs):>14}{fmt_sd(gs):>12}{err_pct(d['err'][k]):>9}"
-            lines.append(row + f"  {UNITS.get(base_name(k), '')}")
+            lines.append(row + f"  {unit(k)}")
         lines += ["", "single-test estimates (each test alone):"]
         for t, r in self.singles.items():
             src = r.discrepancy if (r.discrepancy and t in (d or {}).get("tests", [])) else None
@@ -119,7 +150,7 @@ class JointFitResult:
         return "\n".join(lines)
 
 
-def _analyse(problem: JointProblem, params: dict[str, float]) -> StochasticAnalysis:
+def _analyse(problem: RunProblem, params: dict[str, float]) -> StochasticAnalysis:
     X = problem.jacobian(params)
     names = problem.names
     zero = [k for k, c in zip(names, np.linalg.norm(X, axis=0), strict=True) if c == 0]
@@ -174,16 +205,20 @@ def _fit_single(i: int, view: Config, test: Any) -> FitResult:
         raise type(err)(f"tests[{i}] ({view.name}): {err}") from None
 
 
-def fit_joint(cfg: Config, tests: dict[str, Any]) -> JointFitResult:
-    """The joint fit of a run with ``tests:`` (``tests``: name -> TestData); writes nothing."""
+def fit_run(cfg: Config, tests: dict[str, Any], plain: bool) -> RunFit:
+    """The fit of a run (``tests``: name -> TestData; ``plain``: one test under plain names);
+    writes nothing."""
     t0 = time.perf_counter()
+    if plain:
+        (t, test), = tests.items()
+        return RunFit.of_one_test(fit_test(cfg, test))
     views = {t: cfg.for_test(t) for t in cfg.test_names}
     singles = {t: _fit_single(i, views[t], tests[t]) for i, t in enumerate(views)}
     layout = Layout.build({t: views[t].free_parameters for t in views}, cfg.per_test_parameters)
     bounds = {g: cfg.parameters[base_name(g)].bounds() for g in layout.names}
     blocks = _blocks(views, tests)
     sigma0 = {t: singles[t].sigma0 for t in views}
-    problem = JointProblem(blocks, layout, bounds, {t: 1.0 / sigma0[t] for t in views})
+    problem = RunProblem(blocks, layout, bounds, {t: 1.0 / sigma0[t] for t in views})
     start = pooled_start({t: r.estimate for t, r in singles.items()}, {t: r.sd for t, r in singles.items()},
                          layout)
     beta0 = np.clip(problem.vector(start), problem.lower, problem.upper)
@@ -205,7 +240,7 @@ def fit_joint(cfg: Config, tests: dict[str, Any]) -> JointFitResult:
                             "parameters do not fit this test as well as its own would (see the "
                             "single-test estimates)")
     disc = _joint_gls(cfg, problem, params, singles, tests, info, warnings)
-    return JointFitResult(
+    return RunFit(
         name=cfg.name, names=layout.names, estimate=params,
         sd=dict(zip(layout.names, map(float, sa.sd), strict=True)),
         err=dict(zip(layout.names, map(float, sa.err), strict=True)),
@@ -216,7 +251,7 @@ def fit_joint(cfg: Config, tests: dict[str, Any]) -> JointFitResult:
         wall_time_s=time.perf_counter() - t0)
 
 
-def _joint_gls(cfg: Config, problem: JointProblem, white: dict[str, float],
+def _joint_gls(cfg: Config, problem: RunProblem, white: dict[str, float],
                singles: dict[str, FitResult], tests: dict[str, Any], info: dict[str, dict],
                warnings: list[str]) -> dict[str, Any] | None:
     """The joint generalized least squares, each test with model error whitened by its own K."""
@@ -263,3 +298,27 @@ def _joint_gls(cfg: Config, problem: JointProblem, white: dict[str, float],
         "delta_tilde": nan if sa is None else sa.delta_tilde,
         "criterion": float(opt.criterion), "converged": bool(opt.converged), "message": opt.message,
     }
+
+
+def pooled_start(estimates: Mapping[str, Mapping[str, float]], sds: Mapping[str, Mapping[str, float]],
+                 layout: Layout) -> dict[str, float]:
+    """A start for the joint fit from the single-test fits: a shared parameter at the
+    inverse-variance mean of the tests' estimates (the geometric one for time constants), a
+    per-test parameter at its test's own estimate."""
+    out: dict[str, float] = {}
+    for name in layout.names:
+        t = test_of(name)
+        k = base_name(name)
+        if t is not None:
+            out[name] = float(estimates[t][k])
+            continue
+        vals, wts = [], []
+        for test in layout.tests:
+            if k in estimates[test]:
+                v, s = float(estimates[test][k]), float(sds[test].get(k, math.nan))
+                vals.append(math.log(v) if k in TIME_CONSTANTS else v)
+                rel = s / v if k in TIME_CONSTANTS and v > 0 else s
+                wts.append(1.0 / rel**2 if math.isfinite(rel) and rel > 0 else 1.0)
+        m = float(np.average(vals, weights=wts))
+        out[name] = math.exp(m) if k in TIME_CONSTANTS else m
+    return out

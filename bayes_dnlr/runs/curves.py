@@ -1,0 +1,119 @@
+"""The model's curves of a run on its data grid, for the report's figures: the posterior median
+and 90 % bands (credible and predictive), the least-squares curve and the normalised sensitivities
+(eq. 37). Computed here, drawn by report/figures.py.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from bayes_dnlr.runs.results import RunResults
+from bayes_dnlr.vocabulary import Z90
+
+N_DRAWS = 200          # posterior draws pushed through the model for the bands
+
+
+@dataclass
+class Curves:
+    """Model curves on the data grid (up to the last window sample)."""
+
+    x: np.ndarray
+    xlabel: str
+    data: np.ndarray
+    window: np.ndarray
+    strain: np.ndarray
+    median: np.ndarray | None = None
+    band: tuple[np.ndarray, np.ndarray] | None = None
+    predictive: tuple[np.ndarray, np.ndarray] | None = None
+    gn_curve: np.ndarray | None = None
+    sensitivities: dict[str, np.ndarray] | None = None
+
+
+def _model(run: RunResults):
+    from bayes_dnlr.model import DNLR
+
+    t = run.test
+    n = t.model_end
+    return DNLR(t.time[:n], t.strain_input[:n], run.cfg.model.modes, run.cfg.model.decades,
+                t.relaxation_start), n
+
+
+def _stress(basis_values: np.ndarray, p: dict[str, float]) -> np.ndarray:
+    s = p["E"] * basis_values[:, 0] + p["G"] * basis_values[:, 1]
+    if "sigma_inf" in p:
+        s = s + p["sigma_inf"] * basis_values[:, 2]
+    return s
+
+
+def sensitivities(model, params: dict[str, float], names: list[str]) -> dict[str, np.ndarray]:
+    """Normalised sensitivities X̃_j = β_j ∂σ/∂β_j (eq. 37), MPa, on the model grid."""
+    b = model.basis(params["tau_max"], params.get("tau_max_R"), grad=True)
+    out = {}
+    for n in names:
+        if n in ("E", "G", "sigma_inf"):
+            out[n] = params[n] * b.values[:, {"E": 0, "G": 1, "sigma_inf": 2}[n]]
+        elif n in ("tau_max", "tau_max_R"):
+            g = b.grad_tau_max if n == "tau_max" else b.grad_tau_max_R
+            if g is not None:
+                out[n] = _stress(g, params)   # ∂σ/∂ln tau = tau ∂σ/∂tau
+    return out
+
+
+def run_white_curve(run: RunResults, curves: Curves) -> np.ndarray:
+    """The white least-squares fit (fit.json's estimate) on the data grid."""
+    gn = run.gn()
+    if gn is None:
+        return curves.gn_curve
+    model, _ = _model(run)
+    p = dict(run.cfg.fixed_values)
+    p.update(gn["estimate"])
+    return _stress(model.basis(p["tau_max"], p.get("tau_max_R")).values, p)
+
+
+def model_curves(run: RunResults, n_draws: int = N_DRAWS, seed: int = 0) -> Curves:
+    """Data, posterior median and 90 % bands (credible and predictive), the GN curve, sensitivities."""
+    t = run.test
+    model, n = _model(run)
+    relax = t.relaxation_start is not None
+    x = t.time[:n] if relax else t.strain_input[:n]
+    c = Curves(x=x, xlabel="time (s)" if relax else r"true strain $\varepsilon_{11}$",
+               data=np.asarray(t.stress[:n], dtype=float), window=np.asarray(t.window[:n], bool),
+               strain=np.asarray(t.strain_input[:n], dtype=float))
+    fixed = run.cfg.fixed_values
+    point = run.point()
+    if all(k in point for k in model.parameter_names()):
+        if run.gn() is not None:
+            c.gn_curve = _stress(model.basis(point["tau_max"], point.get("tau_max_R")).values, point)
+        c.sensitivities = sensitivities(model, point, [k for k in model.parameter_names()
+                                                       if k in run.model_names])
+    if run.draws is not None and all(k in run.draws or k in fixed for k in model.parameter_names()):
+        rng = np.random.default_rng(seed)
+        total = next(iter(run.draws.values())).size
+        pick = rng.choice(total, size=min(n_draws, total), replace=False)
+        flat = {k: v.reshape(-1)[pick] for k, v in run.draws.items()}
+        sig = flat.get("sigma0")
+        s0 = run.sigma0()
+        curves = np.empty((pick.size, n))
+        for i in range(pick.size):
+            p = dict(fixed)
+            p.update({k: float(flat[k][i]) for k in model.parameter_names() if k in flat})
+            curves[i] = _stress(model.basis(p["tau_max"], p.get("tau_max_R")).values, p)
+        c.median = np.median(curves, axis=0)
+        lo, hi = np.quantile(curves, [0.05, 0.95], axis=0)
+        c.band = (lo, hi)
+        # predictive band: model spread, noise and model discrepancy combined as a normal (a smooth
+        # band; 200 replicates per point would make it ragged): mean ± 1.645 sqrt(var_model + E[σ0²]
+        # (+ E[a²] with the discrepancy))
+        s2 = float(np.mean(sig**2)) if sig is not None else (s0**2 if s0 is not None else 0.0)
+        if run.uses_discrepancy:
+            # the model error enters the prediction too: var(δ) = a² at every point
+            amp = flat.get("disc_amplitude")
+            fixed_amp = (((run.summary or {}).get("noise") or {}).get("amplitude") or {}).get("value", 0.0)
+            s2 += float(np.mean(amp**2)) if amp is not None else float(fixed_amp) ** 2
+        half = Z90 * np.sqrt(curves.var(axis=0) + s2)
+        mean = curves.mean(axis=0)
+        plo, phi = mean - half, mean + half
+        c.predictive = (plo, phi)
+    return c

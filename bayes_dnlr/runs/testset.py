@@ -1,0 +1,70 @@
+"""The tests of a run, loaded: one (a config with ``data:``) or several (``tests:``), with one
+fingerprint of their data files and the config sections a result depends on.
+
+This is where a run with one test is told from a run with several: a config with ``data:`` keeps
+the plain parameter names and its outputs' one-test layout (``TestSet.plain``); everything
+downstream reads ``plain`` (or ``Layout.plain``) instead of looking at the config again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from bayes_dnlr.config import Config
+from bayes_dnlr.digests import digest, file_sha256
+
+SECTIONS = ("data", "model", "parameters", "noise", "fit")
+
+
+def sections(cfg: Config, base: tuple[str, ...] = SECTIONS) -> tuple[str, ...]:
+    """The config sections a result depends on: ``base``, and ``tests`` when the config has them."""
+    return (*base, "tests") if cfg.tests is not None else base
+
+
+def plain_names(cfg: Config) -> bool:
+    """A run with one test under ``data:``: plain parameter names, one-test outputs."""
+    return not cfg.is_joint
+
+
+@dataclass(frozen=True)
+class TestSet:
+    """The tests of a run, loaded, in config order, with one fingerprint."""
+
+    __test__ = False  # not a pytest test class despite its name
+
+    tests: dict[str, Any]        # name -> TestData
+    plain: bool = False          # one test under plain names (``plain_names``)
+
+    @property
+    def sha256(self) -> str:
+        """The data file's sha256 for one test, a digest of the tests' for several."""
+        if self.plain:
+            return next(iter(self.tests.values())).sha256
+        return digest({t: d.sha256 for t, d in self.tests.items()})
+
+    @property
+    def n_points(self) -> int:
+        return int(sum(d.n_points for d in self.tests.values()))
+
+    @property
+    def path(self) -> str:
+        """The data files, for the record."""
+        return ", ".join(str(d.path) for d in self.tests.values())
+
+
+def load_tests(cfg: Config) -> TestSet:
+    """The tests of a config, loaded (``data.load_test`` of each test's view)."""
+    from bayes_dnlr.data import load_test
+
+    return TestSet({t: load_test(cfg.for_test(t)) for t in cfg.test_names}, plain_names(cfg))
+
+
+def data_fingerprint(cfg: Config) -> str | None:
+    """``TestSet.sha256`` without loading the data (None when a data file is missing)."""
+    paths = [c.data_path for c in cfg.test_configs()]
+    if not all(p.is_file() for p in paths):
+        return None
+    if plain_names(cfg):
+        return file_sha256(paths[0])
+    return digest(dict(zip(cfg.test_names, (file_sha256(p) for p in paths), strict=True)))
