@@ -4,25 +4,20 @@ tests that need them skip when the folder is absent; the Bluehill-like export sh
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any
 
 import pytest
 import yaml
+from real_data import ETFE, REAL_MARKS, RHDPE
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.config import load_config
 from bayes_dnlr.workflows.init import init_config
 
 REPO = Path(__file__).resolve().parents[1]
-REAL = Path(os.environ.get("BAYES_DNLR_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"
-                           / "real"))
-RHDPE = REAL / "rHDPE_Resin19_specimen3_tensile_50mm_per_min.csv"
-ETFE = REAL / "ETFE_MD_CSR_0p1pct_per_s_T40C_3specimens.csv"
 BLUEHILL = REPO / "runs/bluehill-like/bluehill-like.csv"
-real = pytest.mark.skipif(not (RHDPE.is_file() and ETFE.is_file()),
-                          reason="../shared/data/real is absent (not part of the project)")
+real = list(REAL_MARKS)
 
 # What the user knows about each test (the data README, the shipped config): the value of a key when
 # init lists it. A key init does not list is never touched.

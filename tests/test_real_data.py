@@ -1,28 +1,22 @@
 """Optional: real machine exports read as they are, with a config only (issue 9, item 7 of the brief).
 
-The real curves live in ../shared/data/real (not part of the project, never copied into it; the
-environment variable BAYES_DNLR_REAL_DATA may point elsewhere); without that folder these tests
-skip. No file is edited and no origin row is made by hand: everything is in the config.
+The real curves live outside the project, never copied into it (tests/real_data.py finds them:
+$BAYES_DNLR_REAL_DATA or ../shared/data/real); without them these tests skip, and the summary says
+so. No file is edited and no origin row is made by hand: everything is in the config.
 """
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
+from real_data import ETFE, REAL_MARKS, RHDPE
 
 from bayes_dnlr.config import parse_config
 from bayes_dnlr.data import load_test
 
-REAL = Path(os.environ.get("BAYES_DNLR_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"
-                           / "real"))
-RHDPE = REAL / "rHDPE_Resin19_specimen3_tensile_50mm_per_min.csv"
-ETFE = REAL / "ETFE_MD_CSR_0p1pct_per_s_T40C_3specimens.csv"
-
-pytestmark = pytest.mark.skipif(not (RHDPE.is_file() and ETFE.is_file()),
-                                reason="../shared/data/real is absent (not part of the project)")
+pytestmark = list(REAL_MARKS)
 
 
 def rhdpe_config(tmp_path: Path, parameters: dict | None = None, **data):
