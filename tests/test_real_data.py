@@ -48,8 +48,8 @@ def test_machine_export_is_read_as_it_is(tmp_path):
     assert test.nominal_strain[0] == pytest.approx(0.005001, abs=1e-6)
     # percent -> fraction: the nominal strain grows at the crosshead rate, 0.835 mm/s on ~104 mm
     assert np.polyfit(test.time, test.nominal_strain, 1)[0] == pytest.approx(0.835 / 104, rel=0.05)
-    # the cropped toe is named: the first sample carries 6.7 MPa
-    assert any(n.startswith("warning: the first sample (line 1) carries 6.7") for n in test.notes)
+    # the cropped toe is named: the first sample carries 249.3 N, 6.7 MPa on 37.2 mm²
+    assert any(n.startswith("warning: the first sample (line 1) carries 249.3 N (6.7") for n in test.notes)
 
 
 def test_windowed_strain_rate_is_the_windows(tmp_path):

@@ -250,7 +250,8 @@ def load_test(cfg: Config) -> TestData:
     rate, how = window_strain_rate(time, strain, window, rs, first=virtual)
     notes.append(f"strain_rate: {rate:.4g} 1/s ({how})")
     if virtual == 0 and d.toe == "none" and d.initial_state is None:
-        warn = first_sample_warning(stress, strain, int(lines[0]))
+        force = values.get("force") if d.observable != "stress" else None
+        warn = first_sample_warning(stress, strain, int(lines[0]), force, d.area0)
         if warn:
             notes.append(warn)
     check_load(stress, window, lines, path, _load_source(d))
