@@ -298,8 +298,12 @@ def _pick_by_relations(g: Guess, named: dict) -> None:
     by_kind: dict[str, list[rel.Relation]] = {}
     for r in found:
         by_kind.setdefault(r.kind, []).append(r)
+    names = {c.number - 1: role for role, cs in named.items() for c, _ in cs}
+    # the first true stress; with strain columns of equal values (an extension in mm on a 100 mm
+    # gauge is the strain in %), the one named a strain
     trues = sorted(by_kind.get("true-stress", []) + by_kind.get("true-stress-hencky", []),
-                   key=lambda r: (r.target, r.kind != "true-stress", r.deviation))
+                   key=lambda r: (r.target, names.get(r.sources[1]) not in (None, "strain"),
+                                  r.kind != "true-stress", r.deviation))
     if trues:
         r = trues[0]
         eng, strain = r.sources
@@ -317,7 +321,8 @@ def _pick_by_relations(g: Guess, named: dict) -> None:
             g.measure = Fact("hencky", f"{hencky}: a Hencky strain")
             g.percent = Fact(False, f"{hencky} holds with {label(column)} as a fraction")
         else:
-            g.picks["strain"] = Pick("strain", g.columns[strain], "relation", relation=r.formula(label))
+            g.picks["strain"] = Pick("strain", g.columns[strain], "relation", relation=(
+                f"the nominal strain e of the true stress: {r.formula(label)}"))
             g.measure = Fact("nominal", f"the true stress is {r.formula(label)}: a nominal strain")
             g.percent = Fact(r.percent, f"{r.formula(label)} holds with the strain "
                                         f"{'in percent' if r.percent else 'as a fraction'}")
@@ -407,8 +412,10 @@ def _strain_from_values(g: Guess, lin: list[Column]) -> None:
         c = strains[0]
         x, r = pairs[c.number]
         speed = speeds[x.number]
+        tiny = abs(r.offset) <= 1e-6 * float(np.nanmax(np.abs(x.values)))
+        offset = "" if tiny else f" {'+' if r.offset >= 0 else '-'} {abs(r.offset):.4g}"
         g.picks["strain"] = Pick("strain", c, "relation", relation=(
-            f"{x.label} = {r.value:.6g} × {c.label} {'+' if r.offset >= 0 else '-'} {abs(r.offset):.4g} "
+            f"{x.label} = {r.value:.6g} × {c.label}{offset} "
             f"(to {max(r.deviation, 1e-16):.0e}): the same deformation as {x.label}, which rises at "
             f"{speed:g} mm/min, a standard crosshead speed: the extension in mm"))
         g.extension_of_strain = x.label

@@ -51,6 +51,14 @@ def detect_relaxation_start(time: np.ndarray, strain: np.ndarray, min_points: in
     if not slope > 0 or abs(hold_slope) > 0.1 * slope:
         raise ValueError(f"no hold found: the strain rate is {slope:.3g} 1/s on the ramp and "
                          f"{hold_slope:.3g} 1/s after the best split at t = {time[best]:g} s")
+    # the end of the ramp from its last tenth: a crosshead at constant speed drives the nominal
+    # strain, so the Hencky strain bends and a line through the whole ramp meets the hold early
+    w = max(min_points, best // 10)
+    near = slice(best - w, best)
+    local = _slope(t[near], e[near])
+    if local > 0:
+        slope = local
+        intercept = float(np.mean(e[near]) - local * np.mean(t[near]))
     t_cross = (level - intercept) / slope
     return int(np.argmin(np.abs(t - t_cross)))
 
@@ -115,10 +123,10 @@ class Hold:
     stress_from: float
     stress_to: float
 
-    def describe(self, strain_what: str = "the strain", stress_unit: str = "MPa") -> str:
+    def describe(self, strain_what: str = "the strain", load_what: str = "the stress") -> str:
         return (f"{strain_what} stays at {self.strain:.4g} (within {100 * HOLD_FLAT:g} % of its range) "
-                f"from t = {self.time:.4g} s to the end ({self.end_time:.4g} s) while the stress falls "
-                f"from {self.stress_from:.4g} to {self.stress_to:.4g} {stress_unit}")
+                f"from t = {self.time:.4g} s to the end ({self.end_time:.4g} s) while {load_what} falls "
+                f"from {self.stress_from:.4g} to {self.stress_to:.4g}")
 
 
 def find_hold(time: np.ndarray, strain: np.ndarray, stress: np.ndarray) -> Hold | None:

@@ -182,9 +182,10 @@ def _groups(layout: Layout, d: DataConfig, src: Source, path: Path, notes: list[
             ) -> tuple[int, int]:
     """(first column, number of columns) of the chosen specimen's group (the whole row without one)."""
     f = layout.n_fields
-    width = d.specimen_columns or specimen_groups(layout.header)
+    aligned = layout.header is not None and len(layout.header) == f
+    width = d.specimen_columns or (specimen_groups(layout.header) if aligned else None)
     how = "data.specimen_columns" if d.specimen_columns else "repeated header names"
-    if width is None and layout.header is None:
+    if width is None and not aligned:   # no header, or one whose cells do not sit over the columns
         sample = [[_or_nan(parse_cell(c, layout.decimal)) for c in split(src.line(n), layout.delimiter)]
                   for n in range(layout.data_line, min(layout.data_line + 200, src.n_lines + 1))]
         width = signature_groups(sample, f)
@@ -224,8 +225,9 @@ def _column_index(layout: Layout, mapped: dict[str, str | int], group: tuple[int
                 raise DataError(f"{path}, line {layout.data_line}: column {v} (data.columns.{role}) "
                                 f"does not exist: {where}")
             index[role] = first + v - 1
-            names[role] = (f"column {first + v}" if header is None or not header[first + v - 1]
-                           else header[first + v - 1])
+            # a header that is not as long as the rows does not name the columns by position
+            names[role] = (f"column {first + v}" if header is None or len(header) != layout.n_fields
+                           or not header[first + v - 1] else header[first + v - 1])
             continue
         if header is None:
             raise DataError(

@@ -300,8 +300,9 @@ def _window(guess: Guess, dr: _Draft, load: Pick, strain: Pick, strain_h: np.nda
     hold = guess.hold
     if hold is not None:
         dr.data["relaxation_start"] = "auto"
-        dr.comments["relaxation_start"] = f"a relaxation hold: {hold.describe(strain.column.label, '')}"
-        dr.found.append(f"hold: {hold.describe(strain.column.label, '')}: relaxation_start: auto")
+        said = hold.describe(strain.column.label, load.column.label)
+        dr.comments["relaxation_start"] = f"a relaxation hold: {said}"
+        dr.found.append(f"hold: {said}: relaxation_start: auto")
         window, why = {}, ("the whole test: the ramp and the hold (sigma_inf and tau_max_R are identified "
                            "on the hold)")
     else:
@@ -390,6 +391,17 @@ def _force_only(note: str, test: Any) -> str:
     return first_sample_warning(test.stress, test.strain, int(test.lines[0]), force=test.force) or note
 
 
+def _bound_at(x: float, nxt: float) -> float:
+    """The shortest decimal d with x <= d < nxt (at least 3 significant digits): a strain_max that
+    keeps the peak sample (x) and stops before the next one; rounded down when none is found."""
+    for digits in range(3, 13):
+        scale = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
+        d = float(f"{math.ceil(x / scale) * scale:.{digits}g}")
+        if x <= d < nxt:
+            return d
+    return float(f"{x:.4g}") if float(f"{x:.4g}") <= x else float(f"{x * (1 - 1e-4):.4g}")
+
+
 def _window_at_peak(test: Any, raw: dict[str, Any], edits: list[Edit], comments: dict[str, str]) -> None:
     """The window up to the peak of the nominal load (yield), on the strain the model's window reads
     (the Hencky input strain), from the data as the reader reads them: the peak sample itself, not
@@ -407,10 +419,10 @@ def _window_at_peak(test: Any, raw: dict[str, Any], edits: list[Edit], comments:
         window, why = {}, f"the whole test ({what} rises to the end: no yield peak)"
     else:
         x = float(test.strain_input[first + k])
-        scale = 10.0 ** (math.floor(math.log10(x)) - 3) if x > 0 else 0.0
-        if not scale:
+        if not x > 0:
             return
-        val = float(f"{math.floor(x / scale) * scale:.4g}")
+        nxt = float(test.strain_input[first + k + 1]) if first + k + 1 < test.time.size else math.inf
+        val = _bound_at(x, nxt)
         line = int(test.lines[first + k])
         window = {"strain_max": val}
         why = (f"up to the load peak (yield): {what} {fmt(top, 4)} {unit} at t = "
