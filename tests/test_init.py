@@ -150,3 +150,24 @@ def test_a_relaxation_hold_is_seen_and_the_window_keeps_it(tmp_path):
     r = fit(load_config(out), write=False)
     assert r.converged and {"sigma_inf", "tau_max_R"} <= set(r.estimate)
     assert abs(r.estimate["E"] - 2270.0) < 4 * r.sd["E"], (r.estimate, r.sd)
+
+
+@pytest.mark.parametrize("name", ["line\nbreak.csv", "tab\there.csv", "quote\"and'#hash: x.csv",
+                                  "nel\x85ls\u2028ps\u2029.csv", "bell\x07{a: [b]}.csv"])
+def test_names_that_reach_the_config_are_escaped(tmp_path, name):
+    """A file name with a newline (or any control or YAML-special character) goes into the config's
+    comments and data.file: the config stays valid YAML, reads back the same name and fits."""
+    import numpy as np
+
+    t = np.linspace(0.0, 100.0, 201)
+    csv = tmp_path / name
+    header = "Time (s),Strain #1 (%),Stress: true\tx (MPa)"
+    rows = [f"{a:.6g},{0.5 * a:.6g},{50 * (1 - np.exp(-a / 10)):.6g}" for a in t]
+    csv.write_text("\n".join([header, *rows]) + "\n")
+    out = tmp_path / "run" / "config.yaml"
+    init_config(csv, out)
+    raw = yaml.safe_load(out.read_text())                 # valid YAML
+    cfg = load_config(out)
+    assert cfg.data_path.resolve() == csv.resolve()
+    assert raw["data"]["columns"]["stress"] == "Stress: true\tx (MPa)"
+    assert all("\n" not in line and "\x85" not in line for line in out.read_text().split("\n"))
