@@ -55,6 +55,21 @@ class Table:
     layout: Layout | None = None
     notes: list[str] = field(default_factory=list)
     _source: Source | None = None
+    group: tuple[int, int] = (0, 0)     # (first column, number of columns) of the specimen read
+
+    def group_sample(self, rows: np.ndarray) -> list[np.ndarray]:
+        """Every column of the specimen's group at the row indices ``rows``, as file values (NaN:
+        not a number): the columns the config does not map, for checks that compare them."""
+        first, width = self.group
+        if self._source is None or self.layout is None or not width:
+            return []
+        out = np.full((rows.size, width), np.nan)
+        for k, i in enumerate(rows):
+            cells = split(self._source.line(int(self.lines[i])), self.layout.delimiter)[first:first + width]
+            for j, c in enumerate(cells):
+                x = parse_cell(c, self.layout.decimal)
+                out[k, j] = np.nan if x is None else x
+        return [out[:, j] for j in range(width)]
 
     def where(self, i: int, role: str) -> str:
         """'file, line N, column 'name'' for row index i."""
@@ -430,7 +445,7 @@ def read_table(path: Path, d: DataConfig) -> Table:
                f"the first data row (line {layout.data_line})")
         raise DataError(f"{path}, line {lines[i]}: {counts[i]} fields, but {ref} has {layout.n_fields} "
                         f"(delimiter {layout.delimiter_text()}, data.delimiter)")
-    table = Table(path, layout.header or [], {}, names, lines, index, layout, notes, src)
+    table = Table(path, layout.header or [], {}, names, lines, index, layout, notes, src, group)
     empty = missing.all(axis=1)
     for role, c in index.items():
         table.values[role] = _checked(table, role, raw[c], empty)

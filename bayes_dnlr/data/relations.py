@@ -145,12 +145,13 @@ def linear(a: np.ndarray, b: np.ndarray, i: int, j: int) -> Relation | None:
 
 
 def rising(v: np.ndarray) -> bool:
-    """A column a tensile test makes grow: finite, positive at its largest, ending above its start."""
+    """A column a tensile test makes grow: finite, positive at its largest, which lies well above
+    its start (a load may fall after it: yield, a relaxation hold)."""
     f = v[np.isfinite(v)]
     if f.size < MIN_ROWS or np.ptp(f) == 0:
         return False
     top = float(np.max(f))
-    return top > 0 and float(np.min(f)) >= -0.05 * top and f[-1] - f[0] > 0.2 * np.ptp(f)
+    return top > 0 and float(np.min(f)) >= -0.05 * top and top - f[0] > 0.5 * np.ptp(f)
 
 
 DRIVEN_R2 = 0.98    # a deformation the machine drives grows (nearly) linearly with time while it rises

@@ -378,7 +378,7 @@ def _trial(raw: dict[str, Any], edits: list[Edit], out: Path) -> tuple[list[str]
              f"your value)" if placeholders else "")
     notes = list(test.notes)
     if "data.area0" in placeholders:                    # no stress in MPa without the real S0
-        notes = [_force_only(n, test) for n in notes]
+        notes = [_force_only(n, test) for n in notes if not n.startswith("warning: data.area0 is")]
     return [n.removeprefix("warning: ") + where for n in notes if n.startswith("warning:")], test
 
 
