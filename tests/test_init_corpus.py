@@ -42,6 +42,9 @@ def _init_then_fit(case: Case, tmp_path: Path):
     out.write_text(yaml.safe_dump(raw, sort_keys=False, allow_unicode=True))
     cfg = load_config(out)
     test = load_test(cfg)
+    hints = ("warning: a relaxation hold", "warning: data.columns.stress", "warning: data.window ends",
+             "warning: data.area0")
+    assert not [n for n in test.notes if n.startswith(hints)]      # nothing fit would flag
     if case.peak_time is not None:                     # the window ends on the load peak's sample
         assert test.time[test.window][-1] == case.peak_time
     hand = parse_config({"name": "hand", "data": {"file": str(case.path), **case.hand},
