@@ -196,8 +196,11 @@ def nominal_curve(test) -> tuple[np.ndarray, np.ndarray, str | None]:
 
     Uses ``test.nominal_stress`` when the data give a force; otherwise derives F/S0 = σ*·exp(-ε)
     from the observable under the isovolumic assumption (eq. 6), and says so in the note.
-    Samples after ``relaxation_start`` are dropped.
+    Samples after ``relaxation_start`` are dropped, and so are the model-only samples the reader
+    puts before the first measured one (``virtual_start``: an unloaded origin for a cropped toe):
+    a standard is computed on measured samples only, never on a point the package made.
     """
+    first = int(getattr(test, "virtual_start", 0))
     e = np.asarray(test.nominal_strain, dtype=float)
     note = None
     if test.nominal_stress is not None:
@@ -205,10 +208,10 @@ def nominal_curve(test) -> tuple[np.ndarray, np.ndarray, str | None]:
     else:
         s = np.asarray(test.stress, dtype=float) * np.exp(-np.asarray(test.strain, dtype=float))
         note = "nominal stress derived from the true stress as σ·exp(-ε) (isovolumic, eq. 6)"
+    keep = np.arange(e.size) >= first
     if test.relaxation_start is not None:
-        keep = np.asarray(test.time) <= test.relaxation_start
-        e, s = e[keep], s[keep]
-    return e, s, note
+        keep &= np.asarray(test.time) <= test.relaxation_start
+    return e[keep], s[keep], note
 
 
 def standard_results(test) -> dict[str, StandardModulus]:

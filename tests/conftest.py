@@ -52,3 +52,40 @@ def zygote():
 
     with Zygote() as z:
         yield z
+
+
+# ------------------------------------------------------------- the real curves, counted in the summary
+
+_REAL_REPORTS: dict[str, list] = {"ran": [], "skipped": []}
+
+
+def pytest_configure(config) -> None:
+    config.addinivalue_line("markers", "real_data: reads the real curves of tests/real_data.py "
+                                       "(skipped when they are absent)")
+
+
+def pytest_runtest_logreport(report) -> None:
+    if "real_data" not in report.keywords:
+        return
+    if report.when == "call":
+        _REAL_REPORTS["ran"].append(report)
+    elif report.skipped:
+        _REAL_REPORTS["skipped"].append(report)
+
+
+def pytest_terminal_summary(terminalreporter) -> None:
+    """Say whether the real-data tests ran, on a line of its own (where the curves are, or how to
+    give them) and in pytest's last summary line ('11 real-data tests ran'), so that a clone without
+    the curves does not run fewer tests silently."""
+    from real_data import ENV, PRESENT, REAL
+
+    ran, skipped = _REAL_REPORTS["ran"], _REAL_REPORTS["skipped"]
+    if not ran and not skipped:
+        return
+    if PRESENT:
+        text = f"real data: {len(ran)} tests ran ({REAL})" + (f", {len(skipped)} skipped" if skipped else "")
+        terminalreporter.stats["real-data tests ran"] = list(ran)
+    else:
+        text = f"real data: absent, {len(skipped)} tests skipped (set {ENV} to the folder of the real curves)"
+        terminalreporter.stats["real-data tests skipped (curves absent)"] = list(skipped)
+    terminalreporter.write_line(text, yellow=not PRESENT, bold=True)

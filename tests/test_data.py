@@ -362,6 +362,19 @@ def test_auto_relaxation_start_within_two_samples_of_the_kink(seed, rate, jitter
     assert abs(detect_relaxation_start(t, noisy) - k) <= 2
 
 
+@pytest.mark.parametrize("seed", [5, 6])
+def test_auto_relaxation_start_at_constant_crosshead_speed(seed):
+    """A machine drives the crosshead at constant speed: the nominal strain is linear in time and
+    the Hencky strain bends; a line through the whole ramp met the hold four samples early (E off
+    by 12 %). The start comes from the ramp's last part."""
+    rate = 50.0 / 60.0 / 115.0                    # 50 mm/min on a 115 mm grip distance
+    t = np.linspace(0.0, 100.0, 400)
+    k = int(np.argmin(np.abs(t - 0.3 / rate)))
+    t[k] = 0.3 / rate
+    e = np.log1p(np.minimum(rate * t, 0.3)) + np.random.default_rng(seed).normal(0, 1e-5, t.size)
+    assert abs(detect_relaxation_start(t, e) - k) <= 1
+
+
 def test_auto_relaxation_start_through_load_test(write_csv, make_config):
     t, _, noisy, k = ramp_hold(seed=7)
     write_csv(csv_text({"t_s": t, "F_N": 24 * (100 + 0 * t), "eps11": noisy}))

@@ -75,7 +75,8 @@ def test_a_loaded_first_sample_gives_a_warning_naming_it(write_csv, make_config)
     cropped(write_csv)
     cfg = dict(columns={"time": "t_s", "force": "F_N", "strain": "e"}, strain_measure="nominal")
     test = load_test(make_config(**cfg))
-    warn = [n for n in test.notes if n.startswith("warning: the first sample (line 2) carries 9.694 MPa")]
+    warn = [n for n in test.notes if n.startswith("warning: the first sample (line 2) carries 231.5 N "
+                                                  "(9.694 MPa with area0 = 24 mm²")]
     assert warn and "data.toe: compensate" in warn[0] and "initial_state: ramp-from-zero" in warn[0]
     assert test.virtual_start == 0
     # a test that starts unloaded: no warning

@@ -70,3 +70,27 @@ def test_rms_against_a_given_sigma0_is_reported():
     assert d["rms"] == pytest.approx(1.0, rel=0.1)
     assert "x sigma0" in d["verdict"]
     assert "sigma0" not in residual_diagnostics(e, sigma0=1.0, sigma0_source="config")["verdict"]
+
+
+def test_the_verdict_says_signed_only_when_its_statistics_do():
+    """Residuals whose signs run long while r1 and Durbin-Watson are those of white noise (a small
+    signed wave under rare large residuals): not white by the runs test, but not 'signed' by the
+    statistics the verdict quotes (a Durbin-Watson of 1.98 was once called signed)."""
+    rng = np.random.default_rng(7)
+    n = 2000
+    e = 0.01 * np.sign(np.sin(2 * np.pi * np.arange(n) / 200 + 0.1))
+    rare = rng.random(n) < 0.1
+    e[rare] = rng.normal(size=int(rare.sum()))
+    d = residual_diagnostics(e)
+    assert abs(d["durbin_watson"] - 2) < 0.1 and abs(d["lag1_autocorrelation"]) < 0.05
+    assert d["runs_test"]["p_value"] < 1e-10 and d["white"] is False
+    assert "signed" not in d["verdict"]
+    assert d["verdict"].startswith("NOT white by the runs test alone: the signs form longer runs")
+    assert f"Durbin-Watson ({d['durbin_watson']:.2f})" in d["verdict"]
+
+
+def test_alternating_residuals_are_called_alternating():
+    e = ar1(2000, -0.6, seed=8)
+    d = residual_diagnostics(e)
+    assert d["white"] is False and d["durbin_watson"] > 2.5
+    assert "alternate in sign" in d["verdict"] and "signed" not in d["verdict"]

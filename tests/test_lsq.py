@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 import yaml
+from real_data import ETFE, real
 
 from bayes_dnlr.config import load_config, parse_config
 from bayes_dnlr.data import TestData
@@ -335,13 +335,9 @@ def test_fit_json_is_strict_json(tmp_path: Path):
 
 # ---------------------------------------------------------------- real data (optional)
 
-REAL_ETFE = Path(os.environ.get("BAYES_DNLR_REAL_DATA", REPO.parent / "shared" / "data" / "real")) / \
-    "ETFE_MD_CSR_0p1pct_per_s_T40C_3specimens.csv"
-
-
-@pytest.mark.skipif(not REAL_ETFE.is_file(), reason="../shared/data/real is absent (not part of the project)")
+@real
 def test_real_etfe_specimen_converges_and_its_residuals_are_called_biased(tmp_path: Path):
-    a = np.genfromtxt(REAL_ETFE, delimiter=",")
+    a = np.genfromtxt(ETFE, delimiter=",")
     t, e, s = a[:, 0], a[:, 7], a[:, 9]          # specimen 0: time, Hencky strain (SOI), true stress
     keep = np.isfinite(t) & np.isfinite(e) & np.isfinite(s)
     cfg = write_run(tmp_path, t[keep], e[keep], s[keep], fit={"multistart": 4},

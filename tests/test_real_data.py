@@ -1,28 +1,22 @@
 """Optional: real machine exports read as they are, with a config only (issue 9, item 7 of the brief).
 
-The real curves live in ../shared/data/real (not part of the project, never copied into it; the
-environment variable BAYES_DNLR_REAL_DATA may point elsewhere); without that folder these tests
-skip. No file is edited and no origin row is made by hand: everything is in the config.
+The real curves live outside the project, never copied into it (tests/real_data.py finds them:
+$BAYES_DNLR_REAL_DATA or ../shared/data/real); without them these tests skip, and the summary says
+so. No file is edited and no origin row is made by hand: everything is in the config.
 """
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
+from real_data import ETFE, REAL_MARKS, RHDPE
 
 from bayes_dnlr.config import parse_config
 from bayes_dnlr.data import load_test
 
-REAL = Path(os.environ.get("BAYES_DNLR_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"
-                           / "real"))
-RHDPE = REAL / "rHDPE_Resin19_specimen3_tensile_50mm_per_min.csv"
-ETFE = REAL / "ETFE_MD_CSR_0p1pct_per_s_T40C_3specimens.csv"
-
-pytestmark = pytest.mark.skipif(not (RHDPE.is_file() and ETFE.is_file()),
-                                reason="../shared/data/real is absent (not part of the project)")
+pytestmark = list(REAL_MARKS)
 
 
 def rhdpe_config(tmp_path: Path, parameters: dict | None = None, **data):
@@ -54,8 +48,8 @@ def test_machine_export_is_read_as_it_is(tmp_path):
     assert test.nominal_strain[0] == pytest.approx(0.005001, abs=1e-6)
     # percent -> fraction: the nominal strain grows at the crosshead rate, 0.835 mm/s on ~104 mm
     assert np.polyfit(test.time, test.nominal_strain, 1)[0] == pytest.approx(0.835 / 104, rel=0.05)
-    # the cropped toe is named: the first sample carries 6.7 MPa
-    assert any(n.startswith("warning: the first sample (line 1) carries 6.7") for n in test.notes)
+    # the cropped toe is named: the first sample carries 249.3 N, 6.7 MPa on 37.2 mm²
+    assert any(n.startswith("warning: the first sample (line 1) carries 249.3 N (6.7") for n in test.notes)
 
 
 def test_windowed_strain_rate_is_the_windows(tmp_path):

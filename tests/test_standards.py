@@ -154,3 +154,26 @@ def test_shipped_5e_3_example_standards_well_below_E():
     # measured: ISO 2083 MPa (0.73 E, a chord: 2 samples in 0.05-0.25 %), ASTM 1892 MPa (0.66 E)
     for k in ("iso527_1", "astm_d638"):
         assert 0.5 * e_true < m[k] < 0.8 * e_true, (k, m[k])
+
+
+def test_the_model_only_origin_sample_is_never_used(tmp_path):
+    """A record cropped at 0.5 % strain read with initial_state: ramp-from-zero gets an unloaded
+    model-only sample at strain 0 before its first row: ISO 527-1 (0.05-0.25 %) has no measured
+    sample there and is not available, and ASTM D638 starts at the first measured sample."""
+    from bayes_dnlr.config import parse_config
+
+    t = np.linspace(0.0, 40.0, 801)
+    eps = 5e-3 * t
+    true = simulate(t, eps, {"E": 2854.0, "G": 2.32, "tau_max": 5.79})
+    keep = eps >= 0.005                                     # the toe cropped, as real exports are
+    rows = np.column_stack([t[keep], eps[keep], true[keep]])
+    np.savetxt(tmp_path / "cropped.csv", rows, delimiter=",", header="t_s,eps11,stress", comments="")
+    cfg = parse_config({"name": "c", "data": {
+        "file": "cropped.csv", "columns": {"time": "t_s", "eps11": "eps11", "stress": "stress"},
+        "observable": "stress", "initial_state": "ramp-from-zero"}}, source=tmp_path / "config.yaml")
+    test = bd_data.load_test(cfg)
+    assert test.virtual_start == 1 and test.nominal_strain[0] == 0.0
+    r = standard_results(test)
+    assert r["iso527_1"].modulus is None and "starts above" in r["iso527_1"].reason
+    astm = r["astm_d638"]
+    assert astm.strain_range[0] >= test.nominal_strain[1] - 1e-15

@@ -114,19 +114,28 @@ def percent_warning(nominal_strain: np.ndarray, nominal_stress: np.ndarray | Non
             f"set data.strain_unit: fraction to silence this")
 
 
-def first_sample_warning(stress: np.ndarray, strain: np.ndarray, line: int) -> str | None:
-    """A note when the first sample carries a stress well above the noise: the model assumes the
-    specimen unloaded and at rest there (issue 9, item 5)."""
-    sd = noise_sd(stress[:200])
-    scale = float(np.max(np.abs(stress)))
+def first_sample_warning(stress: np.ndarray, strain: np.ndarray, line: int,
+                         force: np.ndarray | None = None, area0: float | None = None) -> str | None:
+    """A note when the first sample carries a load well above the noise: the model assumes the
+    specimen unloaded and at rest there (issue 9, item 5). With a force column the load is said in
+    newtons first: a stress in MPa is only as right as area0, and without area0 (``None``: init's
+    placeholder) it is not said at all."""
+    load, unit = (stress, "MPa") if force is None else (force, "N")
+    sd = noise_sd(load[:200])
+    scale = float(np.max(np.abs(load)))
     limit = max(FIRST_SAMPLE_NOISE * sd, 0.01 * scale)
-    if not abs(stress[0]) > limit:
+    if not abs(load[0]) > limit:
         return None
-    return (f"warning: the first sample (line {line}) carries {stress[0]:.4g} MPa at strain {strain[0]:.4g} "
-            f"(stress noise sd about {sd:.2g} MPa): the model assumes the specimen unloaded and at rest "
-            f"there, so the toe looks cropped or preloaded and E will be biased; set data.toe: compensate "
-            f"(ASTM D638 X1, ISO 527-1 zero point) or data.initial_state: ramp-from-zero "
-            f"(docs/data-input.md, 'The first sample')")
+    what = f"{load[0]:.4g} {unit}"
+    if force is not None:
+        share = f"{100 * abs(load[0]) / scale:.2g} % of the peak force"
+        what += (f" ({stress[0]:.4g} MPa with area0 = {area0:g} mm², {share})" if area0 is not None
+                 else f" ({share})")
+    return (f"warning: the first sample (line {line}) carries {what} at strain {strain[0]:.4g} "
+            f"({'force' if force is not None else 'stress'} noise sd about {sd:.2g} {unit}): the model "
+            f"assumes the specimen unloaded and at rest there, so the toe looks cropped or preloaded and "
+            f"E will be biased; set data.toe: compensate (ASTM D638 X1, ISO 527-1 zero point) or "
+            f"data.initial_state: ramp-from-zero (docs/data-input.md, 'The first sample')")
 
 
 def spike_warning(stress: np.ndarray, lines: np.ndarray, start: int = 0) -> str | None:

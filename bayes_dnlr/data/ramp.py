@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 
@@ -49,6 +51,14 @@ def detect_relaxation_start(time: np.ndarray, strain: np.ndarray, min_points: in
     if not slope > 0 or abs(hold_slope) > 0.1 * slope:
         raise ValueError(f"no hold found: the strain rate is {slope:.3g} 1/s on the ramp and "
                          f"{hold_slope:.3g} 1/s after the best split at t = {time[best]:g} s")
+    # the end of the ramp from its last tenth: a crosshead at constant speed drives the nominal
+    # strain, so the Hencky strain bends and a line through the whole ramp meets the hold early
+    w = max(min_points, best // 10)
+    near = slice(best - w, best)
+    local = _slope(t[near], e[near])
+    if local > 0:
+        slope = local
+        intercept = float(np.mean(e[near]) - local * np.mean(t[near]))
     t_cross = (level - intercept) / slope
     return int(np.argmin(np.abs(t - t_cross)))
 
@@ -94,3 +104,49 @@ def window_strain_rate(time: np.ndarray, strain: np.ndarray, window: np.ndarray,
         return rate, (f"over the loading before the window's hold, t = {time[load][0]:g} to "
                       f"{time[load][-1]:g} s")
     return float("nan"), "the strain does not rise before or in the window"
+
+
+HOLD_FLAT = 0.01        # the strain of a hold stays within this share of its range
+HOLD_SHARE = 0.1        # ... for at least this share of the test's duration, at its end
+HOLD_FALL = 0.02        # ... while the stress falls by at least this share of its largest value
+
+
+@dataclass(frozen=True)
+class Hold:
+    """A relaxation hold at the end of a test: the strain stops rising at ``start`` (an index) and
+    stays, while the stress falls from ``stress_from`` to ``stress_to``."""
+
+    start: int
+    time: float
+    end_time: float
+    strain: float
+    stress_from: float
+    stress_to: float
+
+    def describe(self, strain_what: str = "the strain", load_what: str = "the stress") -> str:
+        return (f"{strain_what} stays at {self.strain:.4g} (within {100 * HOLD_FLAT:g} % of its range) "
+                f"from t = {self.time:.4g} s to the end ({self.end_time:.4g} s) while {load_what} falls "
+                f"from {self.stress_from:.4g} to {self.stress_to:.4g}")
+
+
+def find_hold(time: np.ndarray, strain: np.ndarray, stress: np.ndarray) -> Hold | None:
+    """A relaxation hold: the strain stays within HOLD_FLAT of its range from some sample to the end,
+    for at least HOLD_SHARE of the test, near its largest value, while the stress falls by HOLD_FALL
+    of its largest value or more. None for a tensile test (or a machine that only stopped). NaN rows
+    (padding) are left out."""
+    ok = np.isfinite(time) & np.isfinite(strain) & np.isfinite(stress)
+    t, e, s = time[ok], strain[ok], stress[ok]
+    if t.size < 20 or np.ptp(e) == 0:
+        return None
+    flat = np.abs(e - e[-1]) <= HOLD_FLAT * np.ptp(e)
+    if flat.all():
+        return None
+    start = int(np.flatnonzero(~flat)[-1]) + 1
+    if start == 0 or e[-1] < 0.9 * e.max() or t[-1] - t[start] < HOLD_SHARE * (t[-1] - t[0]):
+        return None
+    top = float(np.max(np.abs(s)))
+    fall = float(s[start] - s[-1])
+    if not top > 0 or fall < HOLD_FALL * top:
+        return None
+    return Hold(int(np.flatnonzero(ok)[start]), float(t[start]), float(t[-1]), float(e[-1]),
+                float(s[start]), float(s[-1]))

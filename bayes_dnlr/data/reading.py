@@ -55,6 +55,21 @@ class Table:
     layout: Layout | None = None
     notes: list[str] = field(default_factory=list)
     _source: Source | None = None
+    group: tuple[int, int] = (0, 0)     # (first column, number of columns) of the specimen read
+
+    def group_sample(self, rows: np.ndarray) -> list[np.ndarray]:
+        """Every column of the specimen's group at the row indices ``rows``, as file values (NaN:
+        not a number): the columns the config does not map, for checks that compare them."""
+        first, width = self.group
+        if self._source is None or self.layout is None or not width:
+            return []
+        out = np.full((rows.size, width), np.nan)
+        for k, i in enumerate(rows):
+            cells = split(self._source.line(int(self.lines[i])), self.layout.delimiter)[first:first + width]
+            for j, c in enumerate(cells):
+                x = parse_cell(c, self.layout.decimal)
+                out[k, j] = np.nan if x is None else x
+        return [out[:, j] for j in range(width)]
 
     def where(self, i: int, role: str) -> str:
         """'file, line N, column 'name'' for row index i."""
@@ -182,9 +197,10 @@ def _groups(layout: Layout, d: DataConfig, src: Source, path: Path, notes: list[
             ) -> tuple[int, int]:
     """(first column, number of columns) of the chosen specimen's group (the whole row without one)."""
     f = layout.n_fields
-    width = d.specimen_columns or specimen_groups(layout.header)
+    aligned = layout.header is not None and len(layout.header) == f
+    width = d.specimen_columns or (specimen_groups(layout.header) if aligned else None)
     how = "data.specimen_columns" if d.specimen_columns else "repeated header names"
-    if width is None and layout.header is None:
+    if width is None and not aligned:   # no header, or one whose cells do not sit over the columns
         sample = [[_or_nan(parse_cell(c, layout.decimal)) for c in split(src.line(n), layout.delimiter)]
                   for n in range(layout.data_line, min(layout.data_line + 200, src.n_lines + 1))]
         width = signature_groups(sample, f)
@@ -224,8 +240,9 @@ def _column_index(layout: Layout, mapped: dict[str, str | int], group: tuple[int
                 raise DataError(f"{path}, line {layout.data_line}: column {v} (data.columns.{role}) "
                                 f"does not exist: {where}")
             index[role] = first + v - 1
-            names[role] = (f"column {first + v}" if header is None or not header[first + v - 1]
-                           else header[first + v - 1])
+            # a header that is not as long as the rows does not name the columns by position
+            names[role] = (f"column {first + v}" if header is None or len(header) != layout.n_fields
+                           or not header[first + v - 1] else header[first + v - 1])
             continue
         if header is None:
             raise DataError(
@@ -428,7 +445,7 @@ def read_table(path: Path, d: DataConfig) -> Table:
                f"the first data row (line {layout.data_line})")
         raise DataError(f"{path}, line {lines[i]}: {counts[i]} fields, but {ref} has {layout.n_fields} "
                         f"(delimiter {layout.delimiter_text()}, data.delimiter)")
-    table = Table(path, layout.header or [], {}, names, lines, index, layout, notes, src)
+    table = Table(path, layout.header or [], {}, names, lines, index, layout, notes, src, group)
     empty = missing.all(axis=1)
     for role, c in index.items():
         table.values[role] = _checked(table, role, raw[c], empty)

@@ -16,6 +16,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 
 from bayes_dnlr.data.errors import DataError
+from bayes_dnlr.data.header_names import indexed_width
 from bayes_dnlr.data.numbers import MISSING, has_thousands, parse_cell
 from bayes_dnlr.units import is_unit_cell, lookup, split_name
 
@@ -190,7 +191,9 @@ def _units(layout: Layout) -> None:
     for i in range(n):
         if layout.units_line is not None and i < len(layout.units) and layout.units[i]:
             units[i], where[i] = layout.units[i], f"units row line {layout.units_line}"
-        elif layout.header is not None and i < len(layout.header):
+        elif layout.header is not None and len(layout.header) == n:
+            # only from a header as long as the rows: the cells of one that is not do not sit over
+            # their columns (a shifted header), and a unit read there would belong to another column
             name, unit = split_name(layout.header[i])
             if unit is not None and lookup(unit) is not None:
                 units[i], where[i] = unit, "header"
@@ -220,9 +223,14 @@ def plain_layout(head: list[str], path: object, *, delimiter: str | None, decima
 
 def specimen_groups(header: list[str] | None) -> int | None:
     """The width of repeated column groups (several specimens side by side), from repeated header
-    names; None when the names do not repeat. A separator column may end each group."""
+    names, or names that repeat once a specimen index is taken off ('Time 1', ..., 'Time 2');
+    None when the names do not repeat. A separator column may end each group."""
     if header is None:
         return None
+    return _repeated_names(header) or indexed_width(header)
+
+
+def _repeated_names(header: list[str]) -> int | None:
     n = len(header)
     names = [split_name(h)[0].lower() for h in header]
     for p in range(1, n // 2 + 1):

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from bayes_dnlr.config import Config
+from bayes_dnlr.data import hints
 from bayes_dnlr.data.checks import (
     check_increasing,
     check_load,
@@ -203,6 +204,7 @@ def load_test(cfg: Config) -> TestData:
     table = read_table(path, d)
     notes = list(table.notes)
     strain, nominal, strain_role, more = _axial(cfg, table)
+    raw_nominal = nominal
     notes += more
     eps22 = None
     if "eps22" in table.values:
@@ -250,10 +252,13 @@ def load_test(cfg: Config) -> TestData:
     rate, how = window_strain_rate(time, strain, window, rs, first=virtual)
     notes.append(f"strain_rate: {rate:.4g} 1/s ({how})")
     if virtual == 0 and d.toe == "none" and d.initial_state is None:
-        warn = first_sample_warning(stress, strain, int(lines[0]))
+        force = values.get("force") if d.observable != "stress" else None
+        warn = first_sample_warning(stress, strain, int(lines[0]), force, d.area0)
         if warn:
             notes.append(warn)
     check_load(stress, window, lines, path, _load_source(d))
+    notes += _hints(cfg, table, raw_nominal, time, strain, strain_input, stress, values.get("force"),
+                    nom_stress, window, rs, virtual)
     spike = spike_warning(stress, lines, virtual)
     if spike:
         notes.append(spike)
@@ -269,6 +274,20 @@ def load_test(cfg: Config) -> TestData:
         force=values.get("force"), transverse_strain=eps22, area0=d.area0, virtual_start=virtual,
         lines=lines)
     return test
+
+
+def _hints(cfg: Config, table: Table, nominal: np.ndarray, time: np.ndarray, strain: np.ndarray,
+           strain_input: np.ndarray, stress: np.ndarray, force: np.ndarray | None,
+           nom_stress: np.ndarray | None, window: np.ndarray, rs: float | None, virtual: int) -> list[str]:
+    """What init would have noticed (data/hints.py), as warning notes."""
+    d = cfg.data
+    load = force if force is not None and d.observable != "stress" else nom_stress
+    found = [hints.hold_without_start(d, time, strain, stress, window, virtual),
+             hints.engineering_as_true(d, table, nominal),
+             hints.area_check(d, table),
+             None if load is None else hints.window_past_peak(d, time, strain_input, load, window, rs,
+                                                                virtual)]
+    return [n for n in found if n]
 
 
 def notes_have_units(table: Table, role: str, d) -> bool:

@@ -9,6 +9,7 @@ the strain measure and the identification window. It never overwrites a file (is
 
 from __future__ import annotations
 
+import math
 import os
 import re
 from dataclasses import dataclass, field
@@ -16,13 +17,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from bayes_dnlr.config import NAME_PATTERN, ConfigError, parse_config
 from bayes_dnlr.data.guess import FRACTION_MAX, Guess, Pick, guess_columns
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.numbers import fmt
 from bayes_dnlr.units import lookup
+from bayes_dnlr.workflows.init_text import config_text as _config_text
+from bayes_dnlr.workflows.init_text import flow
 
 PEAK_DROP = 0.05        # the load falls this far below its maximum after it: a peak (yield)
 
@@ -62,8 +64,7 @@ class InitResult:
 
 
 def _flow(v: Any) -> str:
-    return yaml.safe_dump(v, default_flow_style=True, width=1000, sort_keys=False,
-                          allow_unicode=True).strip().removesuffix("...").strip()
+    return flow(v)
 
 
 def run_name(text: str) -> str:
@@ -80,17 +81,30 @@ def _column_ref(pick: Pick, guess: Guess) -> str | int:
     return pick.column.name if guess.by_name and pick.column.name else pick.column.number
 
 
-def _strain_in_fraction(pick: Pick, unit_fraction: float | None) -> np.ndarray:
-    v = pick.column.values
-    return v * unit_fraction if unit_fraction is not None else v
+def _hencky(values: np.ndarray, factor: float, measure: str) -> np.ndarray:
+    """A strain column's values as the Hencky strain the window is written on (eq. 1)."""
+    x = values * factor
+    return np.log1p(np.where(x > -1, x, np.nan)) if measure == "nominal" else x
 
 
-def _peak_window(guess: Guess, load: Pick | None, strain: Pick | None, strain_factor: float | None
+def _load_for_peak(guess: Guess, load: Pick, strain_h: np.ndarray | None) -> tuple[np.ndarray, str]:
+    """The column whose peak is the yield point: the force, the engineering stress beside a true
+    stress, or the nominal stress σ·exp(-ε) of a true stress (eq. 4-6)."""
+    if load.role == "force":
+        return load.column.values, f"{load.column.label} (the force)"
+    if guess.engineering is not None:
+        return guess.engineering.values, f"{guess.engineering.label} (the engineering stress)"
+    if strain_h is not None:
+        return load.column.values * np.exp(-strain_h), f"{load.column.label} × exp(-ε) (the nominal stress)"
+    return load.column.values, load.column.label
+
+
+def _peak_window(guess: Guess, load: Pick, strain_h: np.ndarray | None, strain_label: str
                  ) -> tuple[dict[str, float], str]:
-    """The window up to the load peak (yield) when the load falls after it; else the whole test."""
-    if load is None:
-        return {}, "the whole test"
-    v = load.column.values
+    """The window up to the load peak (yield) when the load falls after it; else the whole test.
+    strain_max is the Hencky strain the model's window reads, rounded down so that the window ends at
+    the peak, never past it."""
+    v, what = _load_for_peak(guess, load, strain_h)
     ok = np.isfinite(v)
     if ok.sum() < 10:
         return {}, "the whole test"
@@ -98,34 +112,19 @@ def _peak_window(guess: Guess, load: Pick | None, strain: Pick | None, strain_fa
     top = float(v[k])
     after = v[k:][np.isfinite(v[k:])]
     if top <= 0 or after.size < 3 or float(after.min()) > (1 - PEAK_DROP) * top:
-        return {}, "the whole test (the load rises to the end: no yield peak)"
-    if strain is not None and strain_factor is not None and np.isfinite(strain.column.values[k]):
-        x = float(strain.column.values[k]) * strain_factor
-        if x > 0:
-            val = float(fmt(x, 2))
-            return ({"strain_max": val}, f"up to the load peak (yield) at strain {fmt(val, 2)}, where the "
-                    f"load is {fmt(top)} {_unit_text(load.column.unit) or ''}".rstrip())
+        return {}, f"the whole test ({what} rises to the end: no yield peak)"
     t = guess.picks.get("time")
+    at = f" at t = {fmt(float(t.column.values[k]), 4)} s" if t is not None else ""
+    if strain_h is not None and np.isfinite(strain_h[k]) and strain_h[k] > 0:
+        x = float(strain_h[k])
+        val = math.floor(x / 10 ** (math.floor(math.log10(x)) - 2)) * 10 ** (math.floor(math.log10(x)) - 2)
+        val = float(f"{val:.3g}")
+        return ({"strain_max": val}, f"up to the load peak (yield) of {what}: {fmt(top)}{at}, Hencky "
+                f"strain {fmt(x, 4)} ({strain_label})")
     if t is not None and np.isfinite(t.column.values[k]):
-        val = float(fmt(float(t.column.values[k]), 2))
-        return {"time_max": val}, f"up to the load peak (yield) at time {fmt(val, 2)} s"
+        val = float(fmt(float(t.column.values[k]), 4))
+        return {"time_max": val}, f"up to the load peak (yield) of {what}: {fmt(top)}{at}"
     return {}, "the whole test"
-
-
-def _hold_start(guess: Guess, strain: Pick) -> float | None:
-    """The time where the strain stops rising when it then stays (within 1 % of its range) for at
-    least the last tenth of the test: a relaxation hold. None for a tensile test."""
-    t, e = guess.picks["time"].column.values, strain.column.values
-    ok = np.isfinite(t) & np.isfinite(e)
-    t, e = t[ok], e[ok]
-    if t.size < 20 or np.ptp(e) == 0:
-        return None
-    top = float(e.max())
-    flat = np.abs(e - e[-1]) <= 0.01 * np.ptp(e)
-    start = int(np.flatnonzero(~flat)[-1]) + 1 if (~flat).any() else 0
-    if e[-1] < 0.9 * top or t[-1] - t[start] < 0.1 * (t[-1] - t[0]) or start == 0:
-        return None
-    return float(t[start])
 
 
 def _others(pick: Pick) -> str:
@@ -144,13 +143,22 @@ def _data_file(data: Path, config: Path) -> str:
     return rel if (folder / rel).resolve() == data else str(data)
 
 
-def build_config(data: Path, out: Path) -> tuple[dict[str, Any], list[Edit], list[str], dict[str, str]]:
-    """(config mapping, edits, what was found, comments per data key) for the file ``data``."""
+@dataclass
+class _Draft:
+    """The config being written: its data keys, comments, the notes beside each column, the edits."""
+
+    data: dict[str, Any]
+    comments: dict[str, str] = field(default_factory=dict)
+    column_notes: dict[str, str] = field(default_factory=dict)
+    edits: list[Edit] = field(default_factory=list)
+    found: list[str] = field(default_factory=list)
+
+
+def build_config(data: Path, out: Path) -> tuple[dict[str, Any], list[Edit], list[str], dict[str, str],
+                                                 dict[str, str]]:
+    """(config mapping, edits, what was found, comments per data key, notes per column) for ``data``."""
     guess = guess_columns(data)
     p = guess.picks
-    edits: list[Edit] = []
-    comments: dict[str, str] = {}
-    found = ["read: " + ", ".join(guess.notes)]
     if "time" not in p:
         raise RunError(f"{data}: no time column found (a column that increases at every row); "
                        "write the config by hand: docs/data-input.md")
@@ -160,111 +168,157 @@ def build_config(data: Path, out: Path) -> tuple[dict[str, Any], list[Edit], lis
         missing = "a strain or extension column" if strain is None else "a force or stress column"
         raise RunError(f"{data}: {missing} cannot be told from the header or the values; write "
                        "data.columns by hand (docs/data-input.md)")
+    dr = _Draft({"file": _data_file(data, out)}, found=["read: " + ", ".join(guess.notes)])
+    _specimens(guess, dr)
     columns: dict[str, str | int] = {}
     for role in ("time", "force", "stress", "strain", "extension"):
-        if role in p and (role in ("time",) or p[role] in (strain, load)):
+        if role in p and (role == "time" or p[role] in (strain, load)):
             columns[role] = _column_ref(p[role], guess)
-    d: dict[str, Any] = {"file": _data_file(data, out), "columns": columns}
-    found.append("columns: " + ", ".join(f"{r} = {p[r].column.label} ({p[r].how})" for r in columns))
+    dr.data["columns"] = columns
+    dr.found.append("columns: " + ", ".join(f"{r} = {p[r].column.label} ({p[r].how})" for r in columns))
     for role in columns:
         pick = p[role]
+        if pick.relation:
+            dr.column_notes[role] = pick.relation
+            dr.found.append(f"  {role}: {pick.relation}")
+            continue
+        dr.column_notes[role] = ("guessed from the values" if pick.how.startswith("values") else
+                                 f"from the {pick.how}")
         if not pick.sure:
             others = f"; other candidates: {_others(pick)}" if pick.others else ""
-            edits.append(Edit("check", f"data.columns.{role}", columns[role],
-                              f"guessed from the {'values' if pick.how.startswith('values') else pick.how}"
-                              f"{others}"))
-    if guess.group is not None:
-        d["specimen"] = 1
-        n, w = guess.group
-        edits.append(Edit("check", "data.specimen", 1, f"the file holds {n} specimens side by side "
-                                                       f"(groups of {w} columns): which one?"))
-        comments["specimen"] = f"1 of {n} (groups of {w} columns); columns are counted within it"
-    # units: read from the file, else assumed (and listed)
+            dr.edits.append(Edit("check", f"data.columns.{role}", columns[role],
+                                 f"guessed from the {'values' if pick.how.startswith('values') else pick.how}"
+                                 f"{others}"))
+    factor = _units(guess, dr, columns)
+    _stress_keys(guess, dr, columns)
+    measure = _measure(guess, dr, strain, columns)
+    strain_h = (_hencky(strain.column.values, factor, measure) if "strain" in columns and factor is not None
+                else None)
+    _window(guess, dr, load, strain, strain_h)
+    raw = {"name": run_name(out.parent.name), "data": dr.data, "noise": {"sigma0": "residuals"}}
+    return raw, dr.edits, dr.found, dr.comments, dr.column_notes
+
+
+def _specimens(guess: Guess, dr: _Draft) -> None:
+    if guess.group is None:
+        return
+    n, w = guess.group
+    dr.data["specimen"] = 1
+    dr.data["specimen_columns"] = w
+    dr.edits.append(Edit("check", "data.specimen", 1, f"the file holds {n} specimens side by side "
+                                                      f"(groups of {w} columns): which one?"))
+    dr.comments["specimen"] = f"1 of {n}; columns are counted within its group"
+    dr.comments["specimen_columns"] = f"groups of {w} columns ({guess.group_from})"
+
+
+def _units(guess: Guess, dr: _Draft, columns: dict) -> float | None:
+    """Units the reader reads itself, units init read from a name (written out, since the reader
+    does not read them there), units a relation confirms, or units assumed (a check line each);
+    returns the strain column's factor to a fraction."""
+    p = guess.picks
     units: dict[str, str] = {}
-    strain_factor: float | None = None
+    factor: float | None = None
     for role, pick in ((r, p[r]) for r in columns):
-        unit = _unit_text(pick.column.unit)
-        if pick.column.unit_in_suffix and unit is not None:      # read by init, not by the reader
-            if role == "strain":
-                strain_factor = lookup(unit)[1]
-            units[role] = unit
-            continue
+        c = pick.column
+        unit = _unit_text(c.unit)
+        hit = lookup(unit) if unit is not None else None
         if role == "strain":
-            if unit is not None and lookup(unit) is not None:
-                strain_factor = lookup(unit)[1]
-                continue
-            top = float(np.nanmax(pick.column.values))
-            percent = top > FRACTION_MAX
-            d["strain_unit"] = "percent" if percent else "fraction"
-            strain_factor = 0.01 if percent else 1.0
-            edits.append(Edit("check", "data.strain_unit", d["strain_unit"],
-                              f"no unit in the file; values up to {fmt(top)} read as "
-                              f"{'percent (too large for a fraction)' if percent else 'a fraction'}"))
+            if hit is not None and hit[0] == "strain":
+                factor = hit[1]
+                if not c.unit_read:
+                    dr.data["strain_unit"] = "percent" if factor == 0.01 else "fraction"
+                    dr.comments["strain_unit"] = f"{c.label} is in {unit} (its name)"
+            elif guess.percent is not None:
+                dr.data["strain_unit"] = "percent" if guess.percent.value else "fraction"
+                dr.comments["strain_unit"] = guess.percent.why
+                factor = 0.01 if guess.percent.value else 1.0
+            else:
+                top = float(np.nanmax(c.values))
+                percent = top > FRACTION_MAX
+                dr.data["strain_unit"] = "percent" if percent else "fraction"
+                factor = 0.01 if percent else 1.0
+                dr.edits.append(Edit("check", "data.strain_unit", dr.data["strain_unit"],
+                                     f"no unit in the file; values up to {fmt(top)} read as "
+                                     f"{'percent (too large for a fraction)' if percent else 'a fraction'}"))
             continue
-        if unit is not None and lookup(unit) is not None:
+        if hit is not None:
+            if not c.unit_read:
+                units[role] = unit
             continue
         default = {"time": "s", "force": "N", "stress": "MPa", "extension": "mm"}[role]
         units[role] = default
-        edits.append(Edit("check", f"data.units.{role}", default,
-                          f"no unit for {pick.column.label} in the file; {default} assumed"))
+        dr.edits.append(Edit("check", f"data.units.{role}", default,
+                             f"no unit for {c.label} in the file; {default} assumed"))
     if units:
-        d["units"] = units
+        dr.data["units"] = units
+    return factor
+
+
+def _stress_keys(guess: Guess, dr: _Draft, columns: dict) -> None:
+    p = guess.picks
     if "force" in columns:
-        d["area0"] = None
-        edits.insert(0, Edit("set", "data.area0", None, "the specimen's initial cross-section S0 in "
-                                                        "mm² (the force column needs it: σ = F/S0)"))
-        comments["area0"] = "EDIT: initial cross-section S0, mm²"
+        if guess.area0 is not None:
+            dr.data["area0"] = guess.area0.value
+            dr.comments["area0"] = f"S0, mm²: {guess.area0.why}"
+        else:
+            dr.data["area0"] = None
+            why = "the specimen's initial cross-section S0 in mm² (the force column needs it: σ = F/S0)"
+            dr.edits.insert(0, Edit("set", "data.area0", None, why))
+            dr.comments["area0"] = "EDIT: initial cross-section S0, mm²"
     else:
-        d["observable"] = "stress"
-        comments["observable"] = "the stress column, taken as the true stress (docs/data-input.md)"
+        dr.data["observable"] = "stress"
+        pick = p["stress"]
+        if pick.relation:
+            dr.comments["observable"] = f"the true stress: {p['stress'].column.label} (its relation above)"
+        else:
+            dr.comments["observable"] = "the stress column, taken as the true stress (docs/data-input.md)"
+            dr.edits.append(Edit("check", "data.observable", "stress",
+                                 f"{pick.column.label} is taken as the true stress; an engineering "
+                                 "stress (F/S0) would bias E and G: the file holds no relation to tell"))
     if "extension" in columns:
-        d["gauge_length"] = None
-        edits.insert(0, Edit("set", "data.gauge_length", None, "the gauge length L0 in mm (strain = "
-                                                               "extension / L0)"))
-        comments["gauge_length"] = "EDIT: gauge length L0, mm"
-    label = (strain.column.name or "").lower()
-    hencky = bool(re.search(r"true|hencky|log", label))
-    nominal = bool(re.search(r"eng|nominal|tensile strain", label))
-    d["strain_measure"] = "hencky" if hencky else "nominal"
-    if not (hencky or nominal) and "strain" in columns:
-        edits.append(Edit("check", "data.strain_measure", d["strain_measure"],
-                          "nominal (engineering, Δl/l0) or hencky (true, ln(l/l0))? a machine's strain "
-                          "channel is usually nominal"))
-    comments["strain_measure"] = "nominal (engineering) or hencky (true) strain"
-    hold = _hold_start(guess, strain)
+        dr.data["gauge_length"] = None
+        dr.edits.insert(0, Edit("set", "data.gauge_length", None, "the gauge length L0 in mm (strain = "
+                                                                  "extension / L0)"))
+        dr.comments["gauge_length"] = "EDIT: gauge length L0, mm"
+
+
+def _measure(guess: Guess, dr: _Draft, strain: Pick, columns: dict) -> str:
+    if guess.measure is not None:
+        dr.data["strain_measure"] = guess.measure.value
+        dr.comments["strain_measure"] = guess.measure.why
+        return str(guess.measure.value)
+    dr.data["strain_measure"] = "nominal"
+    dr.comments["strain_measure"] = "nominal (engineering) or hencky (true) strain"
+    if "strain" in columns:
+        dr.edits.append(Edit("check", "data.strain_measure", "nominal",
+                             "nominal (engineering, Δl/l0) or hencky (true, ln(l/l0))? a machine's strain "
+                             "channel is usually nominal"))
+    return "nominal"
+
+
+def _window(guess: Guess, dr: _Draft, load: Pick, strain: Pick, strain_h: np.ndarray | None) -> None:
+    hold = guess.hold
     if hold is not None:
-        d["relaxation_start"] = "auto"
-        comments["relaxation_start"] = f"the strain stops rising near t = {fmt(hold, 3)} s: a relaxation hold"
-        edits.append(Edit("check", "data.relaxation_start", "auto",
-                          f"the strain stops rising near t = {fmt(hold, 3)} s and stays: a relaxation "
-                          "hold after the ramp (auto detects its start; null: a tensile test only)"))
-    window, why = ((({}, "the whole test: the ramp and the hold (sigma_inf and tau_max_R are "
-                     "identified on the hold)")) if hold is not None else
-                   _peak_window(guess, load, strain if "strain" in columns else None, strain_factor))
-    d["window"] = window
-    comments["window"] = why
-    edits.append(Edit("check", "data.window", window,
-                      f"the identification window: {why}. {{}} is the whole test: right when the "
-                      "strain is measured on the specimen (extensometer, DIC) and the deformation "
-                      "stays homogeneous; a crosshead strain past yield (necking) is not"))
-    raw = {"name": run_name(out.parent.name), "data": d, "noise": {"sigma0": "residuals"}}
-    return raw, edits, found, comments
+        dr.data["relaxation_start"] = "auto"
+        said = hold.describe(strain.column.label, load.column.label)
+        dr.comments["relaxation_start"] = f"a relaxation hold: {said}"
+        dr.found.append(f"hold: {said}: relaxation_start: auto")
+        window, why = {}, ("the whole test: the ramp and the hold (sigma_inf and tau_max_R are identified "
+                           "on the hold)")
+    else:
+        window, why = _peak_window(guess, load, strain_h, strain.column.label)
+    dr.data["window"] = window
+    dr.comments["window"] = why
+    dr.edits.append(Edit("check", "data.window", window,
+                         f"the identification window: {why}. {{}} is the whole test: right when the "
+                         "strain is measured on the specimen (extensometer, DIC) and the deformation "
+                         "stays homogeneous; a crosshead strain past yield (necking) is not"))
 
 
-def config_text(raw: dict[str, Any], comments: dict[str, str], source: Path) -> str:
+def config_text(raw: dict[str, Any], comments: dict[str, str], source: Path,
+                column_notes: dict[str, str] | None = None) -> str:
     """The config as YAML with a comment on the keys the user may need to change."""
-    lines = [f"# Starting config written by `python -m bayes_dnlr init {source}`.",
-             "# Edit the lines marked EDIT, check the others (docs/data-input.md, docs/config.md);",
-             "# the priors, model and sampler are the defaults (docs/config.md).",
-             f"name: {raw['name']}                 # run name = this folder: outputs go next to this file",
-             "", "data:"]
-    for k, v in raw["data"].items():
-        note = comments.get(k)
-        text = f"  {k}: {'null' if v is None else _flow(v)}"
-        lines.append(text + (f"   # {note}" if note else ""))
-    lines += ["", "noise:", "  sigma0: residuals                 # the noise sd from the fit's residuals "
-              "(MPa); a number if you know it", ""]
-    return "\n".join(lines)
+    return _config_text(raw, comments, str(source), column_notes or {})
 
 
 def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
@@ -277,10 +331,12 @@ def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
         raise RunError(f"{out}: --out names the config file to write, e.g. runs/name/config.yaml")
     if out.exists():
         raise RunError(f"{out}: exists; init never overwrites a config (give --out another path)")
-    raw, edits, found, comments = build_config(data, out)
+    raw, edits, found, comments, column_notes = build_config(data, out)
     raw["name"] = run_name(out.parent.name) if out.name == "config.yaml" else run_name(out.stem)
-    problems = _trial(raw, edits, out)
-    text = config_text(raw, comments, data)
+    problems, test = _trial(raw, edits, out)
+    if test is not None and "relaxation_start" not in raw["data"]:
+        _window_at_peak(test, raw, edits, comments)
+    text = config_text(raw, comments, data, column_notes)
     out.parent.mkdir(parents=True, exist_ok=True)
     try:
         with open(out, "x", encoding="utf-8") as f:     # "x": never overwrite, even in a race
@@ -296,9 +352,10 @@ def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
 PLACEHOLDER = {"data.area0": 1.0, "data.gauge_length": 1.0}
 
 
-def _trial(raw: dict[str, Any], edits: list[Edit], out: Path) -> list[str]:
-    """Read the data with the config as written (placeholders for the values to set): what fails,
-    or the reader's warnings about the data (a loaded first sample, a spike, ...)."""
+def _trial(raw: dict[str, Any], edits: list[Edit], out: Path) -> tuple[list[str], Any]:
+    """Read the data with the config as written (placeholders for the values to set; the whole test
+    as the window): what fails, or the reader's warnings about the data (a loaded first sample, a
+    spike, ...), and the TestData read (None when reading failed)."""
     import copy
 
     from bayes_dnlr.data import load_test
@@ -306,16 +363,75 @@ def _trial(raw: dict[str, Any], edits: list[Edit], out: Path) -> list[str]:
     trial = copy.deepcopy(raw)
     trial["data"]["file"] = str((out.absolute().parent / raw["data"]["file"]).resolve()
                                 if not Path(raw["data"]["file"]).is_absolute() else raw["data"]["file"])
+    trial["data"]["window"] = {}
+    placeholders = {}
     for e in edits:
         if e.action == "set" and e.key in PLACEHOLDER:
-            trial["data"][e.key.split(".", 1)[1]] = PLACEHOLDER[e.key]
+            trial["data"][e.key.split(".", 1)[1]] = placeholders[e.key] = PLACEHOLDER[e.key]
     try:
         test = load_test(parse_config(trial, source=out.resolve()))
     except (ConfigError, RunError) as err:
-        return [f"the data cannot be read with these guesses yet: {str(err).splitlines()[0]}"]
+        return [f"the data cannot be read with these guesses yet: {str(err).splitlines()[0]}"], None
     except Exception as err:  # noqa: BLE001 - a DataError or any reader failure is reported, not raised
-        return [f"the data cannot be read with these guesses yet: {err}"]
-    stand_in = [f"{k} = {v:g}" for k, v in PLACEHOLDER.items() if any(e.key == k and e.action == "set"
-                                                                     for e in edits)]
-    where = f" (read with {', '.join(stand_in)} in place of your value)" if stand_in else ""
-    return [n.removeprefix("warning: ") + where for n in test.notes if n.startswith("warning:")]
+        return [f"the data cannot be read with these guesses yet: {err}"], None
+    where = (f" (read with {', '.join(f'{k} = {v:g}' for k, v in placeholders.items())} in place of "
+             f"your value)" if placeholders else "")
+    notes = list(test.notes)
+    if "data.area0" in placeholders:                    # no stress in MPa without the real S0
+        notes = [_force_only(n, test) for n in notes if not n.startswith("warning: data.area0 is")]
+    return [n.removeprefix("warning: ") + where for n in notes if n.startswith("warning:")], test
+
+
+def _force_only(note: str, test: Any) -> str:
+    """The first-sample warning in newtons: with a placeholder area a stress in MPa means nothing."""
+    from bayes_dnlr.data.checks import first_sample_warning
+
+    if not note.startswith("warning: the first sample") or test.force is None:
+        return note
+    return first_sample_warning(test.stress, test.strain, int(test.lines[0]), force=test.force) or note
+
+
+def _bound_at(x: float, nxt: float) -> float:
+    """The shortest decimal d with x <= d < nxt (at least 3 significant digits): a strain_max that
+    keeps the peak sample (x) and stops before the next one; rounded down when none is found."""
+    for digits in range(3, 13):
+        scale = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
+        d = float(f"{math.ceil(x / scale) * scale:.{digits}g}")
+        if x <= d < nxt:
+            return d
+    return float(f"{x:.4g}") if float(f"{x:.4g}") <= x else float(f"{x * (1 - 1e-4):.4g}")
+
+
+def _window_at_peak(test: Any, raw: dict[str, Any], edits: list[Edit], comments: dict[str, str]) -> None:
+    """The window up to the peak of the nominal load (yield), on the strain the model's window reads
+    (the Hencky input strain), from the data as the reader reads them: the peak sample itself, not
+    one of a sample of rows; strain_max is rounded down so that the window never runs past it."""
+    first = test.virtual_start
+    load = test.force if test.force is not None else test.nominal_stress
+    if load is None:
+        load = test.stress * np.exp(-test.strain)
+    what = "the force" if test.force is not None else "the nominal stress"
+    unit = "N" if test.force is not None else "MPa"
+    v = np.asarray(load[first:], float)
+    k = int(np.argmax(v))
+    top = float(v[k])
+    if not top > 0 or float(v[k:].min()) > (1 - PEAK_DROP) * top:
+        window, why = {}, f"the whole test ({what} rises to the end: no yield peak)"
+    else:
+        x = float(test.strain_input[first + k])
+        if not x > 0:
+            return
+        nxt = float(test.strain_input[first + k + 1]) if first + k + 1 < test.time.size else math.inf
+        val = _bound_at(x, nxt)
+        line = int(test.lines[first + k])
+        window = {"strain_max": val}
+        why = (f"up to the load peak (yield): {what} {fmt(top, 4)} {unit} at t = "
+               f"{fmt(float(test.time[first + k]), 5)} s (line {line}), Hencky strain {fmt(x, 4)}")
+    raw["data"]["window"] = window
+    comments["window"] = why
+    for e in edits:
+        if e.key == "data.window":
+            e.value = window
+            e.why = (f"the identification window: {why}. {{}} is the whole test: right when the strain "
+                     "is measured on the specimen (extensometer, DIC) and the deformation stays "
+                     "homogeneous; a crosshead strain past yield (necking) is not")

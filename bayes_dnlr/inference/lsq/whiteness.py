@@ -49,6 +49,32 @@ def runs_test(e: np.ndarray) -> dict[str, float]:
     return {"n_runs": runs, "expected": mu, "z": z, "p_value": math.erfc(abs(z) / math.sqrt(2.0))}
 
 
+def _not_white(r1: float, dw: float, runs: dict[str, float], n: int, z_crit: float) -> str:
+    """The verdict on residuals that are not white, in the words of the statistics that say so: the
+    residuals are called signed only when the lag-1 autocorrelation or Durbin-Watson shows that
+    neighbours share their sign; the runs test alone (r1 and d those of white noise) is a structure
+    in the signs that the largest residuals do not carry."""
+    band = z_crit / math.sqrt(max(n, 1))            # white noise: |r1| < band, |d - 2| < 2 band
+    counts = (f"lag-1 autocorrelation {r1:+.3f}, Durbin-Watson {dw:.2f}, {runs['n_runs']} runs for "
+              f"{runs['expected']:.0f} expected")
+    if r1 > band or dw < 2 - 2 * band:
+        mean_run = n / max(runs["n_runs"], 1)
+        return (f"NOT white: the residuals are signed ({counts}, mean run {mean_run:.1f} samples). The "
+                "model does not follow the data to within the noise: model bias, as the paper reads "
+                "such residuals (4.1); the linearized sd understate the real uncertainty")
+    if r1 < -band or dw > 2 + 2 * band:
+        return (f"NOT white: neighbouring residuals alternate in sign ({counts}): not the independent "
+                "noise the least squares assume (a filtered or resampled signal, or an oscillation); "
+                "the linearized sd are not reliable")
+    how = "form longer runs" if runs["n_runs"] < runs["expected"] else "alternate more often"
+    return (f"NOT white by the runs test alone: the signs {how} than noise's ({runs['n_runs']} runs "
+            f"for {runs['expected']:.0f} expected, p = "
+            f"{runs['p_value']:.2g}), while the lag-1 autocorrelation ({r1:+.3f}) and Durbin-Watson "
+            f"({dw:.2f}) are those of white noise: the sign pattern sits in the small residuals, which "
+            "the large ones outweigh (a slow drift below the noise, or residuals of very unequal size); "
+            "read the residual plot before trusting the linearized sd")
+
+
 def residual_diagnostics(e: np.ndarray, sigma0: float | None = None,
                          sigma0_source: str | None = None) -> dict:
     """rms, r1, Durbin-Watson, runs test, white (bool) and a verdict in words."""
@@ -66,12 +92,7 @@ def residual_diagnostics(e: np.ndarray, sigma0: float | None = None,
         verdict = (f"white: no sign structure (lag-1 autocorrelation {r1:+.3f}, {runs['n_runs']} runs "
                    f"for {runs['expected']:.0f} expected); the residuals look like noise")
     else:
-        mean_run = n / max(runs["n_runs"], 1)
-        verdict = (f"NOT white: the residuals are signed (lag-1 autocorrelation {r1:+.3f}, Durbin-Watson "
-                   f"{dw:.2f}, {runs['n_runs']} runs for {runs['expected']:.0f} expected, mean run "
-                   f"{mean_run:.1f} samples). The model does not follow the data to within the noise: "
-                   "model bias, as the paper reads such residuals (4.1); the linearized sd understate "
-                   "the real uncertainty")
+        verdict = _not_white(r1, dw, runs, n, z_crit)
     if sigma0 is not None and sigma0_source not in (None, "residuals") and sigma0 > 0:
         ratio = rms / sigma0
         if ratio > 1.5:
