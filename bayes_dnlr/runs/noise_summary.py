@@ -118,7 +118,7 @@ def residual_warnings(fit: dict[str, Any]) -> list[str]:
 
 def noise_summary(cfg: Config, fit: dict[str, Any], summary: dict[str, Any], layout: Layout,
                   sigma0: dict[str, float], sigma0_source: dict[str, str]) -> dict[str, Any]:
-    """summary.json's ``noise`` block of a run: each test's own block (its hyperparameters, E's
+    """The ``noise`` block of a run's summary.json: each test's own block (its hyperparameters, E's
     interval under white noise and under the discrepancy); a run with one test writes its block
     itself, a run with several puts them under ``tests`` with a verdict over all."""
     post = summary.get("posterior") or {}
