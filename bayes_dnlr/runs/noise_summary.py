@@ -101,13 +101,15 @@ def verdict(block: dict[str, Any]) -> str:
                 f"{amp.get('mean', amp.get('value', 0.0)):.3g} MPa): the discrepancy interval of {p} "
                 f"is {ratio:.2f}x the white one and the estimate moved by {shift:+.1f} white sd; "
                 "both describe these data.")
-    width = "wider" if ratio >= 1 else "narrower"
+    width = ("wider" if ratio >= 1 else "narrower: the whitened fit weighs the curve's shape "
+             "sample to sample, not its level, and the shape can pin the parameters better than the "
+             "level does (docs/model-error.md)")
     return (f"The residuals of the white fit are signed waves (model error), which the white "
             f"likelihood takes for independent noise: its interval of {p} (90 % half-width "
             f"{Z90 * white['sd']:.4g}) rests on that, and its centre is where the waves pull the "
             f"parameters. With the discrepancy the waves are attributed to δ: {p} moves by "
-            f"{shift:+.1f} white sd and its sd is {ratio:.2f}x the white one ({width}). Believe the "
-            f"discrepancy interval of {p}.")
+            f"{shift:+.1f} white sd and its sd is {ratio:.2f}x the white one ({width}). Whether to "
+            f"use the interval is the checks' verdict.")
 
 
 def residual_warnings(fit: dict[str, Any]) -> list[str]:

@@ -274,6 +274,9 @@ class Posterior:
         noise = s.get("noise") or {}
         if noise.get("verdict"):
             lines.append(f"noise: {noise['model']} likelihood. {noise['verdict']}")
+        checks = s.get("checks") or {}
+        if checks.get("verdict"):
+            lines.append(f"verdict: {checks['verdict']}")
         warn = s.get("warnings") or []
         lines += [f"warning: {w}" for w in warn]
         lines.append(f"outputs: {self.run_dir}/{{{CHAINS_FILE}, {POSTERIOR_FILE}, {SUMMARY_FILE}}}")

@@ -41,6 +41,7 @@ from bayes_dnlr.inference.mcmc.stopping import (
 from bayes_dnlr.inference.posterior.priors import build_priors
 from bayes_dnlr.interrupt import Interrupted
 from bayes_dnlr.runs.chains import ChainWriter, StoredRun, read_attrs, read_run
+from bayes_dnlr.runs.checks import run_checks
 from bayes_dnlr.runs.folder import (
     check_output_dir,
     discard_if_empty,
@@ -430,6 +431,9 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
     summary = summarize(names, draws, fit=fit, tau=conv.tau, extra=extra)
     summary["noise"] = jsonable(noise_summary(cfg, fit, summary, layout, sigma0,
                                               layout.expand(sigma0_source)))
+    priors = build_target(cfg, test, FitRecord.from_dict(fit, cfg.test_names), run).priors
+    summary["checks"] = jsonable(run_checks(cfg, test, layout, draws, names, priors, fit, summary,
+                                            sigma0))
     if summary["noise"]["model"] == "discrepancy" and fit.get("discrepancy"):
         summary["generalized_least_squares"] = gauss_newton_block(
             {"parameters": fit.get("parameters"), **fit["discrepancy"]})

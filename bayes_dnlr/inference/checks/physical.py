@@ -1,0 +1,51 @@
+"""Checks of a posterior against the physics of the test (never against the model itself):
+
+- a relaxation hold whose stress still falls at its end relaxes towards σ∞ below its last stress,
+  so σ∞ above the last stress of a falling hold is impossible;
+- a time constant far beyond the test's duration is not measured by it: its value (and what it
+  trades off with) comes from the prior box;
+- the instantaneous modulus E is the slope of the stress at an infinite rate: the standards' chord
+  at a finite rate (ISO 527-1, ASTM D638) is a lower bound of it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+SPAN_FACTOR = 10.0        # a time constant beyond this many test durations is not measured
+FALLING_SAMPLES = 0.1     # the last tenth of the hold decides whether it still falls
+
+
+def hold_still_falling(time: np.ndarray, stress: np.ndarray, start: float) -> tuple[bool, float]:
+    """(does the stress still fall over the last tenth of the hold, its last value)."""
+    t, s = np.asarray(time, dtype=float), np.asarray(stress, dtype=float)
+    hold = t >= start
+    th, sh = t[hold], s[hold]
+    if th.size < 10:
+        return False, float(sh[-1]) if sh.size else float("nan")
+    tail = slice(int(th.size * (1 - FALLING_SAMPLES)), None)
+    tt, st = th[tail], sh[tail]
+    slope = np.polyfit(tt - tt.mean(), st, 1)[0]
+    resid = st - np.polyval(np.polyfit(tt - tt.mean(), st, 1), tt - tt.mean())
+    noise = float(np.std(resid)) or 1e-300
+    falling = slope * float(tt[-1] - tt[0]) < -2.0 * noise
+    return bool(falling), float(np.median(sh[-max(3, tt.size // 10):]))
+
+
+def sigma_inf_check(draws: np.ndarray, last_stress: float, falling: bool) -> dict:
+    """σ∞ against the last stress of a hold that still falls."""
+    median = float(np.median(draws))
+    ok = not falling or median <= last_stress
+    return {"ok": ok, "sigma_inf_median": median, "last_stress": last_stress, "hold_falling": falling}
+
+
+def time_constant_check(draws: np.ndarray, span: float) -> dict:
+    """A time constant against the duration of the test."""
+    median = float(np.median(draws))
+    return {"ok": median <= SPAN_FACTOR * span, "median": median, "test_duration": span}
+
+
+def chord_check(draws: np.ndarray, chord: float) -> dict:
+    """E against the standards' chord modulus (a lower bound of E)."""
+    q95 = float(np.quantile(draws, 0.95))
+    return {"ok": q95 >= chord, "E_q95": q95, "chord": chord}

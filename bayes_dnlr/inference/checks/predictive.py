@@ -1,0 +1,49 @@
+"""Posterior predictive coverage: the share of the data inside the 90 % posterior predictive band,
+overall and per segment of the test (the loading, the hold, five blocks of time).
+
+The band at each sample is the model's posterior mean ± z90 sqrt(var_model + var_noise), with
+var_model the spread of the model curve over the posterior draws and var_noise what the likelihood
+puts around it (σ0², plus the model discrepancy's variance when there is one). A model that
+describes the test, with its noise model, holds about 90 % of the points in every segment; a test
+whose misfit the likelihood does not describe holds fewer, most visibly in the segment where the
+model is wrong.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bayes_dnlr.vocabulary import Z90
+
+TIME_BLOCKS = 5
+
+
+def inside_band(y: np.ndarray, curves: np.ndarray, noise_var: np.ndarray | float) -> np.ndarray:
+    """Which samples of ``y`` (n,) lie inside the 90 % predictive band of the model curves
+    (draws, n) with the noise variance (n,) or scalar around them."""
+    mean = curves.mean(axis=0)
+    half = Z90 * np.sqrt(curves.var(axis=0) + noise_var)
+    return np.abs(np.asarray(y, dtype=float) - mean) <= half
+
+
+def segments(time: np.ndarray, relaxation_start: float | None,
+             blocks: int = TIME_BLOCKS) -> dict[str, np.ndarray]:
+    """Masks of the test's segments on its compared samples: the loading and the hold (when there
+    is one), and ``blocks`` blocks of equal time."""
+    t = np.asarray(time, dtype=float)
+    out: dict[str, np.ndarray] = {}
+    if relaxation_start is not None:
+        out["loading"] = t < relaxation_start
+        out["hold"] = t >= relaxation_start
+    edges = np.linspace(t.min(), t.max(), blocks + 1)
+    for b in range(blocks):
+        hi = t <= edges[b + 1] if b == blocks - 1 else t < edges[b + 1]
+        out[f"time block {b + 1}"] = (t >= edges[b]) & hi
+    return out
+
+
+def coverage(inside: np.ndarray, masks: dict[str, np.ndarray]) -> dict:
+    """The shares inside the band: overall and per segment (with its number of points)."""
+    seg = {name: {"share": float(inside[m].mean()) if m.any() else None, "points": int(m.sum())}
+           for name, m in masks.items()}
+    return {"overall": float(inside.mean()), "points": int(inside.size), "segments": seg}

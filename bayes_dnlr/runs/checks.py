@@ -1,0 +1,317 @@
+"""The checks of a sampled run, and the verdict they decide: summary.json's ``checks`` block
+(docs/sampling.md, "Checks and verdict").
+
+- ``predictive_coverage``: the share of the data inside the 90 % posterior predictive band, overall
+  and per segment, for each test (inference/checks/predictive.py);
+- ``bound_limited``: the parameters whose posterior piles against a prior bound, each with the move
+  of E when that bound is widened ×10 (a second least-squares fit with the widened bound, the same
+  analysis as the run's: generalized under model error);
+- ``prior_sensitivity``: the power-scaling sensitivity of each sampled parameter to the prior
+  (inference/checks/power_scaling.py);
+- ``plausibility``: σ∞ against a falling hold, the time constants against the test's duration, E
+  against the standards' chord (inference/checks/physical.py);
+- ``adequate``: the model with its noise model describes the test (coverage and plausibility pass);
+  ``trust_interval``: E's interval can be used as it is (adequate, and neither a bound nor the
+  prior decides E); ``verdict``: the words, each sentence from one check, a failed one with what
+  to do.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from bayes_dnlr.config import Config
+from bayes_dnlr.inference.checks import bounds, physical, power_scaling, predictive
+from bayes_dnlr.inference.layout import Layout
+from bayes_dnlr.inference.posterior.likelihood import build_model, window_rows
+from bayes_dnlr.numbers import fmt
+from bayes_dnlr.runs.testset import TestSet
+from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS, PARAMETER_NAMES, base_name
+
+N_CURVES = 200              # posterior draws pushed through the model for the predictive band
+COVERAGE_LOW = 0.80         # overall share below this: the band is too narrow for the data
+COVERAGE_HIGH = 0.97        # above this: wider than the scatter (said, not a failure)
+SEGMENT_LOW = 0.50          # a segment (with enough points) below this: the model fails there
+SEGMENT_MIN_POINTS = 20
+SHIFT_SD = 1.0              # widening a bound moves E by more than this many posterior sd
+
+
+def _column(draws: np.ndarray, names: list[str], name: str) -> np.ndarray | None:
+    return draws[..., names.index(name)] if name in names else None
+
+
+def _test_curves(cfg: Config, data, layout: Layout, test: str, flat: np.ndarray,
+                 names: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """(the observed values on the window, the model curves of the draws there)."""
+    view = cfg.for_test(test)
+    model = build_model(view, data)
+    rows = window_rows(data)
+    y = np.asarray(data.stress[: data.model_end], dtype=float)[rows]
+    used = model.parameter_names()
+    theta = np.column_stack([
+        flat[:, names.index(layout.name(k, test))] if layout.name(k, test) in names
+        else np.full(flat.shape[0], view.fixed_values[k]) for k in used])
+    curves = model.stress_batch(theta, used)[:, rows]
+    return y, curves
+
+
+def _noise_var(summary_noise: dict[str, Any], flat: np.ndarray, names: list[str], layout: Layout,
+               test: str, sigma0: float) -> float:
+    """What the likelihood puts around the model at one sample: E[σ0²] (+ E[a²] with model error)."""
+    s0 = _column(flat, names, layout.name("sigma0", test))
+    var = float(np.mean(s0**2)) if s0 is not None else float(sigma0) ** 2
+    if summary_noise.get("model") == "discrepancy":
+        amp = _column(flat, names, layout.name("disc_amplitude", test))
+        fixed = (summary_noise.get("amplitude") or {}).get("value") or 0.0
+        var += float(np.mean(amp**2)) if amp is not None else float(fixed) ** 2
+    return var
+
+
+def coverage_check(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, names: list[str],
+                   noise: dict[str, dict], sigma0: dict[str, float], seed: int = 0) -> dict[str, dict]:
+    """Each test's predictive coverage."""
+    flat = draws.reshape(-1, draws.shape[-1])
+    pick = np.random.default_rng(seed).choice(flat.shape[0], size=min(N_CURVES, flat.shape[0]),
+                                              replace=False)
+    flat = flat[np.sort(pick)]
+    out = {}
+    for t in layout.tests:
+        data = tests.tests[t]
+        y, curves = _test_curves(cfg, data, layout, t, flat, names)
+        var = _noise_var(noise.get(t) or {}, flat, names, layout, t, sigma0.get(t, math.nan))
+        inside = predictive.inside_band(y, curves, var)
+        rows = window_rows(data)
+        time = np.asarray(data.time[: data.model_end], dtype=float)[rows]
+        out[t] = predictive.coverage(inside, predictive.segments(time, data.relaxation_start))
+    return out
+
+
+def plausibility_check(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray,
+                       names: list[str], standards: dict[str, dict | None]) -> dict[str, dict]:
+    """Each test's physical checks (only those that apply to it)."""
+    out = {}
+    for t in layout.tests:
+        data, checks = tests.tests[t], {}
+        rows = window_rows(data)
+        time = np.asarray(data.time[: data.model_end], dtype=float)[rows]
+        stress = np.asarray(data.stress[: data.model_end], dtype=float)[rows]
+        s_inf = _column(draws, names, layout.name("sigma_inf", t))
+        if s_inf is not None and data.relaxation_start is not None:
+            falling, last = physical.hold_still_falling(time, stress, data.relaxation_start)
+            checks["sigma_inf"] = physical.sigma_inf_check(s_inf, last, falling)
+        span = float(time[-1] - time[0])
+        for k in ("tau_max", "tau_max_R"):
+            d = _column(draws, names, layout.name(k, t))
+            if d is not None and span > 0:
+                checks[k] = physical.time_constant_check(d, span)
+        e = _column(draws, names, layout.name("E", t))
+        chord = next((v for v in ((standards.get(t) or {}).get(s) for s in ("iso527_1", "astm_d638"))
+                      if v), None)
+        if e is not None and chord:
+            checks["E_chord"] = physical.chord_check(e, float(chord))
+        out[t] = checks
+    return out
+
+
+def prior_sensitivity_check(draws: np.ndarray, names: list[str], priors) -> dict[str, float]:
+    """Power-scaling sensitivity of every sampled parameter to the run's prior."""
+    z = priors.from_physical(draws.reshape(-1, draws.shape[-1]))
+    log_prior = priors.log_prior(z)
+    if not np.all(np.isfinite(log_prior)) or np.ptp(log_prior) == 0:
+        return dict.fromkeys(names, 0.0)      # a flat prior: power-scaling changes nothing
+    per = {k: draws[..., j].reshape(-1) for j, k in enumerate(names)}
+    return power_scaling.sensitivity(per, log_prior)
+
+
+def bound_check(cfg: Config, tests: TestSet, draws: np.ndarray, names: list[str], priors,
+                fit: dict[str, Any], uses_discrepancy: bool, post_sd: dict[str, float]) -> list[dict]:
+    """The parameters piled against a prior bound, with the move of E when it is widened ×10."""
+    out = []
+    for p in priors.priors:
+        k = base_name(p.name)
+        if k not in PARAMETER_NAMES:
+            if k in DISCREPANCY_PARAMETERS or k == "sigma0":
+                side = bounds.piled_side(draws[..., names.index(p.name)], p.low, p.high, p.log_space)
+                if side is not None:
+                    out.append({"parameter": p.name, "side": side,
+                                "bound": p.low if side == "low" else p.high, "widened": None,
+                                "E_shift_sd": None, "note": "a noise hyperparameter of the fit's "
+                                                            "resolved priors"})
+            continue
+        side = bounds.piled_side(draws[..., names.index(p.name)], p.low, p.high, p.log_space)
+        if side is None:
+            continue
+        bound = p.low if side == "low" else p.high
+        entry = {"parameter": p.name, "side": side, "bound": bound}
+        if bounds.physical_limit(side, bound):
+            entry.update(widened=None, E_shift_sd=None, note="a physical limit (not widened)")
+        else:
+            lo, hi = bounds.widened(p.low, p.high, side, p.log_space)
+            entry["widened"] = [lo, hi]
+            entry["E_shift_sd"] = _shift_of_e(cfg, tests, k, lo, hi, fit, uses_discrepancy, post_sd)
+        out.append(entry)
+    return out
+
+
+def _shift_of_e(cfg: Config, tests: TestSet, name: str, low: float, high: float, fit: dict[str, Any],
+                uses_discrepancy: bool, post_sd: dict[str, float]) -> dict[str, float] | None:
+    """How far E (each E of the run) moves, in posterior sd, when ``name``'s bound is widened."""
+    from bayes_dnlr.errors import BayesDnlrError
+    from bayes_dnlr.inference.lsq.run_fit import fit_run
+    from bayes_dnlr.runs.records import FitRecord
+
+    spec = cfg.parameters[name].model_copy(update={"low": low, "high": high})
+    wide = cfg.model_copy(update={"parameters": {**cfg.parameters, name: spec}})
+    try:
+        again = FitRecord.from_dict(fit_run(wide, tests.tests, tests.plain).to_dict(), cfg.test_names)
+    except BayesDnlrError:
+        return None
+    before = FitRecord.from_dict(fit, cfg.test_names).start_analysis(uses_discrepancy)
+    after = again.start_analysis(uses_discrepancy)
+    if before is None or after is None:
+        return None
+    shifts = {}
+    for k, sd in post_sd.items():
+        if base_name(k) == "E" and k in before.estimate and k in after.estimate and sd > 0:
+            shifts[k] = (after.estimate[k] - before.estimate[k]) / sd
+    return shifts or None
+
+
+# ---------------------------------------------------------------------------------------------
+# the verdict
+
+def _share(x: float) -> str:
+    return f"{100 * x:.0f} %"
+
+
+def _cap(text: str) -> str:
+    """A sentence's first letter capitalised (a symbol such as σ∞ stays as it is)."""
+    return text[:1].upper() + text[1:] if text[:1].isascii() else text
+
+
+def _coverage_words(test: str, c: dict, several: bool) -> tuple[bool, str]:
+    who = f"{test}: " if several else ""
+    low_segments = [(name, s["share"]) for name, s in c["segments"].items()
+                    if s["share"] is not None and s["points"] >= SEGMENT_MIN_POINTS
+                    and s["share"] < SEGMENT_LOW]
+    ok = c["overall"] >= COVERAGE_LOW and not low_segments
+    text = f"{who}the 90 % predictive band holds {_share(c['overall'])} of the points"
+    if ok and c["overall"] > COVERAGE_HIGH:
+        return True, text + (" (80-97 % expected): the band is wider than the data's scatter, so the "
+                             "intervals lean to the safe side.")
+    if ok:
+        return True, text + " (80-97 % expected)."
+    where = ", ".join(f"{_share(s)} in the {name}" for name, s in low_segments)
+    return False, (text + (f", {where}" if where else "") + ": the model with its noise model does "
+                   "not describe this test there, and E's interval rests on a misfit the likelihood "
+                   "does not model. Look at the residuals of that part (a toe, a second process, a "
+                   "window past yield) and fix the start or the window.")
+
+
+def _plausibility_words(test: str, checks: dict, several: bool) -> list[tuple[str, bool, str]]:
+    """(kind, ok, sentence) per physical check; kind 'adequate' or 'trust'."""
+    who = f"{test}: " if several else ""
+    out = []
+    s = checks.get("sigma_inf")
+    if s is not None and not s["ok"]:
+        out.append(("adequate", False,
+                    f"{who}σ∞ = {fmt(s['sigma_inf_median'], 4)} MPa lies above the last stress of the "
+                    f"hold ({fmt(s['last_stress'], 4)} MPa), which still falls: impossible. The model's "
+                    "relaxation does not describe this hold (a second, slower process?); a longer hold "
+                    "or a relaxation spectrum of its own would tell."))
+    for k in ("tau_max", "tau_max_R"):
+        c = checks.get(k)
+        if c is not None and not c["ok"]:
+            out.append(("trust", False,
+                        f"{who}{k} = {fmt(c['median'], 3)} s is more than {physical.SPAN_FACTOR:g}× the "
+                        f"test's duration ({fmt(c['test_duration'], 3)} s): the test does not measure "
+                        "it, and what trades off with it comes from the prior box."))
+    c = checks.get("E_chord")
+    if c is not None and not c["ok"]:
+        out.append(("adequate", False,
+                    f"{who}E's 95 % quantile ({fmt(c['E_q95'])} MPa) lies below the standards' chord "
+                    f"({fmt(c['chord'])} MPa), a lower bound of the instantaneous modulus: impossible. "
+                    "The model does not describe the start of this curve (a toe, a preload)."))
+    return out
+
+
+def _bound_words(entries: list[dict]) -> tuple[bool, list[str]]:
+    ok, words = True, []
+    for b in entries:
+        shift = b.get("E_shift_sd") or {}
+        big = {k: v for k, v in shift.items() if abs(v) > SHIFT_SD}
+        where = f"its prior's {b['side']} bound ({fmt(b['bound'], 4)})"
+        if big:
+            ok = False
+            moves = ", ".join(f"{k} by {v:+.1f} posterior sd" for k, v in big.items())
+            words.append(f"The posterior of {b['parameter']} piles against {where}; widening it ×10 "
+                         f"moves {moves}: the "
+                         f"prior box decides E. Widen parameters.{base_name(b['parameter'])} and run "
+                         "again, or fix it if the window does not identify it.")
+        elif b.get("note"):
+            words.append(f"The posterior of {b['parameter']} piles against {where} ({b['note']}).")
+        else:
+            words.append(f"The posterior of {b['parameter']} piles against {where}; widening it ×10 "
+                         f"moves E by less than {SHIFT_SD:g} sd.")
+    return ok, words
+
+
+def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[bool, bool, str]:
+    """(adequate, trust_interval, words) from the checks."""
+    adequate, trust, words = True, True, []
+    for t, c in checks["predictive_coverage"].items():
+        ok, text = _coverage_words(t, c, several)
+        adequate &= ok
+        words.append(text)
+    for t, c in checks["plausibility"].items():
+        for kind, ok, text in _plausibility_words(t, c, several):
+            words.append(text)
+            if kind == "adequate":
+                adequate &= ok
+            else:
+                trust &= ok
+    ok, bound_words = _bound_words(checks["bound_limited"])
+    trust &= ok
+    words += bound_words
+    sens = {k: v for k, v in checks["prior_sensitivity"].items()
+            if base_name(k) == "E" and v > power_scaling.SENSITIVE}
+    if sens:
+        trust = False
+        words.append("The prior shapes E's interval: power-scaling sensitivity "
+                     + ", ".join(f"{k} {v:.2f}" for k, v in sens.items())
+                     + f" (above {power_scaling.SENSITIVE}); give E a wider prior or more data.")
+    if not converged:
+        trust = False
+        words.append("The chain has not converged: its intervals are not final (raise "
+                     "sampler.max_steps and run `sample` again).")
+    trust &= adequate
+    head = ("Use E's interval as it is." if trust else
+            "The model describes this test, but do not use E's interval as it is." if adequate else
+            "The model does not describe this test: E's interval is not reliable.")
+    return adequate, trust, " ".join([head, *(_cap(w) for w in words)])
+
+
+def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, names: list[str],
+               priors, fit: dict[str, Any], summary: dict[str, Any],
+               sigma0: dict[str, float]) -> dict[str, Any]:
+    """summary.json's ``checks`` block of a sampled run (``draws`` (steps, walkers, ndim) kept)."""
+    noise = layout.expand(summary.get("noise")) if layout.plain else (summary.get("noise") or {}).get(
+        "tests") or {}
+    standards = layout.expand(summary.get("standards"))
+    post_sd = {k: v["sd"] for k, v in (summary.get("posterior") or {}).items()}
+    uses_disc = any((n or {}).get("model") == "discrepancy" for n in noise.values())
+    checks: dict[str, Any] = {
+        "predictive_coverage": coverage_check(cfg, tests, layout, draws, names, noise, sigma0),
+        "bound_limited": bound_check(cfg, tests, draws, names, priors, fit, uses_disc, post_sd),
+        "prior_sensitivity": prior_sensitivity_check(draws, names, priors),
+        "plausibility": plausibility_check(cfg, tests, layout, draws, names, standards),
+    }
+    adequate, trust, words = verdict(checks, bool(summary.get("converged")), not layout.plain)
+    if layout.plain:
+        for k in ("predictive_coverage", "plausibility"):
+            checks[k] = layout.collapse(checks[k])
+    checks.update(adequate=adequate, trust_interval=trust, verdict=words)
+    return checks
