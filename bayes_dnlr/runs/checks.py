@@ -51,10 +51,11 @@ def _test_curves(cfg: Config, data, layout: Layout, test: str, flat: np.ndarray,
     rows = window_rows(data)
     y = np.asarray(data.stress[: data.model_end], dtype=float)[rows]
     used = model.parameter_names()
-    theta = np.column_stack([
-        flat[:, names.index(layout.name(k, test))] if layout.name(k, test) in names
-        else np.full(flat.shape[0], view.fixed_values[k]) for k in used])
-    curves = model.stress_batch(theta, used)[:, rows]
+    columns = {k: flat[:, names.index(layout.name(k, test))] if layout.name(k, test) in names
+               else np.full(flat.shape[0], view.fixed_values[k]) for k in used}
+    # one compiled serial call per draw: a forked batch worker must not start OpenMP threads
+    curves = np.array([model.stress({k: float(v[i]) for k, v in columns.items()})[rows]
+                       for i in range(flat.shape[0])])
     return y, curves
 
 
