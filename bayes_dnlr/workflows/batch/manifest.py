@@ -30,10 +30,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from bayes_dnlr.config import Config, ConfigError, load_config, parse_config
-from bayes_dnlr.config.yamlio import YamlError, load_yaml
+from bayes_dnlr.config.yamlio import YamlError, load_yaml, parse_yaml
 from bayes_dnlr.errors import BayesDnlrError
 
 RUNS_FOLDER = "runs"
@@ -149,8 +147,8 @@ def parse_cell(text: str) -> Any:
         except ValueError:
             pass
     try:
-        value = yaml.safe_load(s)
-    except yaml.YAMLError:
+        value = parse_yaml(s, "manifest cell")     # the config's loader: bounded depth and aliases
+    except YamlError:
         return s
     return value if isinstance(value, dict | list | bool) or value is None else s
 
