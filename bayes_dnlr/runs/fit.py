@@ -15,17 +15,16 @@ from pathlib import Path
 from typing import Any
 
 from bayes_dnlr.config import Config
-from bayes_dnlr.digests import digest, file_sha256
+from bayes_dnlr.digests import digest
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.inference.lsq.identify import FitResult, fit_test
 from bayes_dnlr.inference.lsq.joint import JointFitResult, fit_joint
+from bayes_dnlr.runs import identity
 from bayes_dnlr.runs.folder import (
     check_output_dir,
-    config_digest,
     discard_if_empty,
     prepare_run_dir,
     resolved_config_path,
-    section_digests,
     write_json,
 )
 
@@ -35,7 +34,7 @@ SECTIONS = ("data", "model", "parameters", "noise", "fit")
 
 def sections(cfg: Config, base: tuple[str, ...] = SECTIONS) -> tuple[str, ...]:
     """The config sections a result depends on: ``base``, and ``tests`` in a run with tests."""
-    return (*base, "tests") if cfg.is_joint else base
+    return identity.sections(cfg, base)
 
 
 @dataclass(frozen=True)
@@ -71,12 +70,8 @@ def load_tests(cfg: Config):
 
 def _data_sha(cfg: Config) -> str | None:
     """The data fingerprint without loading (None when a data file is missing)."""
-    paths = [c.data_path for c in cfg.test_configs()]
-    if not all(p.is_file() for p in paths):
-        return None
-    if not cfg.is_joint:
-        return file_sha256(paths[0])
-    return digest(dict(zip(cfg.test_names, (file_sha256(p) for p in paths), strict=True)))
+    return identity.data_sha(cfg)
+
 
 def _fit_path(run_dir: Path) -> Path:
     return Path(run_dir) / FIT_FILE
@@ -95,15 +90,7 @@ def load_fit(run_dir: str | Path) -> dict[str, Any]:
 
 def _stale_reason(saved: Mapping[str, Any], cfg: Config, sha256: str) -> str | None:
     """Why a saved fit.json does not belong to this config and data (None when it does)."""
-    reasons = []
-    secs = sections(cfg)
-    if saved.get("config_digest") != config_digest(cfg, secs):
-        old = saved.get("config_sections") or {}
-        diff = [s for s, d in section_digests(cfg, secs).items() if old.get(s) != d]
-        reasons.append(f"a different config (sections {', '.join(diff) or secs})")
-    if saved.get("data_sha256") != sha256:
-        reasons.append("a different data file (sha256 differs)")
-    return " and ".join(reasons) or None
+    return identity.fit_stale_reason(saved, cfg, sections(cfg), sha256, cfg.run_dir)
 
 
 def fit_is_current(cfg: Config, data_sha256: str | None = None) -> bool:
@@ -143,28 +130,29 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
     t0 = time.perf_counter()
     if write:
         check_output_dir(cfg.run_dir, writable=True)
+    before = identity.stat_data(cfg) if test is None else None   # mtime recorded only for our read
     if test is None:
         test = load_tests(cfg)
     path = _fit_path(cfg.run_dir)
     if write and not overwrite and path.exists():
         reason = stale_fit_reason(cfg, test.sha256)
         if reason is not None:
-            raise RunError(f"{path} exists and was made from {reason}; pass --force "
-                           "(overwrite=True) to replace it")
+            raise RunError(f"{path} exists and was made from {reason}; `fit --force` replaces it, "
+                           "or set output.dir to fit into another run directory and keep it")
     if cfg.is_joint:
         result = fit_joint(cfg, test.tests)
     else:
         result = fit_test(cfg, test)
     secs = sections(cfg)
-    result.config_digest = config_digest(cfg, secs)
-    result.config_sections = section_digests(cfg, secs)
+    result.config_digest = identity.config_digest(cfg, secs)
+    result.config_sections = identity.section_digests(cfg, secs)
     result.data_sha256 = test.sha256
     result.wall_time_s = time.perf_counter() - t0
     if write:
         created = not cfg.run_dir.exists()
         try:
             prepare_run_dir(cfg)
-            write_json(path, result.to_dict())
+            write_json(path, {**result.to_dict(), "identity": identity.fit_record(cfg, secs, test, before)})
         except BaseException:
             if created:     # leave no half-made run directory (a config without its fit.json)
                 resolved_config_path(cfg).unlink(missing_ok=True)
