@@ -8,6 +8,7 @@ from pathlib import Path
 from bayes_dnlr.runs.folder import RESOLVED_CONFIG, RESOLVED_CONFIG_BESIDE_SOURCE, find_config
 
 REPORT_FILE = "report.html"
+REPORT_SET = [REPORT_FILE, "figures/*.png"]       # published together (bayes_dnlr/fileset.py)
 RESULTS = ("fit.json", "summary.json", "posterior.nc")
 
 
@@ -27,7 +28,11 @@ def report_inputs(run_dir: Path) -> list[Path]:
 
 def stale_inputs(run_dir: Path) -> list[Path] | None:
     """None when report.html is missing or cannot be judged (build it); else the inputs newer than
-    it (an empty list: the report is current)."""
+    it (an empty list: the report is current). A report whose writer was killed is rolled back
+    first (the one before it is judged)."""
+    from bayes_dnlr.fileset import recover
+
+    recover(Path(run_dir), "report", REPORT_SET)
     report = Path(run_dir) / REPORT_FILE
     inputs = report_inputs(run_dir)
     if not report.is_file() or not inputs:

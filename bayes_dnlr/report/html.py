@@ -24,6 +24,7 @@ from bayes_dnlr.report import model_error as rn
 from bayes_dnlr.report import tables as tb
 from bayes_dnlr.report import views
 from bayes_dnlr.report.tables import RunResults, load_run
+from bayes_dnlr.runs.folder import write_atomic
 from bayes_dnlr.vocabulary import Z90
 
 N_DRAWS = 200          # posterior draws pushed through the model for the bands
@@ -251,7 +252,7 @@ def build_report(run_dir: Path | str) -> Path:
         from bayes_dnlr.report.joint import build_joint_report
 
         out = run_dir / "report.html"
-        out.write_text(build_joint_report(run, figdir, t0), encoding="utf-8")
+        write_atomic(out, build_joint_report(run, figdir, t0))
         return out
     std = None
     if run.test is not None:
@@ -448,5 +449,5 @@ def build_report(run_dir: Path | str) -> Path:
             f"<title>{html.escape(run.name)} report</title><style>{CSS}</style></head><body>"
             + "\n".join(sec) + "</body></html>")
     out = run_dir / "report.html"
-    out.write_text(page, encoding="utf-8")
+    write_atomic(out, page)
     return out
