@@ -311,6 +311,19 @@ def _results(stack: ExitStack, todo: list[Job], n_jobs: int, client,
                  "threads, joblib dask backend)")
 
 
+def max_jobs() -> int:
+    """The most local worker processes ``--jobs`` takes: four per core (each test is one CPU-bound
+    process; more only share the cores and multiply the memory)."""
+    return 4 * (os.cpu_count() or 1)
+
+
+def check_jobs(n_jobs: int) -> None:
+    """``--jobs N``: 1 <= N <= max_jobs() (0 and negatives were taken as 'all cores' silently)."""
+    if not 1 <= n_jobs <= max_jobs():
+        raise BatchError(f"--jobs {n_jobs}: give 1 to {max_jobs()} worker processes (4 per core of "
+                         f"this machine's {os.cpu_count() or 1}); leave it out for one per core")
+
+
 def _table_only(result: BatchResult, interrupted: bool) -> list[Path]:
     return write_table(result.rows, result.out)
 
