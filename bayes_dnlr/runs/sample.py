@@ -42,7 +42,14 @@ from bayes_dnlr.inference.mcmc.ensemble import (
 from bayes_dnlr.inference.posterior.priors import build_priors, sampled_names
 from bayes_dnlr.interrupt import Interrupted
 from bayes_dnlr.runs import identity
-from bayes_dnlr.runs.chains import ChainWriter, SamplerState, StoredRun, read_attrs, read_run
+from bayes_dnlr.runs.chains import (
+    ChainWriter,
+    SamplerState,
+    StoredRun,
+    read_attrs,
+    read_run,
+    release_stale_writer,
+)
 from bayes_dnlr.runs.fit import load_tests
 from bayes_dnlr.runs.folder import (
     check_output_dir,
@@ -195,6 +202,7 @@ def _sample(cfg: Config, test, names: list[str], *, restart: bool, progress: boo
     record = identity.data_record(cfg, test, before)
     sc = cfg.sampler
 
+    release_stale_writer(chains, lock_held=True)    # plain h5py reads it again, whatever follows
     stored: StoredRun | None = None
     if chains.exists() and restart:
         _remove_outputs(run_dir)
