@@ -174,7 +174,10 @@ def parse_yaml(text: str, where: str) -> Any:
     if len(text) > MAX_YAML_BYTES:
         raise YamlError(f"{where}: {len(text)} characters, larger than the {MAX_YAML_BYTES} a YAML "
                         "document may have")
-    loader = Loader(text)
+    try:
+        loader = Loader(text)               # refuses control characters (a NUL byte) at once
+    except yaml.YAMLError as err:
+        raise YamlError(f"{where}: {_mark(err)}not valid YAML: {_describe(err)}") from None
     try:
         node = loader.get_single_node()
         if node is None:
