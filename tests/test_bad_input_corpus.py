@@ -349,6 +349,8 @@ CSV_ERRORS: list[tuple[str, Callable[[str], str | bytes], tuple[str, ...]]] = [
     ("time-all-zero", map_column(T, lambda v: 0.0), ("test.csv", "t_s")),
     ("strain-constant", map_column(EPS, lambda v: 0.01), ("test.csv",)),
     ("html-page", lambda s: "<html><body>404 Not Found</body></html>\n", ("test.csv",)),
+    ("quote-never-closed", lambda s: s.rstrip("\n").rpartition("\n")[0] + '\n"' + s.rstrip("\n")
+     .rpartition("\n")[2] + "\n", ("test.csv", f"line {ROWS + 1}", "quote")),
 ]
 
 # awkward CSV files that are valid, with the note the data layer must give (None: none asked)
