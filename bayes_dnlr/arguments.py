@@ -15,7 +15,7 @@ import yaml
 
 from bayes_dnlr.config import ConfigError, load_config
 from bayes_dnlr.errors import RunError
-from bayes_dnlr.runs.layout import RESOLVED_CONFIG, RESOLVED_CONFIG_BESIDE_SOURCE
+from bayes_dnlr.runs.layout import CHAINS_FILE, RESOLVED_CONFIG, RESOLVED_CONFIG_BESIDE_SOURCE
 
 EXAMPLE_RUN = "runs/hdpe-a-5e-3"
 CONFIG_SUFFIXES = (".yaml", ".yml")
@@ -51,11 +51,19 @@ def config_file(arg: str | Path, command: str) -> Path:
     raise ConfigError(f"{p}: config file not found ({command} takes the config file, e.g. {example})")
 
 
+def _release(folder: Path) -> None:
+    """A chain left "open for write" by a killed `sample`: plain h5py reads it again (runs/chains.py)."""
+    from bayes_dnlr.runs.chains import release_stale_writer
+
+    release_stale_writer(folder / CHAINS_FILE)
+
+
 def run_folder(arg: str | Path, command: str) -> Path:
     """The run folder for ``command`` (report, compare, export): ``arg`` itself, or the folder the
     config file ``arg`` names."""
     p = Path(arg)
     if p.is_dir():
+        _release(p)
         return p
     expected = (f"{command} takes a run folder or its config file, e.g. {EXAMPLE_RUN} or "
                 f"{EXAMPLE_RUN}/config.yaml")
@@ -64,6 +72,7 @@ def run_folder(arg: str | Path, command: str) -> Path:
         if not folder.is_dir():
             raise RunError(f"{p}: its run folder {folder} does not exist yet: run "
                            f"`python -m bayes_dnlr sample {p}` first")
+        _release(folder)
         return folder
     if p.is_file():
         raise RunError(f"{p}: not a run folder or a config file (.yaml); {expected}")

@@ -144,8 +144,12 @@ def cmd_export(args: argparse.Namespace) -> None:
 
 def cmd_batch(args: argparse.Namespace) -> int:
     from bayes_dnlr.workflows.batch.page import run_campaign
+    from bayes_dnlr.workflows.batch.run import check_jobs
 
-    result = run_campaign(args.inputs, manifest=args.manifest, out=args.out, n_jobs=args.jobs,
+    if args.jobs is not None:
+        check_jobs(args.jobs)
+    result = run_campaign(args.inputs, manifest=args.manifest, out=args.out,
+                          n_jobs=args.jobs if args.jobs is not None else -1,
                           scheduler=args.scheduler, report=args.report, progress=not args.quiet,
                           population=args.population, restart=args.restart)
     print(result.summary())
@@ -273,8 +277,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, default=None,
                    help="folder for results.csv/.parquet, batch.html (and the runs of a manifest); "
                         "default: <configs' common folder>/batch or <manifest folder>/batch-<stem>")
-    p.add_argument("--jobs", type=int, default=-1,
-                   help="local worker processes, one test each (default: all cores)")
+    p.add_argument("--jobs", type=int, default=None,
+                   help="local worker processes, one test each: 1 to 4 per core (default: one per core)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on a Dask cluster: tcp://host:8786, a scheduler file, or 'config' "
                         "(the Dask config's scheduler-address)")

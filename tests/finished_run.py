@@ -20,13 +20,13 @@ TRUTH = {"E": 2854.0, "G": 2.32, "tau_max": 3.15}
 RATE, N = 1e-2, 300
 
 
-def make_finished_run(folder: Path) -> Path:
+def make_finished_run(folder: Path, name: str = "tiny") -> Path:
     from bayes_dnlr.config import load_config
     from bayes_dnlr.model import simulate
     from bayes_dnlr.runs.fit import fit
     from bayes_dnlr.runs.sample import sample
 
-    d = folder / "tiny"
+    d = folder / name
     d.mkdir(parents=True)
     t = np.linspace(0.0, 1.0 / RATE, N)
     eps = RATE * t
@@ -35,7 +35,7 @@ def make_finished_run(folder: Path) -> Path:
     data = np.column_stack([t, eps, s + rng.normal(0, 0.3, N), -0.45 * eps + rng.normal(0, 1e-5, N),
                             -0.5 * eps])
     np.savetxt(d / "tiny.csv", data, delimiter=",", header="t_s,eps,s,e22,e22_half", comments="")
-    (d / "config.yaml").write_text(CONFIG)
+    (d / "config.yaml").write_text(CONFIG.replace("name: tiny", f"name: {name}"))
     cfg = load_config(d / "config.yaml")
     fit(cfg)
     sample(cfg, progress=False)

@@ -185,6 +185,16 @@ def _yaml_cases() -> list[Case]:
              yaml_text=lambda s: s.replace("data:\n", "tests:\n- {name: a, data: {file: test.csv}}\n"
                                            "- {name: b, data: {file: test.csv}, data: {file: x.csv}}\n"
                                            "old_data:\n", 1)),
+        # hostile YAML: refused in bounded time and memory (config/yamlio.py limits)
+        Case("yaml-alias-bomb", "yaml", "error", ("config.yaml", "aliases expand"),
+             yaml_text=lambda s: s + "".join(
+                 f"x{i}: &a{i} [" + ", ".join([f"*a{i - 1}" if i else "l"] * 9) + "]\n" for i in range(9))),
+        Case("yaml-recursive-alias", "yaml", "error", ("config.yaml", "alias refers"),
+             yaml_text=lambda s: s + "loop: &l [1, *l]\n"),
+        Case("yaml-deep-nesting", "yaml", "error", ("config.yaml", "line", "nested deeper"),
+             yaml_text=lambda s: s + "deep: " + "[" * 5000 + "]" * 5000 + "\n"),
+        Case("yaml-too-large", "yaml", "error", ("config.yaml", "bytes"),
+             yaml_text=lambda s: s + "# " + "x" * (1 << 20) + "\n"),
         # awkward but valid YAML
         Case("yaml-bom", "yaml", "accept", yaml_text=lambda s: "\ufeff" + s, commands=("fit",)),
         Case("yaml-crlf", "yaml", "accept", yaml_text=lambda s: s.replace("\n", "\r\n"), commands=("fit",)),
@@ -206,6 +216,9 @@ CONFIG_ERRORS: list[tuple[str, Any, tuple[str, ...]]] = [
     ("data.area0", 0.0, ("data.area0",)),
     ("data.area0", -24.0, ("data.area0",)),
     ("data.area0", "big", ("data.area0",)),
+    ("data.area0", True, ("data.area0", "expected a number", "boolean")),
+    ("data.area0", "24", ("data.area0", "expected a number")),
+    ("model.modes", True, ("model.modes", "whole number", "boolean")),
     ("data.area0", DELETE, ("area0",)),
     ("data.window.strain_max", float("nan"), ("data.window.strain_max", "finite")),
     ("data.window.strain_max", float("inf"), ("data.window.strain_max", "finite")),
@@ -336,6 +349,8 @@ CSV_ERRORS: list[tuple[str, Callable[[str], str | bytes], tuple[str, ...]]] = [
     ("time-all-zero", map_column(T, lambda v: 0.0), ("test.csv", "t_s")),
     ("strain-constant", map_column(EPS, lambda v: 0.01), ("test.csv",)),
     ("html-page", lambda s: "<html><body>404 Not Found</body></html>\n", ("test.csv",)),
+    ("quote-never-closed", lambda s: s.rstrip("\n").rpartition("\n")[0] + '\n"' + s.rstrip("\n")
+     .rpartition("\n")[2] + "\n", ("test.csv", f"line {ROWS + 1}", "quote")),
 ]
 
 # awkward CSV files that are valid, with the note the data layer must give (None: none asked)

@@ -106,8 +106,10 @@ def test_unusable_manifest_stops_the_batch(tmp_path, text, message):
 def test_configs_globs_and_default_out(tmp_path):
     for i in range(3):
         write_case(tmp_path / "runs", f"r{i}", n=50)
-    paths = expand_inputs([str(tmp_path / "runs" / "*" / "config.yaml"),
-                           str(tmp_path / "runs" / "r0" / "config.yaml")])   # duplicates dropped
+    with pytest.raises(BatchError, match="listed twice"):      # a duplicate is said, not dropped
+        expand_inputs([str(tmp_path / "runs" / "*" / "config.yaml"),
+                       str(tmp_path / "runs" / "r0" / "config.yaml")])
+    paths = expand_inputs([str(tmp_path / "runs" / "*" / "config.yaml")])
     assert [p.parent.name for p in paths] == ["r0", "r1", "r2"]
     assert default_out(paths, None) == (tmp_path / "runs" / "batch").resolve()
     assert default_out([], tmp_path / "lab" / "may.csv") == (tmp_path / "lab" / "batch-may").resolve()

@@ -6,7 +6,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
-from bayes_dnlr.config.base import Strict
+from bayes_dnlr.config.base import Strict, Whole
 
 
 class Window(Strict):
@@ -30,13 +30,13 @@ class Columns(Strict):
     """Roles -> CSV header names, or column numbers counted from 1 (within the specimen's column
     group with ``data.specimen``)."""
 
-    time: str | Annotated[int, Field(ge=1)] | None = None
-    force: str | Annotated[int, Field(ge=1)] | None = None
-    eps11: str | Annotated[int, Field(ge=1)] | None = None
-    eps22: str | Annotated[int, Field(ge=1)] | None = None
-    stress: str | Annotated[int, Field(ge=1)] | None = None
-    strain: str | Annotated[int, Field(ge=1)] | None = None
-    extension: str | Annotated[int, Field(ge=1)] | None = None
+    time: str | Annotated[Whole, Field(ge=1)] | None = None
+    force: str | Annotated[Whole, Field(ge=1)] | None = None
+    eps11: str | Annotated[Whole, Field(ge=1)] | None = None
+    eps22: str | Annotated[Whole, Field(ge=1)] | None = None
+    stress: str | Annotated[Whole, Field(ge=1)] | None = None
+    strain: str | Annotated[Whole, Field(ge=1)] | None = None
+    extension: str | Annotated[Whole, Field(ge=1)] | None = None
 
     @model_validator(mode="after")
     def _has_strain(self) -> Columns:
@@ -55,8 +55,8 @@ class Columns(Strict):
 class Rows(Strict):
     """The data rows to read, counted from 1 = the first data row (after header and units rows)."""
 
-    first: int = Field(default=1, ge=1)
-    last: int | None = Field(default=None, ge=1)
+    first: Whole = Field(default=1, ge=1)
+    last: Whole | None = Field(default=None, ge=1)
 
     @model_validator(mode="after")
     def _ordered(self) -> Rows:
@@ -101,9 +101,9 @@ class DataConfig(Strict):
     header: bool | None = Field(default=None, description="null: detected; false: no header row")
     encoding: str = "utf-8"
     rows: Rows = Field(default_factory=Rows)
-    specimen: int | None = Field(default=None, ge=1, description="which specimen of a file with "
+    specimen: Whole | None = Field(default=None, ge=1, description="which specimen of a file with "
                                                                   "several side by side (from 1)")
-    specimen_columns: int | None = Field(default=None, ge=1, description="columns per specimen; "
+    specimen_columns: Whole | None = Field(default=None, ge=1, description="columns per specimen; "
                                                                           "null: detected")
     units: dict[str, str] = Field(default_factory=dict, description="role -> unit, overrides the file")
     strain_unit: Literal["fraction", "percent"] | None = None

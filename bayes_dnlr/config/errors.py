@@ -30,6 +30,15 @@ def _names_a_key(msg: str) -> bool:
     return re.match(r"^(tests\[\d+\]|parameters|noise|truth|data)[.\w\[\]]*: ", msg) is not None
 
 
+def _shown(value: object) -> str:
+    """A value as the user wrote it in YAML: ``true``, not ``True`` (booleans are not numbers)."""
+    if isinstance(value, bool):
+        return f"{str(value).lower()} (a YAML boolean)"
+    if value is None:
+        return "null"
+    return repr(value)
+
+
 def format_errors(err: ValidationError, where: str) -> str:
     entries = []
     for e in err.errors():
@@ -42,8 +51,10 @@ def format_errors(err: ValidationError, where: str) -> str:
             msg = "required key is missing"
         elif e["type"] == "finite_number":
             msg = f"expected a finite number, got {e.get('input')!r}"
-        elif e["type"] in ("int_parsing", "int_from_float"):
-            msg = f"expected a whole number, got {e.get('input')!r}"
+        elif e["type"] in ("int_parsing", "int_from_float", "int_type"):
+            msg = f"expected a whole number, got {_shown(e.get('input'))}"
+        elif e["type"] in ("float_type", "float_parsing"):
+            msg = f"expected a number, got {_shown(e.get('input'))}"
         elif e["type"] in _BOUND_TYPES:
             msg = f"{msg}, got {e.get('input')!r}"
         entries.append((loc, msg))

@@ -8,11 +8,11 @@ from typing import Any, Literal
 
 from pydantic import Field, model_validator
 
-from bayes_dnlr.config.base import Strict
+from bayes_dnlr.config.base import Strict, Whole
 
 
 class ModelConfig(Strict):
-    modes: int = Field(default=50, ge=1, le=1000)
+    modes: Whole = Field(default=50, ge=1, le=1000)
     decades: float = Field(default=6.0, gt=0, le=20)
 
 

@@ -7,21 +7,21 @@ from typing import Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from bayes_dnlr.config.base import Strict
+from bayes_dnlr.config.base import Strict, Whole
 from bayes_dnlr.vocabulary import PARAMETER_NAMES, RELAXATION_PARAMETERS, TENSILE_PARAMETERS
 
 
 class SamplerConfig(Strict):
-    walkers: int = Field(default=32, ge=2)
-    max_steps: int = Field(default=20000, ge=1)
+    walkers: Whole = Field(default=32, ge=2)
+    max_steps: Whole = Field(default=20000, ge=1)
     target_ess: float = Field(default=1000.0, gt=0)
-    seed: int = Field(default=1, ge=0, lt=2**32, description="numpy's RandomState takes 0 <= seed < 2**32")
-    checkpoint_every: int = Field(default=100, ge=1)
+    seed: Whole = Field(default=1, ge=0, lt=2**32, description="numpy's RandomState takes 0 <= seed < 2**32")
+    checkpoint_every: Whole = Field(default=100, ge=1)
     moves: Literal["de-snooker", "stretch", "de"] = Field(
         default="de", description="emcee moves; DEMove alone mixes best here (benchmarks/moves.py)")
     burn_in_tau: float = Field(default=5.0, ge=0, description="burn-in, in autocorrelation times")
     min_tau_multiple: float = Field(default=50.0, gt=0, description="chain length >= this many tau")
-    threads: int | None = Field(
+    threads: Whole | None = Field(
         default=None, ge=1, description="threads of the compiled likelihood (walkers in parallel); "
                                          "null: NUMBA_NUM_THREADS lowered to OMP_NUM_THREADS, which "
                                          "also cap a number given here; the chain does not depend on it")
@@ -29,8 +29,8 @@ class SamplerConfig(Strict):
 
 class FitConfig(Strict):
     method: Literal["lm", "gauss-newton"] = "lm"
-    multistart: int = Field(default=8, ge=0)
-    max_iterations: int = Field(default=200, ge=1)
+    multistart: Whole = Field(default=8, ge=0)
+    max_iterations: Whole = Field(default=200, ge=1)
 
 
 class TruthCorrelated(Strict):
@@ -57,11 +57,11 @@ class TruthConfig(Strict):
     strain_rate: float = Field(gt=0, description="true (Hencky) strain rate of the ramp, 1/s")
     strain_max: float = Field(gt=0, description="Hencky strain at the end of the ramp")
     hold: float = Field(default=0.0, ge=0, description="length of the relaxation hold, s")
-    n_points: int | None = Field(default=None, ge=3)
+    n_points: Whole | None = Field(default=None, ge=3)
     sample_rate: float | None = Field(default=None, gt=0, description="Hz")
     time_jitter: float = Field(default=0.0, ge=0, lt=0.5, description="relative, uniform ±")
     noise: TruthNoise = Field(default_factory=TruthNoise)
-    seed: int = Field(default=0, ge=0, lt=2**32)
+    seed: Whole = Field(default=0, ge=0, lt=2**32)
     layout: Literal["plain", "bluehill", "zwick"] = Field(
         default="plain", description="plain CSV; bluehill: Instron-like metadata block, units row, "
                                      "quoted thousands, strain in %; zwick: ';' and decimal comma, "

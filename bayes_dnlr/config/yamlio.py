@@ -8,6 +8,10 @@ file, line and column, and no silent surprises.
 - A syntax error is one line: file, line, column and what the parser expected.
 - A number in exponent form without a point (``1e12``, ``3e-1``) is a number, as in YAML 1.2:
   YAML 1.1 (PyYAML's default) reads it as a string, and ``sigma0: 3e-1`` would be refused.
+- Bounded work whatever the document: at most MAX_YAML_BYTES of text, MAX_DEPTH levels of nesting
+  and MAX_NODES values once every alias is expanded (an alias bomb, nine levels of nine-fold
+  aliases, would expand to 9**9 values; a recursive alias to infinitely many). Each limit is a
+  one-line error found before the document is walked or built, in time linear in its size.
 """
 
 from __future__ import annotations
@@ -20,9 +24,31 @@ import yaml
 
 from bayes_dnlr.errors import BayesDnlrError
 
+MAX_YAML_BYTES = 1 << 20     # a config with a thousand tests is about 300 kB
+MAX_DEPTH = 32               # a config nests 6 levels (tests[i].noise.discrepancy.amplitude.low)
+MAX_NODES = 100_000          # values of the document with its aliases expanded
+
 
 class Loader(yaml.SafeLoader):
-    """PyYAML's safe loader, with YAML 1.2's floats in exponent form without a point."""
+    """PyYAML's safe loader, with YAML 1.2's floats in exponent form without a point, that stops
+    composing past MAX_DEPTH levels or MAX_NODES values (PyYAML's composer recurses once per level:
+    5000 nested brackets were a RecursionError)."""
+
+    _depth = 0
+    _nodes = 0
+
+    def compose_node(self, parent, index):
+        self._depth += 1
+        self._nodes += 1
+        try:
+            if self._depth > MAX_DEPTH:
+                raise _Limit(f"the document is nested deeper than {MAX_DEPTH} levels (a config nests 6)",
+                             self.peek_event().start_mark)
+            if self._nodes > MAX_NODES:
+                raise _Limit(f"the document holds more than {MAX_NODES} values", self.peek_event().start_mark)
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
 
 
 Loader.add_implicit_resolver(
@@ -34,6 +60,17 @@ class YamlError(BayesDnlrError, ValueError):
     """A YAML file that cannot be read as written; the message names the file and the line."""
 
 
+class _Limit(Exception):
+    """A document beyond the loader's limits (MAX_DEPTH, MAX_NODES), with where it was found."""
+
+    def __init__(self, what: str, mark: yaml.Mark | None = None) -> None:
+        super().__init__(what)
+        self.what, self.mark = what, mark
+
+    def where(self) -> str:
+        return f"line {self.mark.line + 1}, column {self.mark.column + 1}: " if self.mark else ""
+
+
 def read_text(path: Path, what: str = "config file") -> str:
     """The UTF-8 text of ``path``; YamlError (one line) when missing, a folder, unreadable or not UTF-8."""
     path = Path(path)
@@ -42,9 +79,15 @@ def read_text(path: Path, what: str = "config file") -> str:
     if not path.exists():
         raise YamlError(f"{path}: {what} not found")
     try:
+        if path.stat().st_size > MAX_YAML_BYTES:      # before reading a file that is far too large
+            raise YamlError(f"{path}: {path.stat().st_size} bytes, larger than the {MAX_YAML_BYTES} "
+                            f"bytes a {what} may have; is it the right file?")
         data = path.read_bytes()
     except OSError as err:
         raise YamlError(f"{path}: cannot read the {what} ({err.strerror or err})") from None
+    if len(data) > MAX_YAML_BYTES:
+        raise YamlError(f"{path}: {len(data)} bytes, larger than the {MAX_YAML_BYTES} bytes a {what} "
+                        "may have; is it the right file?")
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as err:
@@ -92,23 +135,65 @@ def _duplicates(node: yaml.Node, path: str, found: list[str]) -> None:
             _duplicates(item, f"{path}[{i}]", found)
 
 
+def _expanded(root: yaml.Node) -> None:
+    """Refuse a document whose aliases expand it beyond MAX_NODES values or MAX_DEPTH levels, or
+    that refers to itself (``a: &x [*x]``). Each node is measured once (an iterative walk with the
+    sizes of shared nodes remembered), so an alias bomb costs what its text costs."""
+    size: dict[int, int] = {}
+    depth: dict[int, int] = {}
+    open_: set[int] = set()
+    stack: list[tuple[yaml.Node, bool]] = [(root, False)]
+    while stack:
+        node, done = stack.pop()
+        key = id(node)
+        children = ([n for pair in node.value for n in pair] if isinstance(node, yaml.MappingNode)
+                    else list(node.value) if isinstance(node, yaml.SequenceNode) else [])
+        if done:
+            open_.discard(key)
+            size[key] = 1 + sum(size[id(c)] for c in children)
+            depth[key] = 1 + max((depth[id(c)] for c in children), default=0)
+            if size[key] > MAX_NODES:
+                raise _Limit(f"the aliases expand the document to more than {MAX_NODES} values (aliases "
+                             "repeated inside aliased lists); write the values out",
+                             node.start_mark)
+            if depth[key] > MAX_DEPTH:
+                raise _Limit(f"the aliases nest the document deeper than {MAX_DEPTH} levels", node.start_mark)
+            continue
+        if key in size:
+            continue
+        if key in open_:
+            raise _Limit("an alias refers to the list or mapping that contains it", node.start_mark)
+        open_.add(key)
+        stack.append((node, True))
+        stack.extend((c, False) for c in children if id(c) not in size)
+
+
 def parse_yaml(text: str, where: str) -> Any:
     """The YAML document in ``text`` (None when empty); YamlError naming ``where`` and the line for
-    a syntax error or a duplicated key."""
+    a syntax error, a duplicated key or a document beyond the limits (see the module doc)."""
+    if len(text) > MAX_YAML_BYTES:
+        raise YamlError(f"{where}: {len(text)} characters, larger than the {MAX_YAML_BYTES} a YAML "
+                        "document may have")
     try:
-        node = yaml.compose(text, Loader=Loader)
+        loader = Loader(text)               # refuses control characters (a NUL byte) at once
     except yaml.YAMLError as err:
         raise YamlError(f"{where}: {_mark(err)}not valid YAML: {_describe(err)}") from None
-    if node is None:
-        return None
-    found: list[str] = []
-    _duplicates(node, "", found)
-    if found:
-        raise YamlError(f"{where}: {found[0]}")
     try:
-        return yaml.load(text, Loader=Loader)  # noqa: S506 - a safe loader
-    except yaml.YAMLError as err:   # e.g. a tag the safe loader does not construct
+        node = loader.get_single_node()
+        if node is None:
+            return None
+        _expanded(node)
+        found: list[str] = []
+        _duplicates(node, "", found)
+        if found:
+            raise YamlError(f"{where}: {found[0]}")
+        return loader.construct_document(node)
+    except yaml.YAMLError as err:   # syntax, or a tag the safe loader does not construct
         raise YamlError(f"{where}: {_mark(err)}not valid YAML: {_describe(err)}") from None
+    except _Limit as err:
+        raise YamlError(f"{where}: {err.where()}not read: {err.what}") from None
+    finally:
+        loader.dispose()
 
 
 def load_yaml(path: str | Path, what: str = "config file") -> Any:

@@ -14,6 +14,7 @@ import codecs
 import csv
 import io
 import math
+import re
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -355,10 +356,16 @@ def _parse(src: Source, layout: Layout, first: int, last: int, cols: list[int]
     stream.seek(int(src.starts[first - 1]))
     n = last - first + 1
     sep = r"\s+" if layout.delimiter == "whitespace" else layout.delimiter
-    df = pd.read_csv(stream, nrows=n, sep=sep, header=None, names=range(layout.n_fields),
-                     usecols=cols, decimal=layout.decimal, quotechar='"', skip_blank_lines=False,
-                     keep_default_na=False, na_values=sorted(MISSING), skipinitialspace=True,
-                     low_memory=False, engine="c", encoding="utf-8")
+    try:
+        df = pd.read_csv(stream, nrows=n, sep=sep, header=None, names=range(layout.n_fields),
+                         usecols=cols, decimal=layout.decimal, quotechar='"', skip_blank_lines=False,
+                         keep_default_na=False, na_values=sorted(MISSING), skipinitialspace=True,
+                         low_memory=False, engine="c", encoding="utf-8")
+    except (pd.errors.ParserError, ValueError) as err:   # e.g. a quote never closed
+        row = re.search(r"row (\d+)", str(err))
+        where = f"line {first + int(row.group(1))}" if row else f"lines {first}-{last}"
+        raise DataError(f"{src.path}: {where}: the cells cannot be split ({str(err).splitlines()[0]}); "
+                        'a quote (") without its closing quote?') from None
     if len(df) != n:
         raise DataError(f"{src.path}: lines {first}-{last}: {len(df)} rows read from {n} lines "
                         f"(a quoted cell spans several lines?)")

@@ -23,8 +23,10 @@ from pathlib import Path
 from typing import Any
 
 from bayes_dnlr.errors import RunError
+from bayes_dnlr.fileset import publishing
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pm
 from bayes_dnlr.report.tables import Table, deborah
+from bayes_dnlr.runs.folder import write_atomic
 from bayes_dnlr.runs.layout import SUMMARY_FILE
 from bayes_dnlr.runs.results import RunResults, load_run
 from bayes_dnlr.runs.testset import plain_names
@@ -256,9 +258,9 @@ def compare_runs(run_dirs: Sequence[Path | str], out_dir: Path | str | None = No
                   key=lambda r: (r["strain_rate"] is None, r["strain_rate"] or 0.0, r["run"]))
     comp = Comparison(rows, consistency_of_e(rows), notes, rate=_rate_of_runs(runs))
     out = Path(out_dir) if out_dir is not None else default_out_dir(run_dirs)
-    out.mkdir(parents=True, exist_ok=True)
     md, cs = out / "compare.md", out / "compare.csv"
-    md.write_text(comp.markdown(), encoding="utf-8")
-    cs.write_text(comp.csv(), encoding="utf-8")
+    with publishing(out, "compare", [md.name, cs.name]):        # the two tables as one set
+        write_atomic(md, comp.markdown())
+        write_atomic(cs, comp.csv())
     comp.written = [md, cs]
     return comp

@@ -6,7 +6,15 @@ from __future__ import annotations
 from pathlib import Path
 
 from bayes_dnlr.runs.folder import find_config
-from bayes_dnlr.runs.layout import REPORT_FILE, RESOLVED_CONFIG, RESOLVED_CONFIG_BESIDE_SOURCE, RESULT_FILES
+from bayes_dnlr.runs.layout import (
+    FIGURES_DIR,
+    REPORT_FILE,
+    RESOLVED_CONFIG,
+    RESOLVED_CONFIG_BESIDE_SOURCE,
+    RESULT_FILES,
+)
+
+REPORT_SET = [REPORT_FILE, f"{FIGURES_DIR}/*.png"]       # published together (bayes_dnlr/fileset.py)
 
 
 def report_inputs(run_dir: Path) -> list[Path]:
@@ -25,7 +33,11 @@ def report_inputs(run_dir: Path) -> list[Path]:
 
 def stale_inputs(run_dir: Path) -> list[Path] | None:
     """None when report.html is missing or cannot be judged (build it); else the inputs newer than
-    it (an empty list: the report is current)."""
+    it (an empty list: the report is current). A report whose writer was killed is rolled back
+    first (the one before it is judged)."""
+    from bayes_dnlr.fileset import recover
+
+    recover(Path(run_dir), "report", REPORT_SET)
     report = Path(run_dir) / REPORT_FILE
     inputs = report_inputs(run_dir)
     if not report.is_file() or not inputs:

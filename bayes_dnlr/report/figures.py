@@ -17,6 +17,7 @@ rendering for bbox_inches="tight"); neither ArviZ nor xarray is imported (docs/r
 from __future__ import annotations
 
 import math
+import os
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -86,13 +87,15 @@ def save_figure(fig, path: Path) -> Path:
     w, h = fig.canvas.get_width_height()
     x0, x1 = (bbox.x0 - PAD_INCHES) * DPI, (bbox.x1 + PAD_INCHES) * DPI
     y0, y1 = (bbox.y0 - PAD_INCHES) * DPI, (bbox.y1 + PAD_INCHES) * DPI
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")   # replaced in one step: never half a PNG
     if x0 >= 0 and y0 >= 0 and x1 <= w and y1 <= h:
         rgba = np.asarray(renderer.buffer_rgba())
         top, bottom = int(math.floor(h - y1)), int(math.ceil(h - y0))
         crop = rgba[max(top, 0):min(bottom, h), max(int(math.floor(x0)), 0):min(int(math.ceil(x1)), w)]
-        mimage.imsave(path, crop, format="png", dpi=DPI)
+        mimage.imsave(tmp, crop, format="png", dpi=DPI)
     else:
-        fig.savefig(path, dpi=DPI, bbox_inches="tight")
+        fig.savefig(tmp, dpi=DPI, bbox_inches="tight", format="png")
+    os.replace(tmp, path)
     pyplot().close(fig)
     return path
 

@@ -23,6 +23,7 @@ from bayes_dnlr.report import tables as tb
 from bayes_dnlr.report import views
 from bayes_dnlr.report.page_parts import CSS, bullets, img, para
 from bayes_dnlr.runs.curves import N_DRAWS, model_curves, run_white_curve
+from bayes_dnlr.runs.folder import write_atomic
 from bayes_dnlr.runs.layout import (
     CHAINS_FILE,
     FIGURES_DIR,
@@ -113,7 +114,7 @@ def build_report(run_dir: Path | str) -> Path:
         from bayes_dnlr.report.joint import build_joint_report
 
         out = run_dir / REPORT_FILE
-        out.write_text(build_joint_report(run, figdir, t0), encoding="utf-8")
+        write_atomic(out, build_joint_report(run, figdir, t0))
         return out
     std = None
     if run.test is not None:
@@ -310,5 +311,5 @@ def build_report(run_dir: Path | str) -> Path:
             f"<title>{html.escape(run.name)} report</title><style>{CSS}</style></head><body>"
             + "\n".join(sec) + "</body></html>")
     out = run_dir / REPORT_FILE
-    out.write_text(page, encoding="utf-8")
+    write_atomic(out, page)
     return out

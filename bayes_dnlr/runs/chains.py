@@ -33,6 +33,12 @@ A write that fails (disk full) abandons the writer as a kill would: HDF5's later
 to an anonymous in-memory copy, and a DiskFullError (one line) is raised.
 
 ``KILL_POINTS`` name the instants tests/test_store_crash.py kills the writer at.
+
+**Plain h5py after a kill.** A SWMR writer marks the file "open for write" in its superblock (the
+consistency flags); a killed one leaves the mark, and HDF5 then refuses a plain
+``h5py.File(path, "r")`` ("already open for write ... h5clear"). ``release_stale_writer`` clears the
+mark, as ``h5clear -s`` does, when no `sample` holds the run's lock: the package's readers
+(``read_run``, ``read_attrs``), `sample` and the commands that take a run folder call it first.
 """
 
 from __future__ import annotations
@@ -51,6 +57,10 @@ import numpy as np
 
 from bayes_dnlr.diskio import ensure_free, fsync_dir, kill_point, storage_error
 from bayes_dnlr.inference.mcmc.state import SamplerState
+from bayes_dnlr.runs.chain_flags import release_stale_writer, write_flags
+
+__all__ = ["ChainWriter", "SamplerState", "StoredRun", "read_attrs", "read_run", "release_stale_writer",
+           "write_flags"]
 
 FORMAT = "bayes_dnlr-chains/2"
 READABLE_FORMATS = ("bayes_dnlr-chains/1", FORMAT)   # /1: finished state in attrs, no /finish
@@ -176,6 +186,7 @@ def read_run(path: Path | str) -> StoredRun:
     """Read the committed chain and the last checkpoint's state (works while a writer appends, and
     after a writer was killed at any instant)."""
     path = Path(path)
+    release_stale_writer(path)
     with _open_reader(path) as f:
         attrs, k = _read_attrs(f, path)
         ck = f[_CK]
@@ -194,6 +205,7 @@ def read_run(path: Path | str) -> StoredRun:
 def read_attrs(path: Path | str) -> dict[str, Any]:
     """The file's metadata only (cheap)."""
     path = Path(path)
+    release_stale_writer(path)
     with _open_reader(path) as f:
         return _read_attrs(f, path)[0]
 

@@ -1,4 +1,4 @@
-"""The checks of a sampled run, and the verdict they decide: summary.json's ``checks`` block
+"""The checks of a sampled run, and the verdict they decide: the ``checks`` block of summary.json
 (docs/sampling.md, "Checks and verdict").
 
 - ``predictive_coverage``: the share of the data inside the 90 % posterior predictive band, overall
@@ -298,7 +298,7 @@ def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[boo
 def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, names: list[str],
                priors, fit: dict[str, Any], summary: dict[str, Any],
                sigma0: dict[str, float]) -> dict[str, Any]:
-    """summary.json's ``checks`` block of a sampled run (``draws`` (steps, walkers, ndim) kept)."""
+    """The ``checks`` block of summary.json for a sampled run (``draws`` (steps, walkers, ndim) kept)."""
     noise = layout.expand(summary.get("noise")) if layout.plain else (summary.get("noise") or {}).get(
         "tests") or {}
     standards = layout.expand(summary.get("standards"))

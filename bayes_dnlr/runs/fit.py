@@ -16,17 +16,16 @@ from typing import Any
 from bayes_dnlr.config import Config
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.inference.lsq.run_fit import RunFit, fit_run
+from bayes_dnlr.runs import identity
 from bayes_dnlr.runs.folder import (
     check_output_dir,
-    config_digest,
     discard_if_empty,
     prepare_run_dir,
     resolved_config_path,
-    section_digests,
     write_json,
 )
 from bayes_dnlr.runs.layout import FIT_FILE
-from bayes_dnlr.runs.testset import data_fingerprint, load_tests, sections
+from bayes_dnlr.runs.testset import load_tests, sections
 
 
 def _fit_path(run_dir: Path) -> Path:
@@ -46,22 +45,14 @@ def load_fit(run_dir: str | Path) -> dict[str, Any]:
 
 def _stale_reason(saved: Mapping[str, Any], cfg: Config, sha256: str) -> str | None:
     """Why a saved fit.json does not belong to this config and data (None when it does)."""
-    reasons = []
-    secs = sections(cfg)
-    if saved.get("config_digest") != config_digest(cfg, secs):
-        old = saved.get("config_sections") or {}
-        diff = [s for s, d in section_digests(cfg, secs).items() if old.get(s) != d]
-        reasons.append(f"a different config (sections {', '.join(diff) or secs})")
-    if saved.get("data_sha256") != sha256:
-        reasons.append("a different data file (sha256 differs)")
-    return " and ".join(reasons) or None
+    return identity.fit_stale_reason(saved, cfg, sections(cfg), sha256, cfg.run_dir)
 
 
 def fit_is_current(cfg: Config, data_sha256: str | None = None) -> bool:
     """True when ``cfg.run_dir/fit.json`` exists and was made from this config and data file
     (``data_sha256``: the data file's hash when the caller already has it)."""
     path = _fit_path(cfg.run_dir)
-    sha = data_sha256 or data_fingerprint(cfg)
+    sha = data_sha256 or identity.data_sha(cfg)
     if not path.is_file() or sha is None:
         return False
     try:
@@ -94,25 +85,26 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
     t0 = time.perf_counter()
     if write:
         check_output_dir(cfg.run_dir, writable=True)
+    before = identity.stat_data(cfg) if test is None else None   # mtime recorded only for our read
     if test is None:
         test = load_tests(cfg)
     path = _fit_path(cfg.run_dir)
     if write and not overwrite and path.exists():
         reason = stale_fit_reason(cfg, test.sha256)
         if reason is not None:
-            raise RunError(f"{path} exists and was made from {reason}; pass --force "
-                           "(overwrite=True) to replace it")
+            raise RunError(f"{path} exists and was made from {reason}; `fit --force` replaces it, "
+                           "or set output.dir to fit into another run directory and keep it")
     result = fit_run(cfg, test.tests, plain=test.plain)
     secs = sections(cfg)
-    result.config_digest = config_digest(cfg, secs)
-    result.config_sections = section_digests(cfg, secs)
+    result.config_digest = identity.config_digest(cfg, secs)
+    result.config_sections = identity.section_digests(cfg, secs)
     result.data_sha256 = test.sha256
     result.wall_time_s = time.perf_counter() - t0
     if write:
         created = not cfg.run_dir.exists()
         try:
             prepare_run_dir(cfg)
-            write_json(path, result.to_dict())
+            write_json(path, {**result.to_dict(), "identity": identity.fit_record(cfg, secs, test, before)})
         except BaseException:
             if created:     # leave no half-made run directory (a config without its fit.json)
                 resolved_config_path(cfg).unlink(missing_ok=True)

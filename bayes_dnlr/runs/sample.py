@@ -40,7 +40,8 @@ from bayes_dnlr.inference.mcmc.stopping import (
 )
 from bayes_dnlr.inference.posterior.priors import build_priors
 from bayes_dnlr.interrupt import Interrupted
-from bayes_dnlr.runs.chains import ChainWriter, StoredRun, read_attrs, read_run
+from bayes_dnlr.runs import identity
+from bayes_dnlr.runs.chains import ChainWriter, StoredRun, read_attrs, read_run, release_stale_writer
 from bayes_dnlr.runs.checks import run_checks
 from bayes_dnlr.runs.folder import (
     check_output_dir,
@@ -49,7 +50,6 @@ from bayes_dnlr.runs.folder import (
     make_dir,
     prepare_run_dir,
     resolved_config_text,
-    section_digests,
 )
 from bayes_dnlr.runs.layout import CHAINS_FILE, FIT_FILE, POSTERIOR_FILE, SAMPLE_LOCK, SUMMARY_FILE
 from bayes_dnlr.runs.lock import run_lock
@@ -65,12 +65,12 @@ from bayes_dnlr.runs.outputs import (
 )
 from bayes_dnlr.runs.records import FitRecord
 from bayes_dnlr.runs.target import build_target
-from bayes_dnlr.runs.testset import TestSet, load_tests, sections
+from bayes_dnlr.runs.testset import TestSet, load_tests
 
 # config sections that change the posterior or the chain; max_steps, target_ess, checkpoint_every,
 # burn_in_tau and min_tau_multiple only decide how long to sample and what to keep.
-POSTERIOR_SECTIONS = ("data", "model", "parameters", "noise")
-SAMPLER_KEYS = ("walkers", "seed", "moves")
+POSTERIOR_SECTIONS = identity.CHAIN_SECTIONS
+SAMPLER_KEYS = identity.SAMPLER_KEYS
 
 
 # ---------------------------------------------------------------- configuration
@@ -87,31 +87,9 @@ def check_sampler(cfg: Config, names: list[str]) -> None:
 
 
 def fingerprint_parts(cfg: Config, data_sha256: str) -> dict[str, str]:
-    """Digests of what the chain depends on: config sections, sampler walkers/seed/moves, data file."""
-    parts = section_digests(cfg, sections(cfg, POSTERIOR_SECTIONS))
-    sampler = cfg.sampler.model_dump(mode="json")
-    parts["sampler"] = digest({k: sampler[k] for k in SAMPLER_KEYS})
-    parts["data file"] = data_sha256
-    return parts
-
-
-def stale_reason(attrs: dict[str, Any], parts: dict[str, str]) -> str | None:
-    """Why a stored chain does not belong to this config and data (None when it does)."""
-    try:
-        old = json.loads(attrs.get("fingerprint_parts", "{}"))
-    except (TypeError, json.JSONDecodeError):
-        old = {}
-    changed = [k for k, v in parts.items() if old.get(k) != v]
-    if not changed:
-        return None
-    what = []
-    sections = [("sampler." + "/".join(SAMPLER_KEYS) if k == "sampler" else k)
-                for k in changed if k != "data file"]
-    if sections:
-        what.append(f"config section(s) {', '.join(sections)} changed")
-    if "data file" in changed:
-        what.append("the data file changed (sha256 differs)")
-    return " and ".join(what)
+    """Digests of what the chain depends on: config sections, sampler walkers/seed/moves, data file
+    (runs/identity.py)."""
+    return identity.chain_parts(cfg, data_sha256)
 
 
 # ---------------------------------------------------------------- helpers
@@ -157,11 +135,12 @@ def sample(cfg: Config, *, restart: bool = False, progress: bool = True,
     build_priors(cfg)               # validate the model priors early
     make_moves(cfg.sampler.moves)
     check_output_dir(cfg.run_dir, writable=False)
+    before = identity.stat_data(cfg)
     test = load_tests(cfg)
     created = make_dir(cfg.run_dir)
     try:
         with _run_lock(cfg.run_dir):
-            post = _sample(cfg, test, restart=restart, progress=progress)
+            post = _sample(cfg, test, restart=restart, progress=progress, before=before)
     except BaseException:
         if created:
             discard_if_empty(cfg.run_dir)   # nothing half-made is left by a failed first command
@@ -194,41 +173,45 @@ def _current_fit(cfg: Config, test, *, replace: bool, progress: bool) -> dict[st
             raise StaleRunError(
                 f"{path} was made from {reason}, and `sample` does not replace a fit silently. Redo "
                 f"the fit with `python -m bayes_dnlr fit --force {config}`, then run `sample` again "
-                f"({chain}); or `sample --restart`, which redoes the fit and also discards this run's "
-                "chain")
+                f"({chain}); or set output.dir to work in another run directory; or `sample "
+                "--restart`, which redoes the fit and also discards this run's chain")
         if progress:
             print("fit.json missing or stale: running the least-squares fit first", file=sys.stderr)
         run_fit(cfg, overwrite=replace, test=test)
     return load_fit(cfg.run_dir)
 
 
-def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool) -> Posterior:
+def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before=None) -> Posterior:
     run_dir = cfg.run_dir
     chains = run_dir / CHAINS_FILE
     parts = fingerprint_parts(cfg, test.sha256)
     fp = digest(parts)
+    record = identity.data_record(cfg, test, before)
     sc = cfg.sampler
 
+    release_stale_writer(chains, lock_held=True)    # plain h5py reads it again, whatever follows
     stored: StoredRun | None = None
     if chains.exists() and restart:
         _remove_outputs(run_dir)
     elif chains.exists():
         try:
             attrs = read_attrs(chains)
-            reason = stale_reason(attrs, parts)
+            reason = identity.chain_stale_reason(attrs, cfg, test.sha256, run_dir)
         except OSError as err:
-            raise StaleRunError(f"{chains}: cannot read the stored chain ({err}); sample --restart "
-                           "(restart=True) discards it and starts again") from None
+            raise StaleRunError(f"{chains}: cannot read the stored chain ({err}); `sample --restart` "
+                                "discards it and starts again") from None
         if reason is not None:
-            raise StaleRunError(f"{chains} was sampled from another config or data: {reason}. Refusing to "
-                           "mix chains; sample --restart (restart=True) discards it and starts again, "
-                           "or set output.dir to sample into another run directory")
+            raise StaleRunError(f"{chains} was sampled from another config or data: {reason}. The chain "
+                                "is kept, not mixed with new steps: set output.dir to sample these "
+                                "inputs into another run directory beside it, or `sample --restart` "
+                                "discards it and starts again")
+        fp = str(attrs.get("fingerprint") or fp)      # a chain of the previous form keeps its own
         try:
             stored = read_run(chains)
         except OSError as err:
-            raise StaleRunError(f"{chains}: no usable checkpoint ({err}); sample --restart discards "
+            raise StaleRunError(f"{chains}: no usable checkpoint ({err}); `sample --restart` discards "
                                 "it") from None
-        done = _finished_result(cfg, test, stored, fp)
+        done = _finished_result(cfg, test, stored, fp, record)
         if done is not None:
             return done
 
@@ -243,8 +226,9 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool) -> Pos
     if stored is not None and (stored.names != names or [bool(v) for v in stored.attrs.get(
             "log_space", [])] != [bool(v) for v in priors.log_space]):
         raise StaleRunError(f"{chains} holds parameters {stored.names} sampled in other coordinates "
-                       f"(made by bayes_dnlr {stored.attrs.get('version')}); it cannot be continued: "
-                       "sample --restart discards it and starts again")
+                            f"(made by bayes_dnlr {stored.attrs.get('version')}); it cannot be continued "
+                            "and is kept: set output.dir to sample into another run directory, or "
+                            "`sample --restart` discards it and starts again")
 
     walkers, ndim = sc.walkers, len(names)
     if stored is None:
@@ -254,6 +238,7 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool) -> Pos
             "names": names, "log_space": [bool(v) for v in priors.log_space], "walkers": walkers,
             "ndim": ndim, "config": resolved_config_text(cfg), "fingerprint": fp,
             "fingerprint_parts": json.dumps(parts), "data_sha256": test.sha256,
+            "identity": identity.chain_record(cfg, test, before),
             "data_file": str(test.path), "version": _version(), "modes": cfg.model.modes,
             "decades": cfg.model.decades, "moves": sc.moves, "seed": sc.seed,
             "sigma0": _sigma0_attr(sigma0), "sigma0_source": json.dumps(sigma0_source),
@@ -299,7 +284,7 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool) -> Pos
     run = read_run(chains)
     post = _write_result(cfg, run, fit, conv, reason, fp, test, sigma0_source,
                          wall_time=elapsed, store_time=store_time, evals=evals0 + out.evals,
-                         check_time=out.check_time)
+                         check_time=out.check_time, record=record)
     # where a call's time went (benchmarks/sample_command.py): the fit (or reading fit.json), the
     # sampling loop, and the outputs (finishing chains.h5, statistics, posterior.nc, summary.json)
     post.extras["timing"] = {"fit_s": t_fit, "loop_s": out.sampling_time,
@@ -355,7 +340,8 @@ def _version() -> str:
     return __version__
 
 
-def _finished_result(cfg: Config, test, stored: StoredRun, fp: str) -> Posterior | None:
+def _finished_result(cfg: Config, test, stored: StoredRun, fp: str,
+                     record: dict[str, Any] | None = None) -> Posterior | None:
     """For a finished run whose stopping rule still holds: its Posterior (outputs rewritten only
     when missing or made with other settings). None when sampling must continue."""
     if not stored.finished:
@@ -378,14 +364,15 @@ def _finished_result(cfg: Config, test, stored: StoredRun, fp: str) -> Posterior
     fit = _current_fit(cfg, test, replace=False, progress=False)
     post = _write_result(cfg, stored, fit, conv, reason, fp, test,
                          _json_attr(stored.attrs.get("sigma0_source", "")), wall_time=stored.elapsed,
-                         store_time=stored.store_time, evals=stored.n_evals)
+                         store_time=stored.store_time, evals=stored.n_evals, record=record)
     post.note = note + "; summary.json and posterior.nc rewritten from the chain"
     return post
 
 
 def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Convergence | None,
                   reason: str | None, fp: str, test, sigma0_source: str, *, wall_time: float,
-                  store_time: float, evals: int, check_time: float | None = None) -> Posterior:
+                  store_time: float, evals: int, check_time: float | None = None,
+                  record: dict[str, Any] | None = None) -> Posterior:
     """posterior.nc and summary.json from the stored chain. ``wall_time``: the sampling loops
     (all sessions), ``store_time`` the checkpoint writes inside them, ``check_time`` the checks of
     the stopping rule in the last session (None: not measured)."""
@@ -420,6 +407,7 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
         "log_prob_evals": int(evals), "log_prob_evals_per_s": evals / sampling,
         "check_time_s": check_time,
         "settings": stopping_settings(cfg), "fingerprint": fp, "data_sha256": test.sha256,
+        "identity": record if record is not None else identity.data_record(cfg, test, None),
         "version": _version(),
     }
     attrs = {"burn_in": int(burn), "stop_reason": reason, "walkers": int(run.chain.shape[1]),

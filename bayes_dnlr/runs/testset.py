@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from bayes_dnlr.config import Config
-from bayes_dnlr.digests import digest, file_sha256
+from bayes_dnlr.digests import digest
 
 SECTIONS = ("data", "model", "parameters", "noise", "fit")
 
@@ -58,13 +58,3 @@ def load_tests(cfg: Config) -> TestSet:
     from bayes_dnlr.data import load_test
 
     return TestSet({t: load_test(cfg.for_test(t)) for t in cfg.test_names}, plain_names(cfg))
-
-
-def data_fingerprint(cfg: Config) -> str | None:
-    """``TestSet.sha256`` without loading the data (None when a data file is missing)."""
-    paths = [c.data_path for c in cfg.test_configs()]
-    if not all(p.is_file() for p in paths):
-        return None
-    if plain_names(cfg):
-        return file_sha256(paths[0])
-    return digest(dict(zip(cfg.test_names, (file_sha256(p) for p in paths), strict=True)))

@@ -30,10 +30,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from bayes_dnlr.config import Config, ConfigError, load_config, parse_config
-from bayes_dnlr.config.yamlio import YamlError, load_yaml
+from bayes_dnlr.config.yamlio import YamlError, load_yaml, parse_yaml
 from bayes_dnlr.errors import BayesDnlrError
 
 RUNS_FOLDER = "runs"
@@ -71,26 +69,32 @@ def _sanitize(text: str) -> str:
 
 
 def expand_inputs(patterns: list[str]) -> list[Path]:
-    """Config paths from paths and glob patterns (``runs/*/config.yaml``), in the given order."""
-    paths: list[Path] = []
+    """Config paths from paths and glob patterns (``runs/*/config.yaml``), in the given order. A
+    config named twice (two spellings, or a file a pattern matches again) is an error: it would run
+    once, and the batch would not say which of the two was meant."""
+    paths: list[tuple[Path, str]] = []
     for pat in patterns:
         p = Path(pat)
         if p.is_file():
-            paths.append(p)
+            paths.append((p, pat))
             continue
         if p.is_dir():
             raise BatchError(f"{pat}: a folder; give config files (e.g. {pat}/*/config.yaml)")
         found = sorted(glob.glob(pat, recursive=True))
         if not found:
             raise BatchError(f"{pat}: no such config file (and no file matches it as a pattern)")
-        paths += [Path(f) for f in found if Path(f).is_file()]
-    seen: set[Path] = set()
+        paths += [(Path(f), pat) for f in found if Path(f).is_file()]
+    seen: dict[Path, str] = {}
     unique = []
-    for p in paths:
+    for p, given in paths:
         r = p.resolve()
-        if r not in seen:
-            seen.add(r)
-            unique.append(p)
+        if r in seen:
+            first = seen[r]
+            also = f"'{first}' and '{given}'" if first != given else f"'{given}' (twice)"
+            raise BatchError(f"{p}: listed twice, as {also}; give each config once (the batch runs "
+                             "each test once)")
+        seen[r] = given
+        unique.append(p)
     return unique
 
 
@@ -149,8 +153,8 @@ def parse_cell(text: str) -> Any:
         except ValueError:
             pass
     try:
-        value = yaml.safe_load(s)
-    except yaml.YAMLError:
+        value = parse_yaml(s, "manifest cell")     # the config's loader: bounded depth and aliases
+    except YamlError:
         return s
     return value if isinstance(value, dict | list | bool) or value is None else s
 

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr import __version__
+from bayes_dnlr.fileset import publishing
 from bayes_dnlr.numbers import fmt, pm
 from bayes_dnlr.report.page_parts import CSS
 from bayes_dnlr.runs.layout import FIGURES_DIR
@@ -36,7 +37,7 @@ from bayes_dnlr.workflows.batch.manifest import (
 )
 from bayes_dnlr.workflows.batch.pooling import PopulationStep
 from bayes_dnlr.workflows.batch.population_step import population_step, section
-from bayes_dnlr.workflows.batch.run import BatchResult, run_batch
+from bayes_dnlr.workflows.batch.run import BATCH_SET, BatchResult, run_batch, write_table
 
 PAGE = "batch.html"
 FIGURE = "batch_E.png"
@@ -84,13 +85,21 @@ def run_campaign(inputs: list[str], *, manifest: Path | None = None, out: Path |
         threading.Thread(target=_warm_up_the_end, daemon=True).start()
     from bayes_dnlr.report import build_report
 
-    result = run_batch(jobs, out, n_jobs=n_jobs, scheduler=scheduler,
-                       report=build_report if report else None, progress=progress)
-    step = population_step(result, enabled=population)
-    result.notes.append(step.line())
-    result.written += [f for f in step.files if step.status == "done"]
-    result.written.append(write_page(result, step))
-    return result
+    def publish(result: BatchResult, interrupted: bool) -> list[Path]:
+        """The table, the population and the page as one set (after Ctrl-C: the table of what
+        finished and its page, the population left as it was)."""
+        with publishing(result.out, "batch", BATCH_SET):
+            written = write_table(result.rows, result.out)
+            step = None
+            if not interrupted:
+                step = population_step(result, enabled=population)
+                result.notes.append(step.line())
+                written += [f for f in step.files if step.status == "done"]
+            written.append(write_page(result, step))
+        return written
+
+    return run_batch(jobs, out, n_jobs=n_jobs, scheduler=scheduler,
+                     report=build_report if report else None, progress=progress, publish=publish)
 
 
 # ---------------------------------------------------------------- numbers

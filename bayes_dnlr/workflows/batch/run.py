@@ -32,7 +32,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from bayes_dnlr.digests import digest
 from bayes_dnlr.errors import BayesDnlrError, StaleRunError
 from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
 from bayes_dnlr.runs.layout import FIT_FILE, REPORT_FILE, SUMMARY_FILE
@@ -50,6 +49,10 @@ STATS = ("mean", "sd", "median", "hdi90_lo", "hdi90_hi", "ess_bulk", "ess_tail",
 ORDER = (*PARAMETER_NAMES, "sigma0", *DISCREPANCY_PARAMETERS)
 
 Reporter = Callable[[Path], Any]
+# the batch's outputs in --out, published as one set (bayes_dnlr/fileset.py): a killed batch leaves
+# the table, page and population of the run before it, or all of this run's
+BATCH_SET = ["results.csv", "results.parquet", "batch.html", "figures/batch_E.png", "population.json",
+             "population.md", "population.png"]
 
 
 @dataclass
@@ -104,6 +107,10 @@ def single_threaded() -> Iterator[None]:
 
 
 def _stale_report(run_dir: Path) -> bool:
+    from bayes_dnlr.fileset import recover
+    from bayes_dnlr.report.current import REPORT_SET
+
+    recover(run_dir, "report", REPORT_SET)          # a report killed while written: the one before
     report, summary = run_dir / REPORT_FILE, run_dir / SUMMARY_FILE
     return not report.is_file() or report.stat().st_mtime < summary.stat().st_mtime
 
@@ -142,16 +149,18 @@ def run_job(job: Job, report: Reporter | None = None) -> dict[str, Any]:
     return row
 
 
-def fingerprint(cfg) -> dict[str, Any]:
-    """What a finished test's outputs depend on: the chain's fingerprint (config sections, sampler
-    walkers/seed/moves, data file sha256) and the settings that decide its length and burn-in."""
-    from bayes_dnlr.runs.fit import data_fingerprint
-    from bayes_dnlr.runs.sample import fingerprint_parts, stopping_settings
+def fingerprint(cfg, summary: dict[str, Any] | None = None) -> dict[str, Any]:
+    """What a finished test's outputs depend on: the chain's fingerprint (config values, sampler
+    walkers/seed/moves, data file content: runs/identity.py) and the settings that decide its length
+    and burn-in. ``summary``: the run's summary.json, whose record spares hashing unchanged data."""
+    from bayes_dnlr.runs import identity
+    from bayes_dnlr.runs.sample import stopping_settings
 
-    sha = data_fingerprint(cfg)          # the data file's sha256 (a digest of them for a run with tests:)
+    sha = identity.data_sha(cfg, summary)     # the data's sha256 (a digest of them with tests:)
     if sha is None:
         raise BatchError(f"{cfg.name}: a data file is missing")
-    return {"chain": digest(fingerprint_parts(cfg, sha)), "settings": stopping_settings(cfg)}
+    return {"chain": identity.chain_fingerprint(cfg, cfg.run_dir, sha, summary),
+            "settings": stopping_settings(cfg)}
 
 
 def result_row(job: Job, cfg) -> dict[str, Any]:
@@ -204,7 +213,7 @@ def result_row(job: Job, cfg) -> dict[str, Any]:
     row["n_warnings"] = len(warnings)
     row["warnings"] = " | ".join(warnings)
     row["report"] = str(run_dir / REPORT_FILE) if (run_dir / REPORT_FILE).is_file() else None
-    row["fingerprint"] = fingerprint(cfg)
+    row["fingerprint"] = fingerprint(cfg, summary)
     return row
 
 
@@ -224,8 +233,8 @@ def current_row(job: Job, out: Path, want_report: bool) -> dict[str, Any] | None
         if row.get("status") != "ok":
             return None
         cfg = job.config()
-        fp = fingerprint(cfg)
         summary = json.loads((cfg.run_dir / SUMMARY_FILE).read_text())
+        fp = fingerprint(cfg, summary)
     except (OSError, ValueError, BayesDnlrError):
         return None
     if row.get("fingerprint") != fp or summary.get("fingerprint") != fp["chain"]:
@@ -303,10 +312,31 @@ def _results(stack: ExitStack, todo: list[Job], n_jobs: int, client,
                  "threads, joblib dask backend)")
 
 
+def max_jobs() -> int:
+    """The most local worker processes ``--jobs`` takes: four per core (each test is one CPU-bound
+    process; more only share the cores and multiply the memory)."""
+    return 4 * (os.cpu_count() or 1)
+
+
+def check_jobs(n_jobs: int) -> None:
+    """``--jobs N``: 1 <= N <= max_jobs() (0 and negatives were taken as 'all cores' silently)."""
+    if not 1 <= n_jobs <= max_jobs():
+        raise BatchError(f"--jobs {n_jobs}: give 1 to {max_jobs()} worker processes (4 per core of "
+                         f"this machine's {os.cpu_count() or 1}); leave it out for one per core")
+
+
+def _table_only(result: BatchResult, interrupted: bool) -> list[Path]:
+    return write_table(result.rows, result.out)
+
+
 def run_batch(jobs: list[Job], out: Path, *, n_jobs: int = -1, scheduler: str | None = None,
-              report: Reporter | None = None, progress: bool = True) -> BatchResult:
+              report: Reporter | None = None, progress: bool = True,
+              publish: Callable[[BatchResult, bool], list[Path]] | None = None) -> BatchResult:
     """Run every job not already done (see the module doc); write the results table into ``out``.
-    ``scheduler``: a Dask scheduler (address, scheduler file or ``config``), else local processes."""
+    ``scheduler``: a Dask scheduler (address, scheduler file or ``config``), else local processes.
+    ``publish(result, interrupted)``: writes the outputs instead of the table alone (the batch page
+    publishes its whole set), holding the batch's lock; also after Ctrl-C."""
+    publish = publish or _table_only
     if not jobs:
         raise BatchError("the batch has no tests")
     out = Path(out).resolve()
@@ -329,14 +359,16 @@ def run_batch(jobs: list[Job], out: Path, *, n_jobs: int = -1, scheduler: str | 
             gen, backend = _results(stack, todo, n_jobs, client, report)
             for j in todo:              # a stale row must not survive a failed re-run
                 _row_path(out, j.name).unlink(missing_ok=True)
+            interrupted = True
             try:
                 _collect(gen, rows, len(jobs), out, progress)
+                interrupted = False
             finally:                    # also after Ctrl-C: the table of what finished
                 result = BatchResult(_ordered(jobs, rows), out, backend, time.perf_counter() - t0)
-                result.written = write_table(result.rows, out)
+                result.written = publish(result, interrupted)
         else:
             result = BatchResult(_ordered(jobs, rows), out, backend, time.perf_counter() - t0)
-            result.written = write_table(result.rows, out)
+            result.written = publish(result, False)
     return result
 
 

@@ -14,13 +14,15 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from bayes_dnlr.config import NAME_PATTERN, ConfigError, ModelConfig, OutputConfig, Window, format_errors
+from bayes_dnlr.config.base import Whole
 from bayes_dnlr.vocabulary import PARAMETER_NAMES, RELAXATION_PARAMETERS, TENSILE_PARAMETERS
 
 CRITERIA = ("D", "A")
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    # numbers as strict as the config's (bayes_dnlr/config/base.py): `n: true` is not 1
+    model_config = ConfigDict(extra="forbid", strict=True)
 
 
 class Grid(_Strict):
@@ -30,7 +32,7 @@ class Grid(_Strict):
     values: list[float] | None = None
     low: float | None = None
     high: float | None = None
-    n: int | None = Field(default=None, ge=2, le=1000)
+    n: Whole | None = Field(default=None, ge=2, le=1000)
     scale: Literal["log", "linear"] = "log"
 
     @model_validator(mode="before")
@@ -120,7 +122,7 @@ class Conditions(_Strict):
 
 class Constraints(_Strict):
     max_duration: float | None = Field(default=None, gt=0, description="s, ramp plus hold")
-    max_points: int | None = Field(default=None, ge=3, description="samples over the whole test")
+    max_points: Whole | None = Field(default=None, ge=3, description="samples over the whole test")
 
 
 class FixedDiscrepancy(_Strict):
@@ -150,8 +152,8 @@ class DesignConfig(_Strict):
     name: str = Field(pattern=NAME_PATTERN)
     parameters: dict[str, float] | None = None
     from_run: str | None = None
-    draws: int = Field(default=100, ge=1, description="posterior draws averaged over (with from_run)")
-    seed: int = 0
+    draws: Whole = Field(default=100, ge=1, description="posterior draws averaged over (with from_run)")
+    seed: Whole = Field(default=0, ge=0, lt=2**32)
     model: ModelConfig = Field(default_factory=ModelConfig)
     free: list[str] | None = None
     noise: DesignNoise | Literal["from_run"] | None = None

@@ -6,9 +6,17 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from bayes_dnlr.fileset import publishing
 from bayes_dnlr.report.figures import pyplot, save_figure
 from bayes_dnlr.workflows.design.config import DesignConfig
-from bayes_dnlr.workflows.design.run import FIGURE_FILE, DesignResult, run_design
+from bayes_dnlr.workflows.design.run import (
+    FIGURE_FILE,
+    MARKDOWN_FILE,
+    RESULT_FILE,
+    TABLE_FILE,
+    DesignResult,
+    run_design,
+)
 
 
 def err_figure(res: DesignResult, path: Path, parameter: str = "E") -> Path:
@@ -51,6 +59,8 @@ def err_figure(res: DesignResult, path: Path, parameter: str = "E") -> Path:
 
 def design_with_figure(cfg: DesignConfig, *, overwrite: bool = False) -> DesignResult:
     """run_design, then the figure next to the tables."""
-    res = run_design(cfg, overwrite=overwrite)
-    res.files.append(err_figure(res, res.out_dir / FIGURE_FILE))
+    # the tables and the figure as one set: a kill leaves the old design or the new one
+    with publishing(cfg.out_dir, "design", [TABLE_FILE, MARKDOWN_FILE, RESULT_FILE, FIGURE_FILE]):
+        res = run_design(cfg, overwrite=overwrite)
+        res.files.append(err_figure(res, res.out_dir / FIGURE_FILE))
     return res

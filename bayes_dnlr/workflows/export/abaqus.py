@@ -13,6 +13,7 @@ from bayes_dnlr.workflows.export.context import Context, header_lines
 
 SOLVER = "Abaqus"
 EXTENSION = "inp"
+MAX_LABEL = 80           # Abaqus labels (a material's name) are 1-80 characters, the first a letter
 
 
 def num(x: float) -> str:

@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from bayes_dnlr.errors import BayesDnlrError, RunError
+from bayes_dnlr.fileset import folder_set, recover_folder
 from bayes_dnlr.numbers import fmt
-from bayes_dnlr.runs.folder import write_atomic
 from bayes_dnlr.runs.testset import plain_names
 from bayes_dnlr.workflows.export import FORMAT_NAMES, abaqus, ansys, lsdyna, table
 from bayes_dnlr.workflows.export.cards import (
@@ -58,6 +58,11 @@ FORMATS = {
 }
 INDEX_FILE = "cards.csv"
 assert tuple(FORMATS) == FORMAT_NAMES
+MAX_DRAWS = 10_000       # ensemble cards: an FE ensemble of more runs than this is no ensemble one runs
+MAX_MATERIAL = 64        # so that <name>_<card> (``_draw10000`` the longest) fits 80-character labels
+MAX_REFIT_TERMS = 100    # Ansys's TB,PRONY limit; beyond it the 400 refit times no longer pin terms down
+MAX_SEED = 2**32
+CARD_SUFFIX = len("_draw") + len(str(MAX_DRAWS))
 
 
 @dataclass
@@ -115,6 +120,37 @@ def material_name(name: str) -> str:
     return s if s[:1].isalpha() else f"M_{s}"
 
 
+def printable(text: str) -> str:
+    """``text`` for a comment line of a card: control characters (a newline would end the comment and
+    the rest be read as input) and non-ASCII (Abaqus reads 7-bit ASCII) written as escapes."""
+    return "".join(c if " " <= c <= "~" else c.encode("unicode_escape").decode("ascii") for c in text)
+
+
+def _check_options(terms: int | None, draws: int, seed: int, material: str | None, modes: int,
+                   run_name: str) -> str:
+    """The options that size the work, within bounds (before any work); the material name."""
+    if not 0 <= draws <= MAX_DRAWS:
+        raise BayesDnlrError(f"--draws {draws}: give 0 to {MAX_DRAWS} ensemble cards")
+    if terms is not None:
+        top = min(modes, MAX_REFIT_TERMS)
+        if not 1 <= terms <= top:
+            raise BayesDnlrError(
+                f"--terms {terms}: give 1 to {top} terms (a refit of the model's {modes}-mode series, "
+                f"model.modes; at most {MAX_REFIT_TERMS}, Ansys's limit); without --terms the cards "
+                "hold the model's own series")
+    if not 0 <= seed < MAX_SEED:
+        raise BayesDnlrError(f"--seed {seed}: give 0 <= seed < 2**32")
+    mat = material_name(material if material is not None else run_name)
+    if len(mat) > MAX_MATERIAL:
+        what = (f"{len(mat)} characters" if material is not None
+                else f"the run's name, the default material name, has {len(mat)} characters")
+        raise BayesDnlrError(
+            f"--material: {what}, more than {MAX_MATERIAL}; Abaqus labels and LS-DYNA's "
+            f"title line hold 80, and the card's name adds up to {CARD_SUFFIX} (_draw{MAX_DRAWS}): give "
+            f"--material with at most {MAX_MATERIAL} letters, digits or _")
+    return mat
+
+
 def _config(run_dir: Path):
     from bayes_dnlr.config import load_config
     from bayes_dnlr.runs.folder import find_config
@@ -156,11 +192,24 @@ def resolve_poisson(nu: float | None, cfg) -> Poisson:
     return Poisson(None, "the data have no transverse strain (data.columns.eps22) and --nu was not given")
 
 
-def _targets(out_dir: Path, files: dict[str, str], force: bool, pattern: str) -> tuple[str, list[Path]]:
-    """Refuse to replace a different file without ``force``; the stale ensemble files to remove."""
+CARD_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*_(median|q05|q95|draw\d+)\.")
+
+
+def _targets(out_dir: Path, files: dict[str, str], force: bool, extension: str) -> tuple[str, list[Path]]:
+    """Refuse to replace a different file without ``force``; the stale cards the new set drops. The
+    set is published as a whole folder, so a folder holding other files is refused outright."""
+    if out_dir.exists() and not out_dir.is_dir():
+        raise RunError(f"{out_dir}: a file, not a folder for the cards; give --out a folder")
+    present = sorted(p for p in out_dir.iterdir()) if out_dir.is_dir() else []
+    foreign = [p.name for p in present if p.name not in files and p.name != INDEX_FILE
+               and not (p.is_file() and CARD_NAME.match(p.name) and p.suffix == f".{extension}")]
+    if foreign:
+        raise RunError(f"{out_dir}: holds {len(foreign)} file(s) that are not cards of this format "
+                       f"({', '.join(foreign[:3])}{', ...' if len(foreign) > 3 else ''}); the cards are "
+                       "published as a whole folder that replaces it: give --out an empty or new folder")
     differ = [n for n, text in files.items()
               if (out_dir / n).is_file() and (out_dir / n).read_text() != text]
-    stale = sorted(p for p in out_dir.glob(pattern) if p.name not in files) if out_dir.is_dir() else []
+    stale = [p for p in present if p.name not in files]
     if (differ or stale) and not force:
         what = differ[:3] + [p.name for p in stale[:3]]
         raise RunError(f"{out_dir}: {len(differ) + len(stale)} existing file(s) differ from this export "
@@ -179,8 +228,6 @@ def export(run_dir: str | Path, fmt_name: str, *, terms: int | None = None, draw
     if fmt_name not in FORMATS:
         raise BayesDnlrError(f"--format {fmt_name!r}: expected one of {', '.join(FORMATS)}")
     form = FORMATS[fmt_name]
-    if draws < 0:
-        raise BayesDnlrError(f"--draws {draws}: give 0 or more")
     if density is not None and not (math.isfinite(density) and density > 0):
         raise BayesDnlrError(f"--density {density:g}: a mass density in kg/m³ is > 0")
     run_dir = Path(run_dir)
@@ -190,6 +237,7 @@ def export(run_dir: str | Path, fmt_name: str, *, terms: int | None = None, draw
         raise BayesDnlrError(f"export: {run_dir} is a run with several tests (tests:); export one "
                              "test's own run directory instead (not supported yet for joint runs)")
     modes, decades = cfg.model.modes, cfg.model.decades
+    mat = _check_options(terms, draws, seed, material, modes, cfg.name)
     if fmt_name == "ls-dyna":
         n_terms = (terms if terms is not None else modes) + 1
         if n_terms > lsdyna.MAX_TERMS:
@@ -224,21 +272,20 @@ def export(run_dir: str | Path, fmt_name: str, *, terms: int | None = None, draw
         cards.checks["refit_max_error"] = max(e for e, _ in errs)
         cards.checks["refit_ramp_error"] = max(r for _, r in errs)
     median = cards.cards[1] if cards.cards[1].label == "median" else cards.cards[0]
-    mat = material_name(material or cfg.name)
-    ctx = Context(material=mat, run=str(run_dir), poisson=poisson, density=density, modes=modes,
+    ctx = Context(material=mat, run=printable(str(run_dir)), poisson=poisson, density=density, modes=modes,
                   decades=decades, strain_rate=rng.strain_rate,
                   small_strain_limit=small_strain_limit(median, rng.strain_rate, modes, decades),
                   t_range=(rng.t_lo, rng.t_hi), notes=_notes(cfg))
     files = {f"{mat}_{c.label}.{form.extension}": form.render(c, ctx) for c in cards.cards}
     files[INDEX_FILE] = index_csv(cards, ctx)
     out_dir = Path(out) if out is not None else run_dir / "export" / fmt_name
-    status, stale = _targets(out_dir, files, force, f"{mat}_draw*.{form.extension}")
+    recover_folder(out_dir)
+    status, stale = _targets(out_dir, files, force, form.extension)
     if status == "written":
-        out_dir.mkdir(parents=True, exist_ok=True)
-        for p in stale:
-            p.unlink()
-        for name, text in files.items():
-            write_atomic(out_dir / name, text)
+        # the whole set at once: a killed export leaves the old cards or the new ones
+        with folder_set(out_dir) as tmp:
+            for name, text in files.items():
+                (tmp / name).write_text(text, encoding="utf-8")
     return ExportResult(out_dir, fmt_name, [out_dir / n for n in files], cards, ctx, status, stale)
 
 
