@@ -79,7 +79,9 @@ class Comparison:
         lines.append(["ISO 527-1 (MPa)", *[fmt(r["iso527_1"]) for r in self.rows]])
         lines.append(["ASTM D638 (MPa)", *[fmt(r["astm_d638"]) for r in self.rows]])
         lines.append(["ISO 527-1 / E", *[fmt(r["iso_ratio"], 3) for r in self.rows]])
-        return Table(header, lines, "Runs compared (paper Tables 3 and 5)", css="num")
+        lines.append(["checks (summary.json)", *[_checks_cell(r) for r in self.rows]])
+        notes = [f"{r['run']}: {r['verdict']}" for r in self.rows if r.get("verdict")]
+        return Table(header, lines, "Runs compared (paper Tables 3 and 5)", css="num", notes=notes)
 
     def consistency_text(self) -> str:
         c = self.consistency
@@ -107,6 +109,15 @@ class Comparison:
         for r in self.rows:
             w.writerow({k: ("" if r.get(k) is None else r.get(k)) for k in keys})
         return buf.getvalue()
+
+
+def _checks_cell(row: dict[str, Any]) -> str:
+    """The checks' decision of a run in one cell (the verdict's words go under the table)."""
+    if row.get("trust_interval") is None:
+        return "–"
+    if row["trust_interval"]:
+        return "use E's interval"
+    return "adequate, E's interval not as is" if row.get("adequate") else "model does not describe the test"
 
 
 def _pm(v: float | None, sd: float | None) -> str:
@@ -141,6 +152,9 @@ def run_row(run: RunResults) -> dict[str, Any]:
     e = row["E_post"] if row["E_post"] is not None else row["E_gn"]
     row["iso_ratio"] = None if e is None or row["iso527_1"] is None else row["iso527_1"] / e
     row["source"] = "posterior" if post else ("gauss-newton" if gn is not None else "none")
+    checks = (run.summary or {}).get("checks") or {}
+    row["adequate"], row["trust_interval"] = checks.get("adequate"), checks.get("trust_interval")
+    row["verdict"] = checks.get("verdict")
     return row
 
 
