@@ -124,6 +124,36 @@ def whiten(x: np.ndarray, V: np.ndarray, sigma0: float, amplitude: float, length
     return (out[:, 0] if vec else out), float(logdet)
 
 
+def solve(x: np.ndarray, V: np.ndarray, sigma0: float, amplitude: float, length: float,
+          kind: str = "matern32", start: float | None = None) -> np.ndarray:
+    """C⁻¹ V for C = k(x, x) + σ0² I; V (n,) or (n, m). O(n m): the filter and its adjoint."""
+    x = _axis(x)
+    V = np.asarray(V, dtype=float)
+    vec = V.ndim == 1
+    V2 = np.ascontiguousarray(V[:, None] if vec else V)
+    if V2.shape[0] != x.size:
+        raise ValueError(f"{V2.shape[0]} rows for an axis of {x.size} points")
+    if not kalman._valid(float(sigma0), float(amplitude), float(length)):
+        raise ValueError(f"invalid hyperparameters sigma0 = {sigma0}, amplitude = {amplitude}, "
+                         f"length = {length}")
+    out = kalman._solve(x, V2, float(sigma0), float(amplitude), float(length), kernel_code(kind),
+                        _gap(x, start))
+    return out[:, 0] if vec else out
+
+
+def quadratic_form(x: np.ndarray, Z: np.ndarray, amplitude: float, length: float,
+                   kind: str = "matern32", start: float | None = None) -> np.ndarray:
+    """Zᵀ K Z (m, m) for K = k(x, x) without the noise; Z (n, m). O(n m²), by the recursion of the
+    filter pass (inference/kalman.py ``_sums``, M̃)."""
+    x = _axis(x)
+    Z = np.ascontiguousarray(np.asarray(Z, dtype=float).reshape(x.size, -1))
+    m = Z.shape[1]
+    D, Mt, mu = np.empty((m, m)), np.empty((m, m)), np.empty(m)
+    kalman._sums(x, np.zeros(x.size), Z, 1.0, 1.0, float(length), kernel_code(kind), _gap(x, start),
+                 D, mu, Mt)
+    return float(amplitude) ** 2 * Mt
+
+
 def posterior_mean(x: np.ndarray, r: np.ndarray, sigma0: float, amplitude: float, length: float,
                    kind: str = "matern32", start: float | None = None) -> np.ndarray:
     """E[δ | r]: the discrepancy the residuals imply (Kalman filter + RTS smoother), O(n)."""

@@ -182,6 +182,38 @@ def _filter(x, V, sigma0, amplitude, length, kind, gap, out, store):
 
 
 @njit(cache=True)
+def _solve(x, V, sigma0, amplitude, length, kind, gap):
+    """C⁻¹ V (n, m) = L⁻ᵀ (L⁻¹ V): the filter, then its adjoint run backwards.
+
+    The filter is linear in its input: ν_i = v_i - H m⁻_i, w_i = ν_i / √S_i, m⁺_i = m⁻_i + g_i ν_i
+    (g_i = P⁻_i Hᵀ / S_i), m⁻_{i+1} = Φ_{i+1} m⁺_i. Its transpose maps w̄ to v̄ with the adjoint λ of
+    m⁻: λ⁺ = Φ_{i+1}ᵀ λ_{i+1}, ν̄ = w̄_i / √S_i + g_iᵀ λ⁺, v̄_i = ν̄, λ_i = λ⁺ - Hᵀ ν̄.
+    """
+    n, m = V.shape
+    store = np.empty((n, 9))
+    W = np.empty((n, m))
+    _filter(x, V, sigma0, amplitude, length, kind, gap, W, store)
+    lam = _rate(kind, length)
+    out = np.empty((n, m))
+    l0 = np.zeros(m)
+    l1 = np.zeros(m)
+    for i in range(n - 1, -1, -1):
+        if i < n - 1:         # λ⁺ = Φ_{i+1}ᵀ λ_{i+1}
+            f00, f01, f10, f11 = _transition(kind, x[i + 1] - x[i], lam)
+            for c in range(m):
+                l0[c], l1[c] = _predict_mean(kind, f00, f10, f01, f11, l0[c], l1[c])
+        s = store[i, 6]
+        g0 = store[i, 3] / s
+        g1 = store[i, 4] / s
+        root = math.sqrt(s)
+        for c in range(m):
+            nu = W[i, c] / root + g0 * l0[c] + g1 * l1[c]
+            out[i, c] = nu
+            l0[c] -= nu
+    return out
+
+
+@njit(cache=True)
 def _smooth_mean(x, r, sigma0, amplitude, length, kind, gap):
     """E[δ(x_i) | r] by the Kalman filter and the Rauch-Tung-Striebel smoother."""
     n = x.shape[0]

@@ -53,7 +53,7 @@ from bayes_dnlr.inference.priors import build_priors, sampled_names
 from bayes_dnlr.inference.store import ChainWriter, SamplerState, StoredRun, read_attrs, read_run
 from bayes_dnlr.interrupt import Interrupted
 from bayes_dnlr.pipeline.fit import load_tests, sections
-from bayes_dnlr.pipeline.noise import joint_noise_block, noise_block, residual_warnings
+from bayes_dnlr.pipeline.noise import joint_noise_block, noise_block, residual_warnings, verdict
 from bayes_dnlr.pipeline.target import joint_target, single_target
 from bayes_dnlr.rundir import (
     check_output_dir,
@@ -385,6 +385,45 @@ def _finished_result(cfg: Config, test, stored: StoredRun, fp: str) -> Posterior
     return post
 
 
+def _projection_offsets(cfg: Config, test, fit: dict[str, Any], run: StoredRun,
+                        draws: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
+    """The chain holds θ* (the projection) and the hyperparameters: each draw of θ becomes
+    θ* - c, c the projection offset of the discrepancy (inference/orthogonal.py ``offset_draws``),
+    with a seed of its own so that the outputs are reproducible."""
+    from bayes_dnlr.inference.discrepancy import discrepancy_priors
+    from bayes_dnlr.inference.gls import columns_for
+    from bayes_dnlr.inference.orthogonal import offset_draws
+
+    disc = fit["discrepancy"]
+    cols, axis = columns_for(cfg, test, disc["estimate"])
+    stored = _json_attr(run.attrs.get("discrepancy_priors"))
+    priors = discrepancy_priors({"discrepancy": {"priors": stored}}) if stored else discrepancy_priors(fit)
+    fixed = {k.removeprefix("disc_"): float(v.value) for k, v in (priors or {}).items() if v.fixed}
+    kernel = _json_attr(run.attrs.get("discrepancy_kernel")) or disc.get("kernel")
+    bounds = {k: cfg.parameters[k].bounds() for k in cols.names}
+    flat = draws.reshape(-1, draws.shape[-1])
+    new, info = offset_draws(flat, list(run.names), disc["projection"], kernel, cols, axis.values,
+                             axis.origin, fixed, bounds, int(cfg.sampler.seed) + 7919)
+    return new.reshape(draws.shape), info
+
+
+def _sandwich_adjustment(cfg: Config, fit: dict[str, Any], run: StoredRun,
+                         draws: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
+    """The chain is the exp posterior; its draws of θ take the covariance of the generalized
+    estimate under the kernels' model of the error (inference/orthogonal.py ``adjust_draws``)."""
+    from bayes_dnlr.inference.orthogonal import adjust_draws
+
+    proj = fit["discrepancy"]["projection"]
+    names = list(proj["u_names"])
+    bounds = {k: cfg.parameters[k].bounds() for k in names}
+    flat = draws.reshape(-1, draws.shape[-1])
+    new, info = adjust_draws(flat, list(run.names), names, np.asarray(proj["log"], dtype=bool),
+                             np.asarray(proj["sampled_covariance_u"], dtype=float),
+                             np.asarray(proj["covariance_u"], dtype=float), bounds)
+    info["kernel_weights"] = {k: v["weight"] for k, v in proj["kernels"].items()}
+    return new.reshape(draws.shape), info
+
+
 def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Convergence | None,
                   reason: str | None, fp: str, test, sigma0_source: str, *, wall_time: float,
                   store_time: float, evals: int, check_time: float | None = None) -> Posterior:
@@ -398,6 +437,11 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
     burn = conv.burn_in
     draws = run.chain[burn:]
     lp = run.log_prob[burn:]
+    offsets = None
+    target = _json_attr(run.attrs.get("discrepancy_projection")) if not cfg.is_joint else None
+    if target and fit.get("discrepancy"):
+        draws, offsets = (_projection_offsets(cfg, test, fit, run, draws) if target == "l2"
+                          else _sandwich_adjustment(cfg, fit, run, draws))
     sigma0 = _sigma0_used(run, draws, cfg)
     sampling = max(wall_time - store_time, 1e-12)
     acc = float(run.accepted[burn:].mean()) if run.accepted.size else float("nan")
@@ -435,6 +479,9 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
                                                       json.loads(run.attrs.get("layout", "{}"))))
     else:
         summary["noise"] = jsonable(noise_block(cfg, fit, summary, sigma0, sigma0_source))
+    if offsets is not None:
+        summary["noise"]["projection"] = jsonable(offsets)
+        summary["noise"]["verdict"] = verdict(summary["noise"])
     if summary["noise"]["model"] == "discrepancy" and fit.get("discrepancy"):
         summary["generalized_least_squares"] = gauss_newton_block(
             {"parameters": fit.get("parameters"), **fit["discrepancy"]})

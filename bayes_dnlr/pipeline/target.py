@@ -68,8 +68,11 @@ def start_point(post: LogPosterior, fit: dict[str, Any],
                      np.where(np.isfinite(hi), hi - 1e-9 * np.abs(hi), hi))
     model_pos = [j for j, k in enumerate(names) if k not in noise]
     cov = np.zeros((len(names), len(names)))
+    # the orthogonal discrepancy samples θ*, whose spread is the noise's (not the offset's)
+    star = ((disc or {}).get("projection") or {}).get("covariance_star") if post.discrepancy is not None \
+        and post.discrepancy.columns is not None else None
     try:
-        fcov = np.asarray(src.get("covariance"), dtype=float)
+        fcov = np.asarray(src.get("covariance") if star is None else star, dtype=float)
         idx = [fit_names.index(names[j]) for j in model_pos]
         cov[np.ix_(model_pos, model_pos)] = fcov[np.ix_(idx, idx)]
     except (TypeError, ValueError, IndexError):
@@ -162,11 +165,38 @@ def single_target(cfg: Config, test, fit: dict[str, Any], stored=None) -> Target
                        "(made by another version?): run `fit --force`")
     kernel = _kernel(stored, fit)
     priors = build_priors(cfg, disc_priors)
-    post = build_log_posterior(cfg, test, sigma0, priors, disc_priors, kernel)
+    columns = _projection_columns(cfg, test, fit, disc_priors, stored)
+    post = build_log_posterior(cfg, test, sigma0, priors, disc_priors, kernel,
+                               None if columns is None else columns.V)
     x0, cov = start_point(post, fit, sigma0_start)
     meta = {} if disc_priors is None else {"discrepancy_priors": json.dumps(_dump(disc_priors)),
                                            "discrepancy_kernel": json.dumps(kernel)}
+    target = model_error_target(stored, fit, disc_priors)
+    if target is not None:
+        meta["discrepancy_projection"] = json.dumps(target)
     return Target(post, priors, x0, cov, sigma0, source, meta)
+
+
+def model_error_target(stored, fit: dict[str, Any], disc_priors) -> str | None:
+    """``generalized`` or ``l2`` when the draws of this posterior become those of the parameters
+    under model error (inference/gls.py): fit made that analysis and found evidence of model error,
+    and a resumed chain was started so (a chain from an earlier version continues as it began).
+    None: the draws are the answer as they are."""
+    disc = fit.get("discrepancy") or {}
+    proj = disc.get("projection")
+    if not proj or disc_priors is None or is_white(disc_priors):
+        return None
+    if stored is not None:
+        return _stored(stored, "discrepancy_projection")
+    return proj.get("target", "generalized")
+
+
+def _projection_columns(cfg: Config, test, fit: dict[str, Any], disc_priors, stored):
+    if model_error_target(stored, fit, disc_priors) != "l2":
+        return None
+    from bayes_dnlr.inference.gls import columns_for
+
+    return columns_for(cfg, test, fit["discrepancy"]["estimate"])[0]
 
 
 def joint_target(cfg: Config, tests: dict[str, Any], fit: dict[str, Any], stored=None) -> Target:
