@@ -11,8 +11,8 @@ does (two calls of 16), best of ``--repeats`` interleaved rounds:
   having no component along the p sensitivities, inference/kalman.py).
 
 Prints µs per step and the ratios to white and to the plain discrepancy of the same kernel, with
-the seconds of the reference job (../shared/tools/refjob.py, when present) measured in the same run
-and the load average before and after.
+the seconds of the reference job (../shared/tools/refjob.py, or $BAYES_DNLR_REFJOB, when present)
+measured in the same run and the load average before and after.
 
     .venv/bin/python benchmarks/model_error_cost.py [--repeats 25]
 """
@@ -30,7 +30,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
-REFJOB = ROOT.parent / "shared" / "tools" / "refjob.py"
+REFJOB = Path(os.environ.get("BAYES_DNLR_REFJOB", ROOT.parent / "shared" / "tools" / "refjob.py"))
 
 
 def _posteriors(cfg, test, center: np.ndarray, hyper: tuple[float, float]) -> dict:

@@ -21,6 +21,7 @@ Exits cleanly with a message when ../shared/data/real is absent (a user's clone 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import tempfile
 import time
@@ -31,7 +32,7 @@ import numpy as np
 import yaml
 
 REPO = Path(__file__).resolve().parents[1]
-REAL = REPO.parent / "shared" / "data" / "real"
+REAL = Path(os.environ.get("BAYES_DNLR_REAL_DATA", REPO.parent / "shared" / "data" / "real"))
 FILE = "ETFE_MD_CSR_0p1pct_per_s_T40C_3specimens.csv"
 # per specimen k the columns are 15 k + offset (README): time, Hencky axial strain (SOI), true stress
 TIME, HENCKY_SOI, TRUE_STRESS_SOI = 0, 7, 9

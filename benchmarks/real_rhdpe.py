@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import tempfile
 import time
@@ -26,7 +27,7 @@ from pathlib import Path
 import yaml
 
 REPO = Path(__file__).resolve().parents[1]
-REAL = REPO.parent / "shared" / "data" / "real"
+REAL = Path(os.environ.get("BAYES_DNLR_REAL_DATA", REPO.parent / "shared" / "data" / "real"))
 FILE = "rHDPE_Resin19_specimen3_tensile_50mm_per_min.csv"
 REMEDIES = {"ramp-from-zero": {"initial_state": "ramp-from-zero"}, "compensate": {"toe": "compensate"}}
 TARGETS = {"default": "default config (model discrepancy, target generalized)",

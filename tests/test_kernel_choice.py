@@ -110,3 +110,38 @@ def test_a_resumed_chain_keeps_the_kernel_it_started_with() -> None:
     assert _kernel(stored, fit_json) == "matern32"
     joint = SimpleNamespace(attrs={"discrepancy_kernel": json.dumps({"a": "matern32", "b": "exp"})})
     assert _kernel(joint, {}, "a") == "matern32" and _kernel(joint, {}, "b") == "exp"
+
+
+def test_the_noise_floor_keeps_sigma0_at_the_measurement_noise(tmp_path) -> None:
+    """A smooth misfit much larger than the noise (a matern32 error of 2 MPa, noise 0.02 MPa): σ0 is
+    never below the high-frequency scatter of the residuals, which measures the noise."""
+    from bayes_dnlr.inference.noise import high_frequency_sd
+
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 300.0, 3000)
+    smooth = 2.0 * np.sin(t / 40.0) + np.cos(t / 13.0)
+    assert high_frequency_sd(smooth + rng.normal(0.0, 0.3, t.size)) == pytest.approx(0.3, rel=0.08)
+    assert high_frequency_sd(smooth) < 1e-3
+    path = write_case(tmp_path, "floor", n=800, seed=30_002, sigma=0.02, error=("matern32", 2.0, 40.0),
+                      noise="residuals", discrepancy="default")
+    disc = fit(load_config(path)).discrepancy
+    floor = disc["projection"]["sigma0_floor"]
+    assert floor == pytest.approx(0.02, rel=0.15)
+    assert disc["hyperparameters"]["sigma0"] >= floor
+    for k in disc["kernel_choice"]["candidates"].values():
+        assert k["hyperparameters"]["sigma0"] >= floor
+
+
+def test_the_generalized_sd_is_the_weighted_sandwich(tmp_path) -> None:
+    """fit.json's sd under model error is the weights' mixture of the kernels' covariances of the
+    estimate; the exp kernel's is the exp model's own (Σ_w)."""
+    path = write_case(tmp_path, "mix", n=600, seed=30_003, error=("matern32", 1.0, 50.0),
+                      noise="residuals", discrepancy="default")
+    disc = fit(load_config(path)).discrepancy
+    proj = disc["projection"]
+    mix = sum(v["weight"] * np.asarray(v["covariance_u"]) for v in proj["kernels"].values())
+    np.testing.assert_allclose(np.asarray(proj["covariance_u"]), mix, rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(proj["kernels"]["exp"]["covariance_u"]),
+                               np.asarray(proj["sampled_covariance_u"]), rtol=1e-6)
+    j = proj["u_names"].index("E")
+    assert disc["sd"]["E"] == pytest.approx(math.sqrt(mix[j, j]), rel=1e-12)

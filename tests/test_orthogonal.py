@@ -194,3 +194,24 @@ def test_offsets_have_the_projection_covariance_and_respect_the_prior_box() -> N
     c, tries = orthogonal.draw_offsets(np.broadcast_to(S, (5000, 2, 2)).copy(), u[:5000],
                                        np.array([0.0, -np.inf]), np.full(2, np.inf), rng)
     assert np.all(c[:, 0] <= 0) and 0.3 < np.mean(tries > 1) < 0.7
+
+
+def test_the_sandwich_adjustment_gives_the_target_covariance_and_counts_the_bounds() -> None:
+    rng = np.random.default_rng(8)
+    model = np.array([[1.0, 0.3], [0.3, 0.5]])
+    target = np.array([[4.0, -0.2], [-0.2, 0.8]])
+    u = rng.multivariate_normal([2.0, 0.5], model, size=40000)
+    draws = np.column_stack([u[:, 0], np.exp(u[:, 1]), rng.normal(size=u.shape[0])])  # 2nd: a time constant
+    bounds = {"E": (-np.inf, np.inf), "tau_max": (0.0, np.inf)}
+    out, info = orthogonal.adjust_draws(draws, ["E", "tau_max", "disc_length"], ["E", "tau_max"],
+                                        np.array([False, True]), model, target, bounds)
+    adj = np.column_stack([out[:, 0], np.log(out[:, 1])])
+    np.testing.assert_allclose(np.cov(adj, rowvar=False), target, rtol=0.04, atol=0.02)
+    np.testing.assert_allclose(adj.mean(axis=0), u.mean(axis=0), atol=1e-9)
+    np.testing.assert_array_equal(out[:, 2], draws[:, 2])                 # other columns untouched
+    assert info["sd_factor"]["E"] == pytest.approx(2.0)
+    assert info["draws_on_a_prior_bound"] == {"E": 0.0, "tau_max": 0.0}
+    bounds["E"] = (0.0, np.inf)                                          # E ≥ 0: some draws stopped
+    out, info = orthogonal.adjust_draws(draws, ["E", "tau_max", "disc_length"], ["E", "tau_max"],
+                                        np.array([False, True]), model, target, bounds)
+    assert out[:, 0].min() == 0.0 and 0.1 < info["draws_on_a_prior_bound"]["E"] < 0.2

@@ -400,6 +400,8 @@ def hyper_fit(kind: str, loglik: Callable[[Hyper], float], axis: Axis, r: np.nda
     def hyper(v: np.ndarray) -> Hyper:
         val = {k: float(np.exp(np.clip(z, lo[j], hi[j])))
                for j, (k, z) in enumerate(zip(names, v, strict=True))}
+        if "sigma0" in val:           # exp(ln floor) may land an ulp below the floor
+            val["sigma0"] = max(val["sigma0"], floor)
         return Hyper(sigma0=val.get("sigma0", sigma0 if sigma0 is not None else s0_start),
                      amplitude=val.get(AMPLITUDE, fixed.get(AMPLITUDE, a_start)),
                      length=val.get(LENGTH, fixed.get(LENGTH, 1.0)))

@@ -109,8 +109,10 @@ def interval_table(run: RunResults, parameter: str = "E") -> Table | None:
     d = fit.get("discrepancy") or {}
     g_est, g_sd = (d.get("estimate") or {}).get(parameter), (d.get("sd") or {}).get(parameter)
     if g_est is not None and g_sd is not None and np.isfinite(g_sd):
-        row("with the discrepancy, linearized (GLS, Δ = (XᵀK⁻¹X)⁻¹)", g_est, g_sd, g_est - z * g_sd,
-            g_est + z * g_sd)
+        label = ("with the discrepancy, linearized (the projection θ*, Var θ* + S(h))"
+                 if d.get("target") == "l2" else
+                 "with the discrepancy, linearized (GLS under the exp covariance, the kernels' sandwich sd)")
+        row(label, g_est, g_sd, g_est - z * g_sd, g_est + z * g_sd)
     post = (s.get("posterior") or {}).get(parameter)
     if post:
         model = (s.get("noise") or {}).get("model", "white")
