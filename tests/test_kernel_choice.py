@@ -39,44 +39,63 @@ def test_auto_is_the_default_and_named_in_the_error_for_an_unknown_kernel() -> N
         parse_config(raw | {"noise": {"discrepancy": "gaussian"}})
 
 
+def _smooth_case(folder, target: str | None = None):
+    disc = "default" if target is None else {"target": target}
+    path = write_case(folder, "smooth", n=600, seed=30_001, error=("matern32", 1.0, 50.0),
+                      noise="residuals", discrepancy=disc,
+                      sampler={"walkers": 16, "max_steps": 600, "target_ess": 100, "checkpoint_every": 50})
+    sample(load_config(path), progress=False)
+    return path.parent
+
+
 @pytest.fixture(scope="module")
 def smooth_error_run(tmp_path_factory):
     """A test with a smooth (Matérn-3/2) model error, default config, fitted and briefly sampled."""
-    path = write_case(tmp_path_factory.mktemp("auto"), "smooth", n=600, seed=30_001,
-                      error=("matern32", 1.0, 50.0), noise="residuals", discrepancy="default",
-                      sampler={"walkers": 16, "max_steps": 600, "target_ess": 100, "checkpoint_every": 50})
-    cfg = load_config(path)
-    sample(cfg, progress=False)
-    return path.parent
+    return _smooth_case(tmp_path_factory.mktemp("auto"))
 
 
 def test_a_smooth_error_weighs_matern32_in_fit_sample_and_report(smooth_error_run) -> None:
     run = smooth_error_run
     fit_json = json.loads((run / "fit.json").read_text())
     disc = fit_json["discrepancy"]
-    assert disc["kernel"] == "matern32"
+    assert disc["kernel"] == "exp" and disc["target"] == "generalized"     # the sampled working model
     choice = disc["kernel_choice"]
     w = choice["weights"]["matern32"]
     assert w > 0.5 and choice["log_likelihood_gain_matern32"] > 0
     assert set(choice["candidates"]) == {"exp", "matern32"}
-    # the estimate is the projection: on this even grid, the white least-squares estimate itself
-    assert disc["estimate"] == fit_json["estimate"]
     with h5py.File(run / "chains.h5", "r") as f:
-        assert json.loads(f.attrs["discrepancy_kernel"]) == "matern32"
-        assert json.loads(f.attrs["discrepancy_projection"]) is True
+        assert json.loads(f.attrs["discrepancy_kernel"]) == "exp"
+        assert json.loads(f.attrs["discrepancy_projection"]) == "generalized"
+        chain_sd = float(np.std(f["chain"][-200:, :, 0]))
     summary = json.loads((run / "summary.json").read_text())
     noise = summary["noise"]
-    assert noise["kernel"] == "matern32" and "matern32" in noise["kernel_choice"]["reason"]
+    assert noise["kernel"] == "exp" and "matern32" in noise["kernel_choice"]["reason"]
     proj = noise["projection"]
-    draws = proj["kernel_draws"]
-    m = sum(draws.values())
-    assert abs(draws["matern32"] / m - w) < 4 * math.sqrt(w * (1 - w) / m)    # drawn by the weights
-    # the offset, not θ*'s noise-level spread, makes E's interval under model error
-    assert proj["sd_offset_u"]["E"] > 3 * proj["sd_star"]["E"]
-    assert summary["posterior"]["E"]["sd"] == pytest.approx(math.hypot(proj["sd_offset_u"]["E"],
-                                                                        proj["sd_star"]["E"]), rel=0.15)
+    assert proj["kernel_weights"]["matern32"] == pytest.approx(w)
+    # the draws of E were mapped onto the mixture covariance: their sd is the chain's times the factor
+    factor = proj["sd_factor"]["E"]
+    assert factor == pytest.approx(disc["projection"]["widening"]["E"], rel=1e-9)
+    assert summary["posterior"]["E"]["sd"] == pytest.approx(factor * chain_sd, rel=0.25)
+    assert summary["posterior"]["E"]["sd"] == pytest.approx(disc["sd"]["E"], rel=0.3)
     page = build_report(run).read_text()
     assert "kernel: auto; weights" in page
+
+
+def test_target_l2_samples_the_orthogonal_discrepancy_and_offsets_the_draws(tmp_path) -> None:
+    run = _smooth_case(tmp_path, "l2")
+    fit_json = json.loads((run / "fit.json").read_text())
+    disc = fit_json["discrepancy"]
+    assert disc["target"] == "l2"
+    assert disc["estimate"] == fit_json["estimate"]          # an even grid: the least-squares estimate
+    with h5py.File(run / "chains.h5", "r") as f:
+        assert json.loads(f.attrs["discrepancy_projection"]) == "l2"
+        theta_star_sd = float(np.std(f["chain"][-200:, :, 0]))
+    summary = json.loads((run / "summary.json").read_text())
+    proj = summary["noise"]["projection"]
+    assert sum(proj["kernel_draws"].values()) == summary["draws"]
+    # θ* is pinned at the noise level; the offsets make E's interval
+    assert proj["sd_offset_u"]["E"] > 5 * theta_star_sd
+    assert summary["posterior"]["E"]["sd"] > 5 * theta_star_sd
 
 
 def test_the_estimate_does_not_depend_on_the_kernel(tmp_path) -> None:
