@@ -1,20 +1,12 @@
 """The model discrepancy of one test: its axis, its priors scaled to the test, and its
-hyperparameters: by a likelihood of h alone (``hyper_fit``: the restricted likelihood,
-``restricted_log_likelihood``, or the orthogonal discrepancy's, inference/orthogonal.py) for
-inference/gls.py, or by the profile likelihood of the plain discrepancy with the generalized
-least-squares estimate they imply (``maximum_likelihood``, which the joint fit uses).
+hyperparameters by a likelihood of h alone (``hyper_fit``): the restricted likelihood
+(``restricted_log_likelihood``) or the orthogonal discrepancy's (inference/orthogonal.py), for the
+analysis of inference/gls.py.
 
 Residual = white noise (sd σ0) + δ, δ a zero-mean Gaussian process on the time (or strain) axis
-with amplitude a and correlation length ℓ (inference/gp.py; docs/model-error.md). For given
-hyperparameters h = (σ0, a, ℓ) the best model parameters are the generalized least-squares (GLS)
-estimate, ordinary least squares on whitened residuals W(y - f(θ)), W = L⁻¹, K = L Lᵀ. The
-hyperparameters maximise the profile likelihood
-
-    log L(h) = -½ |W(y - f(θ̂(h)))|² - ½ log det K - (n/2) log 2π,
-
-found by Nelder-Mead over (ln τ, ln a, ln ℓ, ln σ0) with E, G, σ_inf projected out (the model is
-linear in them, so θ̂ over them is a whitened linear least-squares solve), from a few starting
-lengths; a GLS trust-region polish then gives θ̂ and the sensitivities at the optimum.
+with amplitude a and correlation length ℓ (inference/gp.py; docs/model-error.md). A likelihood of
+h = (σ0, a, ℓ) alone keeps the hyperparameters from being confounded with θ; ``hyper_fit`` finds
+its maximum (with the amplitude's prior) by Nelder-Mead over ln σ0, ln a, ln ℓ from a few lengths.
 """
 
 from __future__ import annotations
@@ -29,7 +21,6 @@ import numpy as np
 from bayes_dnlr.config import DiscrepancyConfig, ParameterSpec
 from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.inference import gp
-from bayes_dnlr.inference.problem import LsqProblem
 
 AMPLITUDE = "disc_amplitude"
 LENGTH = "disc_length"
@@ -111,15 +102,6 @@ def search_priors(spec: DiscrepancyConfig, rms: float, axis: Axis) -> dict[str, 
     return {AMPLITUDE: amp, LENGTH: length}
 
 
-def likelihood_ratio(log_likelihood: float, ssr_white: float, n: int,
-                     sigma0: float | None) -> float:
-    """2 (log L with the discrepancy - log L white), both at their maximum: the evidence of model
-    error. The white one at the white optimum, with σ0² = SSR/n when σ0 is estimated."""
-    s2 = ssr_white / n if sigma0 is None else sigma0**2
-    white = -0.5 * ssr_white / s2 - 0.5 * n * math.log(2.0 * math.pi * s2)
-    return 2.0 * (log_likelihood - white)
-
-
 def amplitude_prior(spec: DiscrepancyConfig, rms: float) -> ParameterSpec:
     """The amplitude's prior: the configured one, or half-normal with scale 2 × the rms residual of
     the projection θ*: a priori the discrepancy is about as large as the misfit the data show. (A
@@ -182,109 +164,9 @@ def whitener(axis: Axis, h: Hyper, kind: str) -> Callable[[np.ndarray], np.ndarr
     return w
 
 
-@dataclass
-class MaximumLikelihood:
-    """The ML hyperparameters and what came with them."""
-
-    hyper: Hyper
-    beta: np.ndarray                 # the model parameters at the optimum (free, problem order)
-    log_likelihood: float
-    free: list[str]                  # the hyperparameters that were estimated (sigma0, ...)
-    covariance_log: np.ndarray       # of ln(free hyperparameters), from the curvature (for starts)
-    evaluations: int
-    message: str
-
-
 def _bounds(spec: ParameterSpec, floor: float, cap: float) -> tuple[float, float]:
     lo, hi = spec.bounds()
     return math.log(max(lo, floor)), math.log(min(hi, cap))
-
-
-def maximum_likelihood(problem: LsqProblem, beta0: np.ndarray, axis: Axis, kind: str,
-                       priors: dict[str, ParameterSpec], sigma0: float | None,
-                       residuals: np.ndarray) -> MaximumLikelihood:
-    """Maximise the profile likelihood over the time constants and the free hyperparameters.
-
-    ``sigma0``: fixed white-noise sd, or None to estimate it; ``residuals``: those of the white fit
-    (for starting values); ``beta0``: the white estimate (time constants start there).
-    """
-    rms = float(np.sqrt(np.mean(residuals**2)))
-    scale = max(rms, 1e-12)
-    fixed = {k: s.value for k, s in priors.items() if s.fixed}
-    names = [k for k in ("sigma0", AMPLITUDE, LENGTH)
-             if (k == "sigma0" and sigma0 is None) or (k != "sigma0" and k not in fixed)]
-    nl = [problem.names.index(k) for k in problem.nonlinear]
-
-    # starting values from the white residuals
-    d = np.diff(axis.sort(residuals))
-    s0_start = float(np.std(d) / math.sqrt(2.0)) if d.size else scale / 2
-    s0_start = min(max(s0_start, 1e-3 * scale), scale)
-    a_start = math.sqrt(max(rms**2 - s0_start**2, (0.1 * scale) ** 2))
-    bounds = {"sigma0": (math.log(1e-6 * scale), math.log(10.0 * scale))}
-    if AMPLITUDE in names:
-        bounds[AMPLITUDE] = _bounds(priors[AMPLITUDE], AMPLITUDE_FLOOR * scale, 100.0 * scale)
-        if not bounds[AMPLITUDE][0] < bounds[AMPLITUDE][1]:
-            bounds[AMPLITUDE] = (bounds[AMPLITUDE][0], bounds[AMPLITUDE][0] + 1.0)
-    if LENGTH in names:
-        bounds[LENGTH] = _bounds(priors[LENGTH], 1e-12, math.inf)
-    support = {k: (math.exp(lo), math.exp(hi)) for k, (lo, hi) in bounds.items()}
-    for k in (AMPLITUDE, LENGTH):
-        if k in names:
-            lo, hi = priors[k].bounds()
-            support[k] = (max(support[k][0], lo), min(support[k][1], hi))
-    lengths = [_acf_length(axis, residuals)] if LENGTH in names else [fixed[LENGTH]]
-    if LENGTH in names:
-        lo, hi = bounds[LENGTH]
-        lengths += [math.exp(lo + 0.25 * (hi - lo)), math.exp(lo + 0.75 * (hi - lo))]
-
-    def hyper(v: np.ndarray) -> Hyper:
-        # exp(ln bound) can land a rounding step outside the bound: clip into the support
-        val = {k: float(np.clip(np.exp(x), *support[k])) for k, x in zip(names, v[len(nl):], strict=True)}
-        return Hyper(sigma0=val.get("sigma0", sigma0 if sigma0 is not None else s0_start),
-                     amplitude=val.get(AMPLITUDE, fixed.get(AMPLITUDE, a_start)),
-                     length=val.get(LENGTH, fixed.get(LENGTH, lengths[0])))
-
-    base = np.asarray(beta0, dtype=float).copy()
-    evals = 0
-
-    def objective(v: np.ndarray) -> float:
-        nonlocal evals
-        evals += 1
-        h = hyper(v)
-        beta = base.copy()
-        beta[nl] = np.exp(v[: len(nl)])
-        problem.whiten = w = whitener(axis, h, kind)
-        params = problem.project(problem.params(beta))
-        rw = problem.residuals(params)
-        value = 0.5 * float(rw @ rw) + 0.5 * w.logdet
-        return value if math.isfinite(value) else math.inf
-
-    from scipy.optimize import minimize  # here: `sample` reads fit.json, never optimises
-
-    lo = np.concatenate([problem.u_lower[nl], [bounds[k][0] for k in names]])
-    hi = np.concatenate([problem.u_upper[nl], [bounds[k][1] for k in names]])
-    best = None
-    for length0 in lengths:
-        start = {"sigma0": s0_start, AMPLITUDE: a_start, LENGTH: length0}
-        v0 = np.concatenate([np.log(base[nl]), [math.log(start[k]) for k in names]])
-        v0 = np.clip(v0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
-        res = minimize(objective, v0, method="Nelder-Mead", bounds=list(zip(lo, hi, strict=True)),
-                       options={"xatol": 1e-5, "fatol": 1e-7, "maxfev": 400 * (len(v0) + 1),
-                                "adaptive": True})
-        if best is None or res.fun < best.fun:
-            best = res
-    h = hyper(best.x)
-    beta = base.copy()
-    beta[nl] = np.exp(best.x[: len(nl)])
-    problem.whiten = whitener(axis, h, kind)
-    beta = problem.vector(problem.project(problem.params(beta)))
-    cov = _log_covariance(objective, best.x, len(nl), len(names))
-    problem.whiten = None
-    n = axis.values.size
-    return MaximumLikelihood(
-        hyper=h, beta=beta, log_likelihood=-float(best.fun) - 0.5 * n * math.log(2.0 * math.pi), free=names,
-        covariance_log=cov, evaluations=evals,
-        message=f"Nelder-Mead from {len(lengths)} starting lengths: {best.message}")
 
 
 def _acf_length(axis: Axis, residuals: np.ndarray) -> float:

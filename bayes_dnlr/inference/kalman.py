@@ -1,15 +1,10 @@
 """The Kalman filter of the discrepancy's state model, compiled (the Python API is inference/gp.py).
 
-The residual r = y - y(θ) is r = δ + ε, ε ~ N(0, σ0² I), δ a zero-mean stationary Gaussian process
-on a sorted 1-D axis x with covariance K = a² K̃,
-
-    exp (Ornstein-Uhlenbeck, continuous AR(1)):  k(τ) = a² exp(-λτ),              λ = 1/ℓ
-    matern32:                                     k(τ) = a² (1 + λτ) exp(-λτ),     λ = √3/ℓ
-
-Both are exactly the covariance of a linear stochastic differential equation (order 1 and 2), so
-C = K + σ0² I is handled by a Kalman filter in O(n), exactly, on any sorted grid (uneven steps and
-repeated points included; Särkkä & Solin 2019, ch. 12). State s = δ (exp) or (δ, dδ/dx)
-(matern32), stationary covariance P∞ = a² (exp) or diag(a², a² λ²), and over a step Δ
+The residual r = δ + ε, ε ~ N(0, σ0² I), δ a stationary Gaussian process on a sorted axis x with
+covariance K = a² K̃ (exp: λ = 1/ℓ; matern32: λ = √3/ℓ; inference/gp.py). Both kernels are linear
+stochastic differential equations, so C = K + σ0² I is handled by a Kalman filter in O(n), exactly,
+on any sorted grid (Särkkä & Solin 2019, ch. 12): state δ (exp) or (δ, dδ/dx) (matern32),
+stationary covariance P∞ = a² or diag(a², a² λ²), and over a step Δ
 
     exp:       Φ = e^{-λΔ}
     matern32:  Φ = e^{-λΔ} [[1 + λΔ, Δ], [-λ²Δ, 1 - λΔ]]
@@ -25,10 +20,9 @@ without cancellation (``_sums``), so that
 
 the likelihood of r given s = Vᵀ δ = 0 (``_combine``).
 
-Every operation of the state model is written once, as an inlined helper (``_transition_e``,
-``_predict_mean``, ``_predict_cov``, ``_update_cov``, ``_decay``); the scalar passes and the
-SIMD-lane pass of the sampler use the same helpers. All compiled functions live in this one module
-(numba's cache does not see changes in an imported helper of another module).
+Every operation of the state model is written once, as an inlined helper used by the scalar passes
+and by the SIMD-lane pass of the sampler. All compiled functions live in this one module (numba's
+cache does not see changes in an imported helper of another module).
 """
 
 from __future__ import annotations
@@ -258,19 +252,13 @@ def _smooth_mean(x, r, sigma0, amplitude, length, kind, gap):
 
 @njit(cache=True)
 def _sums(x, r, V, sigma0, amplitude, length, kind, gap, D, mu, Mt):
-    """One filter pass over r and the columns of V (n, p), p >= 0; returns (rᵀ C⁻¹ r, log det C).
-
-    Fills D = Vᵀ K C⁻¹ V, μ = Vᵀ K C⁻¹ r and M̃ = Vᵀ K̃ V (p, p). Per sample, with m the predicted
-    and g = m + (p⁻/S) e the filtered mean of a column, e = v - m its innovation, and m_r, e_r those
-    of r,
-
-        v_j v_l - (σ0²/S) e_j e_l = g_j e_l + v_j m_l,      v_j r - (σ0²/S) e_j e_r = g_j e_r + v_j m_r,
-
-    terms of the size of the result whether a is far below or far above σ0 (Vᵀ C⁻¹ V itself would
-    cancel against Vᵀ V for small a). M̃ = Σ_i p̃_i v_i v_iᵀ + N + Nᵀ, N = Σ_i v_i z_iᵀ, with
-    z_i = Σ_{l<i} k̃(x_i, x_l) v_l = Φ_i (z_{i-1} + P̃_{i-1} Hᵀ v_{i-1}) from the same transitions and
-    P̃ the prior state covariance of unit amplitude (P∞/a², or the pinned start's relaxing to it).
-    """
+    """One filter pass over r and the columns of V (n, p), p >= 0; returns (rᵀ C⁻¹ r, log det C) and
+    fills D = Vᵀ K C⁻¹ V, μ = Vᵀ K C⁻¹ r and M̃ = Vᵀ K̃ V (p, p). With a column's predicted mean m,
+    innovation e = v - m and filtered mean g = m + (p⁻/S) e (m_r, e_r those of r), per sample
+    v_j v_l - (σ0²/S) e_j e_l = g_j e_l + v_j m_l and v_j r - (σ0²/S) e_j e_r = g_j e_r + v_j m_r:
+    terms of the size of the result for any a/σ0 (Vᵀ C⁻¹ V would cancel against Vᵀ V for small a).
+    M̃ = Σ p̃_i v_i v_iᵀ + N + Nᵀ, N = Σ v_i z_iᵀ, z_i = Σ_{l<i} k̃(x_i, x_l) v_l =
+    Φ_i (z_{i-1} + P̃_{i-1} Hᵀ v_{i-1}), P̃ the unit-amplitude prior state covariance."""
     n = x.shape[0]
     p = V.shape[1]
     s2 = sigma0 * sigma0
@@ -289,10 +277,8 @@ def _sums(x, r, V, sigma0, amplitude, length, kind, gap, D, mu, Mt):
     D[:, :] = 0.0
     mu[:] = 0.0
     Mt[:, :] = 0.0
-    d_ref = 0.0              # the reference step and its decay e^{-λ d_ref}
-    e_ref = 1.0
-    quad = 0.0
-    logdet = 0.0
+    d_ref, e_ref = 0.0, 1.0          # the reference step and its decay e^{-λ d_ref}
+    quad = logdet = 0.0
     prod = 1.0
     for i in range(n):
         if i > 0:
@@ -344,8 +330,7 @@ def _sums(x, r, V, sigma0, amplitude, length, kind, gap, D, mu, Mt):
 
 @njit(cache=True)
 def _chol_logdet(A) -> float:
-    """Cholesky of the small symmetric A in place (lower triangle); 2 Σ log L_jj, or nan when A is
-    not positive definite."""
+    """Cholesky of a small A in place (lower triangle): 2 Σ ln L_jj, nan if not positive definite."""
     p = A.shape[0]
     logdet = 0.0
     for j in range(p):
