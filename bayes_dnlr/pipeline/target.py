@@ -68,9 +68,9 @@ def start_point(post: LogPosterior, fit: dict[str, Any],
                      np.where(np.isfinite(hi), hi - 1e-9 * np.abs(hi), hi))
     model_pos = [j for j, k in enumerate(names) if k not in noise]
     cov = np.zeros((len(names), len(names)))
-    # the orthogonal discrepancy samples θ*, whose spread is the noise's (not the offset's)
-    star = ((disc or {}).get("projection") or {}).get("covariance_star") if post.discrepancy is not None \
-        and post.discrepancy.columns is not None else None
+    # the sampled model's covariance (the exp model's, or θ*'s), not that of the answer under model
+    # error, which the draws are mapped onto after sampling
+    star = ((disc or {}).get("projection") or {}).get("covariance_star") if disc else None
     try:
         fcov = np.asarray(src.get("covariance") if star is None else star, dtype=float)
         idx = [fit_names.index(names[j]) for j in model_pos]
