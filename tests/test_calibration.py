@@ -54,9 +54,9 @@ def test_a_smooth_error_is_weighed_to_matern32_and_keeps_e_and_tau_max_calibrate
     points. The kernels are weighed to matern32; the estimate (generalized least squares under the
     exp covariance) keeps E and tau_max calibrated (Binomial(30, 0.9) falls below 20/30 with
     probability 0.0003), and the matern32 sandwich widens G's interval beyond the exp model's in the
-    typical replicate (median factor > 1). G stays optimistic under this error (benchmarks/
-    calibration.py, 50 replicates: 0.68, sd of z 1.44; these seeds: 0.83, 1.25; docs/model-error.md, 'Limits'),
-    which is asserted only as a floor."""
+    typical replicate (median factor > 1). G stays optimistic under this error
+    (benchmarks/calibration.py, 50 replicates: 0.68, sd of z 1.44; these seeds: 0.83, 1.25;
+    docs/model-error.md, 'Limits'), which is asserted only as a floor."""
     results = calibration(30, tmp_path, jobs=2, base_seed=32_000, noise="residuals",
                           error=("matern32", 1.0, 50.0), discrepancy="default", n=1000)
     cov = coverage(results, TRUTH)
