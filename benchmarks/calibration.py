@@ -80,6 +80,8 @@ def main() -> None:
                     help="none, or settings kind:amplitude:length (kind exp|matern32|matern52)")
     ap.add_argument("--kernel", choices=("default", "exp", "matern32", "matern52"), default="default",
                     help="with --error: the discrepancy kernel of the config (default: the package's)")
+    ap.add_argument("--target", choices=("default", "generalized", "l2"), default="default",
+                    help="with --error: noise.discrepancy.target (default: the package's)")
     ap.add_argument("--white-baseline", action=argparse.BooleanOptionalAction, default=True,
                     help="with --error: also sample with the white likelihood")
     args = ap.parse_args()
@@ -102,8 +104,12 @@ def main() -> None:
         error = parse_error(text)
         print(f"\nmodel error {error[0]}, amplitude {error[1]:g} MPa, length {error[2]:g} s, plus "
               f"white noise 0.3 MPa; {args.points} points")
-        likelihoods = [("default config (discrepancy)", "default")] if args.kernel == "default" else [
-            (f"discrepancy with kernel {args.kernel}", {"kernel": args.kernel})]
+        disc: dict = {} if args.kernel == "default" else {"kernel": args.kernel}
+        if args.target != "default":
+            disc["target"] = args.target
+        likelihoods = [("default config (discrepancy)" if not disc else
+                        "discrepancy with " + ", ".join(f"{k} {v}" for k, v in disc.items()),
+                        disc or "default")]
         if args.white_baseline:
             likelihoods.append(("white likelihood", "none"))
         for label, disc in likelihoods:

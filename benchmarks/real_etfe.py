@@ -21,6 +21,7 @@ Exits cleanly with a message when ../shared/data/real is absent (a user's clone 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import tempfile
 import time
@@ -31,11 +32,12 @@ import numpy as np
 import yaml
 
 REPO = Path(__file__).resolve().parents[1]
-REAL = REPO.parent / "shared" / "data" / "real"
+REAL = Path(os.environ.get("BAYES_DNLR_REAL_DATA", REPO.parent / "shared" / "data" / "real"))
 FILE = "ETFE_MD_CSR_0p1pct_per_s_T40C_3specimens.csv"
 # per specimen k the columns are 15 k + offset (README): time, Hencky axial strain (SOI), true stress
 TIME, HENCKY_SOI, TRUE_STRESS_SOI = 0, 7, 9
-LIKELIHOODS = {"default": "model discrepancy, default config (kernel auto)",
+LIKELIHOODS = {"default": "model discrepancy, default config (kernel auto, target generalized)",
+               "l2": "model discrepancy, target l2 (orthogonal discrepancy, projection offsets)",
                "exp": "exp kernel, maximum-likelihood hyperparameters", "white": "discrepancy: none",
                "matern32": "matern32 kernel, maximum-likelihood hyperparameters",
                "matern32-pinned": "matern32 kernel, pinned start (delta = delta' = 0 at the first sample)",
@@ -74,6 +76,8 @@ def one_run(args: tuple) -> dict:
         raw["data"]["window"] = {"strain_max": float(window)}
     if likelihood == "white":
         raw["noise"]["discrepancy"] = "none"
+    elif likelihood == "l2":
+        raw["noise"]["discrepancy"] = {"target": "l2"}
     elif likelihood in ("matern32", "exp"):
         raw["noise"]["discrepancy"] = {"kernel": likelihood}
     elif likelihood in ("matern32-pinned", "exp-pinned"):
@@ -94,7 +98,8 @@ def one_run(args: tuple) -> dict:
         out.update(fit_E=est, fit_sd=sd, lr=(d or {}).get("likelihood_ratio"),
                    hyper=(d or {}).get("hyperparameters"), evidence=(d or {}).get("evidence"),
                    kernel=(d or {}).get("kernel"),
-                   choice=((d or {}).get("kernel_choice") or {}).get("reason"))
+                   choice=((d or {}).get("kernel_choice") or {}).get("reason"),
+                   widening=((d or {}).get("projection") or {}).get("widening", {}).get("E"))
         if not fit_only:
             s = sample(cfg, progress=False).summary
             p = s["posterior"]["E"]

@@ -119,7 +119,9 @@ def _replicate(args: tuple) -> dict[str, dict[str, float]]:
     noise = s.get("noise") or {}
     out["_run"] = {"steps": s["steps"], "converged": s["stop_reason"] == "converged",
                    "wall_time_s": s["wall_time_s"],
-                   "kernel": noise.get("kernel") if noise.get("model") == "discrepancy" else None}
+                   "kernel": noise.get("kernel") if noise.get("model") == "discrepancy" else None,
+                   "weights": (noise.get("kernel_choice") or {}).get("weights"),
+                   "sd_factor": (noise.get("projection") or {}).get("sd_factor")}
     return out
 
 

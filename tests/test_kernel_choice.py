@@ -1,6 +1,6 @@
-"""``kernel: auto`` (the default): fit compares exp and matern32 and takes the one with the higher
-maximum likelihood, unless matern32 moves a parameter by more than 2 combined sd (it absorbs the
-model's response); sample, resume and the report use the kernel fit chose."""
+"""``kernel: auto`` (the default): fit analyses exp and matern32 on the orthogonal discrepancy and
+weighs them by their maximum likelihood; the estimate is the projection θ* whatever the weights,
+so no kernel choice can move it; sample, resume and the report use the kernel of highest weight."""
 
 from __future__ import annotations
 
@@ -8,53 +8,25 @@ import json
 import math
 
 import h5py
+import numpy as np
 import pytest
 from sampling_support import write_case
 
 from bayes_dnlr.config import load_config, parse_config
-from bayes_dnlr.inference.discrepancy.gls import SAME_ESTIMATE_SD, choose_kernel
+from bayes_dnlr.inference.discrepancy.orthogonal import kernel_weights
 from bayes_dnlr.report import build_report
 from bayes_dnlr.runs.fit import fit
 from bayes_dnlr.runs.sample import sample
 
 
-def _pair(exp: dict, matern32: dict) -> tuple[str, dict]:
-    return choose_kernel({"exp": exp, "matern32": matern32})
-
-
-def _analysis(ll: float, E: float, sd_E: float, *, evidence: bool = True, G: float = 2.3) -> dict:
-    return {"log_likelihood": ll, "estimate": {"E": E, "G": G}, "sd": {"E": sd_E, "G": 0.1},
-            "hyperparameters": {"sigma0": 0.3, "amplitude": 1.0, "length": 50.0}, "evidence": evidence}
-
-
-def test_the_higher_likelihood_wins_when_the_estimates_agree() -> None:
-    kernel, record = _pair(_analysis(-100.0, 2850, 40), _analysis(-90.0, 2870, 40))
-    assert kernel == "matern32"
-    assert record["log_likelihood_gain_matern32"] == pytest.approx(10.0)
-    assert record["move_in_sd"]["E"] == pytest.approx(20 / math.hypot(40, 40))
-    assert "warning" not in record
-    kernel, record = _pair(_analysis(-90.0, 2850, 40), _analysis(-100.0, 2850, 40))
-    assert kernel == "exp" and "exp has the higher" in record["reason"]
-
-
-def test_matern32_that_moves_E_too_far_is_refused_with_a_warning() -> None:
-    far = 2850 - 1.01 * SAME_ESTIMATE_SD * math.hypot(40, 50)
-    kernel, record = _pair(_analysis(-100.0, 2850, 40), _analysis(+500.0, far, 50))
-    assert kernel == "exp"
-    assert "moves E from 2850" in record["reason"] and "absorbs" in record["reason"]
-    assert "kernel auto kept exp" in record["warning"]
-    near = 2850 - 0.99 * SAME_ESTIMATE_SD * math.hypot(40, 50)
-    kernel, _ = _pair(_analysis(-100.0, 2850, 40), _analysis(+500.0, near, 50))
-    assert kernel == "matern32"
-
-
-def test_no_linearized_sd_or_no_evidence_keeps_exp() -> None:
-    kernel, record = choose_kernel({"exp": _analysis(-100.0, 2850, 40),
-                                    "matern32": _analysis(-90.0, 2850, math.nan)})
-    assert kernel == "exp" and "no linearized sd" in record["reason"]
-    kernel, record = choose_kernel({"exp": _analysis(-100.0, 2850, 40, evidence=False),
-                                    "matern32": _analysis(-99.0, 2850, 40, evidence=False)})
-    assert kernel == "exp" and "no evidence" in record["reason"]
+def test_the_weights_follow_the_likelihood_continuously() -> None:
+    """Equal likelihoods: equal weights; the weight of matern32 is the logistic function of the
+    likelihood difference, so a small change of the data changes it a little (no threshold)."""
+    gaps = np.linspace(-6.0, 6.0, 121)
+    w = np.array([kernel_weights({"exp": 0.0, "matern32": g})["matern32"] for g in gaps])
+    np.testing.assert_allclose(w, 1.0 / (1.0 + np.exp(-gaps)), rtol=1e-12)
+    assert np.max(np.diff(w)) <= 0.25 * (gaps[1] - gaps[0]) + 1e-12     # the logistic's slope
+    assert kernel_weights({"exp": 1e4, "matern32": 0.0}) == {"exp": 1.0, "matern32": 0.0}
 
 
 def test_auto_is_the_default_and_named_in_the_error_for_an_unknown_kernel() -> None:
@@ -67,39 +39,82 @@ def test_auto_is_the_default_and_named_in_the_error_for_an_unknown_kernel() -> N
         parse_config(raw | {"noise": {"discrepancy": "gaussian"}})
 
 
-@pytest.fixture(scope="module")
-def smooth_error_run(tmp_path_factory):
-    """A test with a smooth (Matérn-3/2) model error, default config, fitted and briefly sampled."""
-    path = write_case(tmp_path_factory.mktemp("auto"), "smooth", n=600, seed=30_001,
-                      error=("matern32", 1.0, 50.0), noise="residuals", discrepancy="default",
+def _smooth_case(folder, target: str | None = None):
+    disc = "default" if target is None else {"target": target}
+    path = write_case(folder, "smooth", n=600, seed=30_001, error=("matern32", 1.0, 50.0),
+                      noise="residuals", discrepancy=disc,
                       sampler={"walkers": 16, "max_steps": 600, "target_ess": 100, "checkpoint_every": 50})
-    cfg = load_config(path)
-    sample(cfg, progress=False)
+    sample(load_config(path), progress=False)
     return path.parent
 
 
-def test_a_smooth_error_gets_matern32_in_fit_sample_and_report(smooth_error_run) -> None:
+@pytest.fixture(scope="module")
+def smooth_error_run(tmp_path_factory):
+    """A test with a smooth (Matérn-3/2) model error, default config, fitted and briefly sampled."""
+    return _smooth_case(tmp_path_factory.mktemp("auto"))
+
+
+def test_a_smooth_error_weighs_matern32_in_fit_sample_and_report(smooth_error_run) -> None:
     run = smooth_error_run
-    disc = json.loads((run / "fit.json").read_text())["discrepancy"]
-    assert disc["kernel"] == "matern32"
+    fit_json = json.loads((run / "fit.json").read_text())
+    disc = fit_json["discrepancy"]
+    assert disc["kernel"] == "exp" and disc["target"] == "generalized"     # the sampled working model
     choice = disc["kernel_choice"]
-    assert choice["log_likelihood_gain_matern32"] > 0
-    assert max(abs(m) for m in choice["move_in_sd"].values()) <= SAME_ESTIMATE_SD
+    w = choice["weights"]["matern32"]
+    assert w > 0.5 and choice["log_likelihood_gain_matern32"] > 0
     assert set(choice["candidates"]) == {"exp", "matern32"}
     with h5py.File(run / "chains.h5", "r") as f:
-        assert json.loads(f.attrs["discrepancy_kernel"]) == "matern32"
-    noise = json.loads((run / "summary.json").read_text())["noise"]
-    assert noise["kernel"] == "matern32" and "higher maximum likelihood" in noise["kernel_choice"]["reason"]
+        assert json.loads(f.attrs["discrepancy_kernel"]) == "exp"
+        assert json.loads(f.attrs["discrepancy_projection"]) == "generalized"
+        chain_sd = float(np.std(f["chain"][-200:, :, 0]))
+    summary = json.loads((run / "summary.json").read_text())
+    noise = summary["noise"]
+    assert noise["kernel"] == "exp" and "matern32" in noise["kernel_choice"]["reason"]
+    proj = noise["projection"]
+    assert proj["kernel_weights"]["matern32"] == pytest.approx(w)
+    # the draws of E were mapped onto the mixture covariance: their sd is the chain's times the factor
+    factor = proj["sd_factor"]["E"]
+    assert factor == pytest.approx(disc["projection"]["widening"]["E"], rel=1e-9)
+    assert summary["posterior"]["E"]["sd"] == pytest.approx(factor * chain_sd, rel=0.25)
+    assert summary["posterior"]["E"]["sd"] == pytest.approx(disc["sd"]["E"], rel=0.3)
     page = build_report(run).read_text()
-    assert "kernel: auto; matern32 has the higher maximum likelihood" in page
+    assert "kernel: auto; weights" in page
 
 
-def test_a_rough_error_keeps_exp(tmp_path) -> None:
+def test_target_l2_samples_the_orthogonal_discrepancy_and_offsets_the_draws(tmp_path) -> None:
+    run = _smooth_case(tmp_path, "l2")
+    fit_json = json.loads((run / "fit.json").read_text())
+    disc = fit_json["discrepancy"]
+    assert disc["target"] == "l2"
+    assert disc["estimate"] == fit_json["estimate"]          # an even grid: the least-squares estimate
+    with h5py.File(run / "chains.h5", "r") as f:
+        assert json.loads(f.attrs["discrepancy_projection"]) == "l2"
+        theta_star_sd = float(np.std(f["chain"][-200:, :, 0]))
+    summary = json.loads((run / "summary.json").read_text())
+    proj = summary["noise"]["projection"]
+    assert sum(proj["kernel_draws"].values()) == summary["draws"]
+    # θ* is pinned at the noise level; the offsets make E's interval
+    assert proj["sd_offset_u"]["E"] > 5 * theta_star_sd
+    assert summary["posterior"]["E"]["sd"] > 5 * theta_star_sd
+
+
+def test_the_estimate_does_not_depend_on_the_kernel(tmp_path) -> None:
+    """exp, matern32 and auto give the same estimate (the projection) and differ only in width."""
     path = write_case(tmp_path, "rough", n=600, seed=30_000, error=("exp", 1.0, 20.0),
                       noise="residuals", discrepancy="default")
-    disc = fit(load_config(path)).discrepancy
-    assert disc["kernel"] == "exp"
-    assert disc["kernel_choice"]["log_likelihood_gain_matern32"] < 0
+    raw = load_config(path).model_dump(mode="json", exclude_none=True)
+    out = {}
+    for kernel in ("auto", "exp", "matern32"):
+        raw["noise"]["discrepancy"] = {"kernel": kernel}
+        out[kernel] = fit(parse_config(raw, source=path), write=False).discrepancy
+    assert out["auto"]["kernel_choice"]["weights"]["exp"] > 0.5
+    for kernel in ("exp", "matern32"):
+        assert out[kernel]["estimate"] == out["auto"]["estimate"]
+        assert list(out[kernel]["kernel_choice"]["weights"]) == [kernel]
+    assert out["exp"]["sd"]["E"] != out["matern32"]["sd"]["E"]
+    w = out["auto"]["kernel_choice"]["weights"]
+    mixed = math.sqrt(w["exp"] * out["exp"]["sd"]["E"] ** 2 + w["matern32"] * out["matern32"]["sd"]["E"] ** 2)
+    assert out["auto"]["sd"]["E"] == pytest.approx(mixed, rel=1e-6)
 
 
 def test_a_resumed_chain_keeps_the_kernel_it_started_with() -> None:
@@ -114,3 +129,38 @@ def test_a_resumed_chain_keeps_the_kernel_it_started_with() -> None:
     joint = SimpleNamespace(attrs={"discrepancy_kernel": json.dumps({"a": "matern32", "b": "exp"})})
     assert stored_per_test(joint, "discrepancy_kernel", False, ["a", "b"]) == {"a": "matern32",
                                                                             "b": "exp"}
+
+
+def test_the_noise_floor_keeps_sigma0_at_the_measurement_noise(tmp_path) -> None:
+    """A smooth misfit much larger than the noise (a matern32 error of 2 MPa, noise 0.02 MPa): σ0 is
+    never below the high-frequency scatter of the residuals, which measures the noise."""
+    from bayes_dnlr.inference.lsq.sigma0 import high_frequency_sd
+
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 300.0, 3000)
+    smooth = 2.0 * np.sin(t / 40.0) + np.cos(t / 13.0)
+    assert high_frequency_sd(smooth + rng.normal(0.0, 0.3, t.size)) == pytest.approx(0.3, rel=0.08)
+    assert high_frequency_sd(smooth) < 1e-3
+    path = write_case(tmp_path, "floor", n=800, seed=30_002, sigma=0.02, error=("matern32", 2.0, 40.0),
+                      noise="residuals", discrepancy="default")
+    disc = fit(load_config(path)).discrepancy
+    floor = disc["projection"]["sigma0_floor"]
+    assert floor == pytest.approx(0.02, rel=0.15)
+    assert disc["hyperparameters"]["sigma0"] >= floor
+    for k in disc["kernel_choice"]["candidates"].values():
+        assert k["hyperparameters"]["sigma0"] >= floor
+
+
+def test_the_generalized_sd_is_the_weighted_sandwich(tmp_path) -> None:
+    """fit.json's sd under model error is the weights' mixture of the kernels' covariances of the
+    estimate; the exp kernel's is the exp model's own (Σ_w)."""
+    path = write_case(tmp_path, "mix", n=600, seed=30_003, error=("matern32", 1.0, 50.0),
+                      noise="residuals", discrepancy="default")
+    disc = fit(load_config(path)).discrepancy
+    proj = disc["projection"]
+    mix = sum(v["weight"] * np.asarray(v["covariance_u"]) for v in proj["kernels"].values())
+    np.testing.assert_allclose(np.asarray(proj["covariance_u"]), mix, rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(proj["kernels"]["exp"]["covariance_u"]),
+                               np.asarray(proj["sampled_covariance_u"]), rtol=1e-6)
+    j = proj["u_names"].index("E")
+    assert disc["sd"]["E"] == pytest.approx(math.sqrt(mix[j, j]), rel=1e-12)

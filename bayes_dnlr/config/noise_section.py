@@ -42,15 +42,20 @@ class DiscrepancyConfig(Strict):
 
     amplitude (MPa) and length (s on the time axis, strain on the strain axis) take a prior, or
     ``value:`` to fix them; left out, their priors scale with the test: amplitude half-normal with
-    scale 2 × max(maximum-likelihood amplitude, rms/√n), length log-uniform from three sampling
-    steps to the span of the window.
+    scale 2 × the rms residual, length log-uniform from three sampling steps to the span of the
+    window.
     """
 
     kernel: Literal["auto", "exp", "matern32"] = Field(
-        default="auto", description="auto: fit chooses exp (Ornstein-Uhlenbeck) or matern32 by their "
-                                    "maximum likelihood, keeping exp when matern32 would move a "
-                                    "parameter by more than 2 sd (it absorbs the model's response, "
-                                    "as on the real ETFE curves); docs/model-error.md")
+        default="auto", description="the model of the error that sets the interval's width: auto "
+                                    "weighs exp (Ornstein-Uhlenbeck) and matern32 by their restricted "
+                                    "likelihood; the estimate does not depend on it; "
+                                    "docs/model-error.md")
+    target: Literal["generalized", "l2"] = Field(
+        default="generalized", description="what the estimate is: generalized, the model curve closest "
+                                           "to the data in the metric of an Ornstein-Uhlenbeck "
+                                           "discrepancy; l2, the closest in the plain least-squares "
+                                           "metric (the orthogonal discrepancy); docs/model-error.md")
     axis: Literal["time", "strain"] = "time"
     start: Literal["pinned", "stationary"] = Field(
         default="stationary", description="pinned: δ = 0 (and, for matern32, δ' = 0) at the test's first "

@@ -204,7 +204,7 @@ def build_report(run_dir: Path | str) -> Path:
                            f"within {100 * tb.SD_TOLERANCE:.0f} %, every correlation within "
                            f"{tb.RHO_TOLERANCE}), but the residuals are not white: the agreement says the "
                            "posterior is close to Gaussian, not that the model fits. See section 5 for "
-                           "which uncertainty to believe.</div>")
+                           "what the checks say of the intervals.</div>")
             if notes:
                 sec.append(bullets([d.text for d in notes]))
 
@@ -240,7 +240,7 @@ def build_report(run_dir: Path | str) -> Path:
                + bullets(tb.residual_words(run.fit, fit_sigma0)))
 
     # 5. model error
-    sec.append("<h2>5. Model error: which uncertainty to believe</h2>")
+    sec.append("<h2>5. Model error: the two analyses and the checks</h2>")
     white_resid = None
     if curves is not None and curves.gn_curve is not None:
         white_resid = (curves.data - run_white_curve(run, curves))[curves.window]

@@ -1,4 +1,4 @@
-"""The report's model-error section: which uncertainty of E to believe (docs/model-error.md).
+"""The report's model-error section: the two analyses of E and what the checks say of them (docs/model-error.md).
 
 - the interval of E under white noise (the paper's linearized analysis), under the model
   discrepancy (linearized GLS, and the posterior), with the paper's by-hand ±6.5 % as context;
@@ -62,8 +62,7 @@ def discrepancy_on_window(run: RunResults, model_window: np.ndarray) -> Discrepa
     hyper = _hyper(run)
     if hyper is None or run.test is None:
         return None
-    from bayes_dnlr.inference.discrepancy import gp
-    from bayes_dnlr.inference.discrepancy.hyper import test_axis
+    from bayes_dnlr.inference.discrepancy.hyper import gp, test_axis
 
     t = run.test
     n = t.model_end
@@ -112,8 +111,10 @@ def interval_table(run: RunResults, parameter: str = "E") -> Table | None:
     d = fit.get("discrepancy") or {}
     g_est, g_sd = (d.get("estimate") or {}).get(parameter), (d.get("sd") or {}).get(parameter)
     if g_est is not None and g_sd is not None and np.isfinite(g_sd):
-        row("with the discrepancy, linearized (GLS, Δ = (XᵀK⁻¹X)⁻¹)", g_est, g_sd, g_est - z * g_sd,
-            g_est + z * g_sd)
+        label = ("with the discrepancy, linearized (the projection θ*, Var θ* + S(h))"
+                 if d.get("target") == "l2" else
+                 "with the discrepancy, linearized (GLS under the exp covariance, the kernels' sandwich sd)")
+        row(label, g_est, g_sd, g_est - z * g_sd, g_est + z * g_sd)
     post = (s.get("posterior") or {}).get(parameter)
     if post:
         model = (s.get("noise") or {}).get("model", "white")
@@ -124,7 +125,7 @@ def interval_table(run: RunResults, parameter: str = "E") -> Table | None:
         return None
     return Table(["analysis", f"{parameter} (MPa)" if parameter in ("E", "G") else parameter, "sd",
                   "90 % interval", "Err"], rows,
-                 f"{parameter}: which uncertainty to believe", [PAPER_BY_HAND], css="num")
+                 f"{parameter}: the two analyses", [PAPER_BY_HAND], css="num")
 
 
 def hyper_table(run: RunResults) -> Table | None:

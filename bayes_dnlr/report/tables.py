@@ -117,8 +117,9 @@ def parameter_table(run: RunResults) -> Table:
         notes.append("HDI: highest-density interval. ESS: effective sample size; R-hat near 1.00 "
                      "(below 1.01) means the walkers agree.")
     if gn is not None and gls:
-        notes.append("GLS: generalized least-squares estimate under the model discrepancy, with the "
-                     "linearized sd √Δ_jj (Δ = (XᵀK⁻¹X)⁻¹); the paper's white analysis is in section 5.")
+        notes.append("GLS: the estimate under model error (generalized least squares under the exp "
+                     "covariance), with the linearized sd of that estimate under the kernels' model of "
+                     "the error (docs/model-error.md); the paper's white analysis is in section 5.")
     elif gn is not None:
         notes.append("Gauss-Newton: least-squares estimate with the linearized sd √Δ_jj "
                      "(eq. 32, Δ = σ0² (XᵀX)⁻¹).")

@@ -3,7 +3,7 @@ the interval of E under white noise and under the model discrepancy, with a verd
 
 The white interval is the paper's linearized one (fit.json, eq. 32: estimate ± 1.645 sd, which the
 white posterior matches to a few percent on white data, docs/sampling.md); the discrepancy interval
-is the posterior's 90 % HDI. docs/model-error.md explains which to believe and why they differ.
+is the posterior's 90 % HDI. docs/model-error.md explains why they differ; the run's checks (summary.json `checks`) decide which is trusted.
 """
 
 from __future__ import annotations
@@ -58,8 +58,8 @@ def noise_block(cfg: Config, fit: dict[str, Any], summary: dict[str, Any], sigma
         })
         choice = disc.get("kernel_choice")
         if choice:
-            block["kernel_choice"] = {k: choice[k] for k in ("reason", "log_likelihood_gain_matern32",
-                                                             "move_in_sd") if k in choice}
+            block["kernel_choice"] = {k: choice[k] for k in ("reason", "weights",
+                                                             "log_likelihood_gain_matern32") if k in choice}
         interval["gls_linearized"] = _linearized((disc.get("estimate") or {}).get(parameter),
                                                  (disc.get("sd") or {}).get(parameter))
     if post is not None:
@@ -74,7 +74,7 @@ def noise_block(cfg: Config, fit: dict[str, Any], summary: dict[str, Any], sigma
 
 
 def verdict(block: dict[str, Any]) -> str:
-    """Which interval to believe, in words."""
+    """How the two intervals relate, in words (the checks, not this text, decide trust)."""
     iv = block["interval"]
     p = iv["parameter"]
     white, post = iv.get("white_linearized"), iv.get("posterior")
@@ -104,6 +104,29 @@ def verdict(block: dict[str, Any]) -> str:
     width = ("wider" if ratio >= 1 else "narrower: the whitened fit weighs the curve's shape "
              "sample to sample, not its level, and the shape can pin the parameters better than the "
              "level does (docs/model-error.md)")
+    proj = block.get("projection")
+    if proj and "sd_factor" in proj:
+        w = proj.get("kernel_weights") or {}
+        return (f"The residuals of the white fit are signed waves (model error), which the white "
+                f"likelihood takes for independent noise: its interval of {p} (90 % half-width "
+                f"{Z90 * white['sd']:.4g}) rests on that, and its centre is where the waves pull the "
+                f"parameters. The estimate under model error fits the curve in the metric of an "
+                f"Ornstein-Uhlenbeck discrepancy (slopes as much as levels): {p} moves by "
+                f"{shift:+.1f} white sd; its sd, {ratio:.2f}x the white one ({width}), is that of this "
+                f"estimate under the kernels' model of the error ("
+                + ", ".join(f"{k} {100 * v:.3g} %" for k, v in w.items()) + "). Whether to use "
+                "the interval is the checks' verdict.")
+    if proj:
+        share = (proj.get("sd_offset_u") or {}).get(p)
+        return (f"The residuals of the white fit are signed waves (model error), which the white "
+                f"likelihood takes for independent noise: its interval of {p} (90 % half-width "
+                f"{Z90 * white['sd']:.4g}) is that of the least-squares projection of the curve onto "
+                f"the model, not of {p} itself. The discrepancy keeps the projection as the centre "
+                f"and adds what the data cannot tell from a change of {p}, the part of the model "
+                f"error along the sensitivities (its projection offset): the sd is {ratio:.2f}x the "
+                f"white one ({width})" + (f", the offset's sd {share:.3g} (in {p}'s sampling units)"
+                                          if share is not None else "") + ". Its width is set by "
+                "the kernel's model of the error; whether to use it is the checks' verdict.")
     return (f"The residuals of the white fit are signed waves (model error), which the white "
             f"likelihood takes for independent noise: its interval of {p} (90 % half-width "
             f"{Z90 * white['sd']:.4g}) rests on that, and its centre is where the waves pull the "

@@ -54,7 +54,7 @@ from bayes_dnlr.runs.folder import (
 from bayes_dnlr.runs.layout import CHAINS_FILE, FIT_FILE, POSTERIOR_FILE, SAMPLE_LOCK, SUMMARY_FILE
 from bayes_dnlr.runs.lock import run_lock
 from bayes_dnlr.runs.netcdf import PosteriorDraws
-from bayes_dnlr.runs.noise_summary import noise_summary, residual_warnings
+from bayes_dnlr.runs.noise_summary import noise_summary, residual_warnings, verdict
 from bayes_dnlr.runs.outputs import (
     Posterior,
     gauss_newton_block,
@@ -369,6 +369,45 @@ def _finished_result(cfg: Config, test, stored: StoredRun, fp: str,
     return post
 
 
+def _projection_offsets(cfg: Config, test, fit: dict[str, Any], run: StoredRun,
+                        draws: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
+    """The chain holds θ* (the projection) and the hyperparameters: each draw of θ becomes
+    θ* - c, c the projection offset of the discrepancy (inference/discrepancy/orthogonal.py ``offset_draws``),
+    with a seed of its own so that the outputs are reproducible."""
+    from bayes_dnlr.inference.discrepancy.gls import columns_for
+    from bayes_dnlr.inference.discrepancy.hyper import discrepancy_priors
+    from bayes_dnlr.inference.discrepancy.orthogonal import offset_draws
+
+    disc = fit["discrepancy"]
+    cols, axis = columns_for(cfg, test, disc["estimate"])
+    stored = _json_attr(run.attrs.get("discrepancy_priors"))
+    priors = discrepancy_priors({"discrepancy": {"priors": stored}}) if stored else discrepancy_priors(fit)
+    fixed = {k.removeprefix("disc_"): float(v.value) for k, v in (priors or {}).items() if v.fixed}
+    kernel = _json_attr(run.attrs.get("discrepancy_kernel")) or disc.get("kernel")
+    bounds = {k: cfg.parameters[k].bounds() for k in cols.names}
+    flat = draws.reshape(-1, draws.shape[-1])
+    new, info = offset_draws(flat, list(run.names), disc["projection"], kernel, cols, axis.values,
+                             axis.origin, fixed, bounds, int(cfg.sampler.seed) + 7919)
+    return new.reshape(draws.shape), info
+
+
+def _sandwich_adjustment(cfg: Config, fit: dict[str, Any], run: StoredRun,
+                         draws: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
+    """The chain is the exp posterior; its draws of θ take the covariance of the generalized
+    estimate under the kernels' model of the error (inference/discrepancy/orthogonal.py ``adjust_draws``)."""
+    from bayes_dnlr.inference.discrepancy.orthogonal import adjust_draws
+
+    proj = fit["discrepancy"]["projection"]
+    names = list(proj["u_names"])
+    bounds = {k: cfg.parameters[k].bounds() for k in names}
+    flat = draws.reshape(-1, draws.shape[-1])
+    new, info = adjust_draws(flat, list(run.names), names, np.asarray(proj["log"], dtype=bool),
+                             np.asarray(proj["sampled_covariance_u"], dtype=float),
+                             np.asarray(proj["covariance_u"], dtype=float), bounds)
+    info["kernel_weights"] = {k: v["weight"] for k, v in proj["kernels"].items()}
+    return new.reshape(draws.shape), info
+
+
 def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Convergence | None,
                   reason: str | None, fp: str, test, sigma0_source: str, *, wall_time: float,
                   store_time: float, evals: int, check_time: float | None = None,
@@ -384,6 +423,12 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
     draws = run.chain[burn:]
     lp = run.log_prob[burn:]
     layout = _chain_layout(run, cfg, test.plain)
+    offsets = None
+    target = _json_attr(run.attrs.get("discrepancy_projection")) if layout.plain else None
+    if target and fit.get("discrepancy"):
+        view = test.tests[layout.tests[0]]
+        draws, offsets = (_projection_offsets(cfg, view, fit, run, draws) if target == "l2"
+                          else _sandwich_adjustment(cfg, fit, run, draws))
     sigma0 = _sigma0_used(run, draws, layout)
     singles = fit.get("single_fits") or {}
     sampling = max(wall_time - store_time, 1e-12)
@@ -419,6 +464,9 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
     summary = summarize(names, draws, fit=fit, tau=conv.tau, extra=extra)
     summary["noise"] = jsonable(noise_summary(cfg, fit, summary, layout, sigma0,
                                               layout.expand(sigma0_source)))
+    if offsets is not None:
+        summary["noise"]["projection"] = jsonable(offsets)
+        summary["noise"]["verdict"] = verdict(summary["noise"])
     priors = build_target(cfg, test, FitRecord.from_dict(fit, cfg.test_names), run).priors
     summary["checks"] = jsonable(run_checks(cfg, test, layout, draws, names, priors, fit, summary,
                                             sigma0))

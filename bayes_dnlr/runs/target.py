@@ -85,10 +85,11 @@ def _inside(x0: np.ndarray, priors: PriorSet) -> np.ndarray:
 
 
 def model_start(analysis: Analysis | None, names: list[str], priors: PriorSet,
-                scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+                scale: float = 1.0, covariance: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The model parameters' start (the run's least-squares estimate, eq. 32, strictly inside the
-    prior support) and covariance (× ``scale``², NaN when the analysis has none), in the order of
-    ``names``; the noise parameters' entries are left 0 for ``noise_start``."""
+    prior support) and covariance (× ``scale``², NaN when the analysis has none; ``covariance``
+    in the analysis' order instead of its own), in the order of ``names``; the noise parameters'
+    entries are left 0 for ``noise_start``."""
     n = len(names)
     model = [j for j, k in enumerate(names) if base_name(k) not in NOISE_NAMES]
     est = analysis.estimate if analysis is not None else {}
@@ -100,7 +101,8 @@ def model_start(analysis: Analysis | None, names: list[str], priors: PriorSet,
     cov = np.zeros((n, n))
     try:
         idx = [analysis.names.index(names[j]) for j in model]   # type: ignore[union-attr]
-        cov[np.ix_(model, model)] = analysis.covariance[np.ix_(idx, idx)] * scale**2  # type: ignore
+        full = analysis.covariance if covariance is None else covariance   # type: ignore[union-attr]
+        cov[np.ix_(model, model)] = full[np.ix_(idx, idx)] * scale**2
     except (AttributeError, TypeError, ValueError, IndexError):
         cov[np.ix_(model, model)] = np.nan
     return x0, cov
@@ -159,6 +161,18 @@ def _run_priors(layout: Layout, local: dict[str, PriorSet]) -> PriorSet:
     return PriorSet(tuple(out))
 
 
+def model_error_target(resumed: bool, stored_target: str | None, fit: TestFit,
+                       disc_priors) -> str | None:
+    """``generalized`` or ``l2`` when the draws of a test's posterior become those of the
+    parameters under model error (inference/discrepancy/gls.py): fit made that analysis and found
+    evidence of model error, and a resumed chain was started so (a chain from an earlier version
+    continues as it began). None: the draws are the answer as they are."""
+    proj = (fit.discrepancy or {}).get("projection")
+    if not proj or disc_priors is None or is_white(disc_priors):
+        return None
+    return stored_target if resumed else proj.get("target", "generalized")
+
+
 def build_target(cfg: Config, tests: TestSet, fit: FitRecord, stored=None) -> Target:
     """The posterior of a run: shared and per-test model parameters, each test's own noise
     parameters. The walkers start at the run's least-squares estimate (generalized when a test has
@@ -167,7 +181,9 @@ def build_target(cfg: Config, tests: TestSet, fit: FitRecord, stored=None) -> Ta
     names_of = cfg.test_names
     stored_priors = stored_per_test(stored, "discrepancy_priors", tests.plain, names_of)
     stored_kernels = stored_per_test(stored, "discrepancy_kernel", tests.plain, names_of)
+    stored_targets = stored_per_test(stored, "discrepancy_projection", tests.plain, names_of)
     likes, local_priors, noise, sig, src, disc_all, kernels = {}, {}, {}, {}, {}, {}, {}
+    targets: dict[str, str | None] = {}
     for t in names_of:
         view, own = cfg.for_test(t), fit.tests.get(t)
         if own is None:
@@ -181,8 +197,14 @@ def build_target(cfg: Config, tests: TestSet, fit: FitRecord, stored=None) -> Ta
                            "by another version?): run `fit --force`")
         priors = build_priors(view, disc_priors)
         kernels[t] = stored_kernels.get(t) or (own.discrepancy or {}).get("kernel")
+        targets[t] = model_error_target(stored is not None, stored_targets.get(t), own, disc_priors)
+        columns = None
+        if targets[t] == "l2":
+            from bayes_dnlr.inference.discrepancy.gls import columns_for
+
+            columns = columns_for(view, tests.tests[t], own.discrepancy["estimate"])[0].V
         like = build_likelihood(view, tests.tests[t], s0, sampled_names(view, disc_priors), disc_priors,
-                                kernels[t])
+                                kernels[t], columns)
         rms = float(own.residuals.get("rms") or 1.0)
         likes[t], local_priors[t] = like, priors
         noise[t] = noise_start(like, priors, own, s0_start, rms)
@@ -194,12 +216,20 @@ def build_target(cfg: Config, tests: TestSet, fit: FitRecord, stored=None) -> Ta
     own_sigma = next(iter(likes.values())).sigma0 if tests.plain else None
     scale = (own_sigma / fit.sigma0 if not uses_disc and own_sigma is not None and fit.sigma0
              and fit.sigma0 > 0 else 1.0)                  # the covariance scales with σ0²
-    x0, cov = model_start(fit.start_analysis(uses_disc), layout.names, priors, scale)
+    # the sampled model's covariance (the exp model's, or θ*'s), not that of the answer under model
+    # error, which the draws are mapped onto after sampling (one test)
+    star = None
+    if tests.plain:
+        own = fit.tests[names_of[0]]
+        star = ((own.discrepancy or {}).get("projection") or {}).get("covariance_star")
+    x0, cov = model_start(fit.start_analysis(uses_disc), layout.names, priors, scale,
+                          None if star is None else np.asarray(star, dtype=float))
     for t in names_of:
         for k, (x, var) in noise[t].items():
             j = layout.names.index(layout.name(k, t))
             x0[j], cov[j, j] = x, var
-    meta = {"discrepancy_priors": layout.collapse(disc_all), "discrepancy_kernel": layout.collapse(kernels)}
+    meta = {"discrepancy_priors": layout.collapse(disc_all), "discrepancy_kernel": layout.collapse(kernels),
+            "discrepancy_projection": layout.collapse(targets) if any(targets.values()) else None}
     meta = {k: json.dumps(v) for k, v in meta.items() if v is not None}
     if not tests.plain:
         meta["layout"] = json.dumps(layout.local)

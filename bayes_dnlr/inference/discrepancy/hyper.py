@@ -1,17 +1,12 @@
-"""The model discrepancy of one test: its axis, its priors scaled to the test, and the maximum-
-likelihood hyperparameters with the generalized least-squares estimate they imply.
+"""The model discrepancy of one test: its axis, its priors scaled to the test, and its
+hyperparameters by a likelihood of h alone (``hyper_fit``): the restricted likelihood
+(``restricted_log_likelihood``) or the orthogonal discrepancy's (inference/discrepancy/orthogonal.py), for the
+analysis of inference/discrepancy/gls.py.
 
 Residual = white noise (sd σ0) + δ, δ a zero-mean Gaussian process on the time (or strain) axis
-with amplitude a and correlation length ℓ (inference/discrepancy/gp.py; docs/model-error.md). For given
-hyperparameters h = (σ0, a, ℓ) the best model parameters are the generalized least-squares (GLS)
-estimate, ordinary least squares on whitened residuals W(y - f(θ)), W = L⁻¹, K = L Lᵀ. The
-hyperparameters maximise the profile likelihood
-
-    log L(h) = -½ |W(y - f(θ̂(h)))|² - ½ log det K - (n/2) log 2π,
-
-found by Nelder-Mead over (ln τ, ln a, ln ℓ, ln σ0) with E, G, σ_inf projected out (the model is
-linear in them, so θ̂ over them is a whitened linear least-squares solve), from a few starting
-lengths; a GLS trust-region polish then gives θ̂ and the sensitivities at the optimum.
+with amplitude a and correlation length ℓ (inference/discrepancy/gp.py; docs/model-error.md). A likelihood of
+h = (σ0, a, ℓ) alone keeps the hyperparameters from being confounded with θ; ``hyper_fit`` finds
+its maximum (with the amplitude's prior) by Nelder-Mead over ln σ0, ln a, ln ℓ from a few lengths.
 """
 
 from __future__ import annotations
@@ -26,12 +21,11 @@ import numpy as np
 from bayes_dnlr.config import DiscrepancyConfig, ParameterSpec
 from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.inference.discrepancy import gp
-from bayes_dnlr.inference.lsq.problem import LsqProblem
 
 AMPLITUDE = "disc_amplitude"
 LENGTH = "disc_length"
 AMPLITUDE_FLOOR = 1e-6       # × rms: below this the amplitude counts as zero (white suffices)
-DEFAULT_AMPLITUDE_SCALE = 2.0   # half-normal scale, × max(ML amplitude, rms/√n)
+DEFAULT_AMPLITUDE_SCALE = 2.0   # half-normal scale, × the rms residual of the projection θ*
 DEFAULT_LENGTH_STEPS = 3.0      # log-uniform low, × the median sampling step
 EVIDENCE_LR = 9.21              # 2 Δ log L above the 99 % point of χ²(2): evidence of model error
 
@@ -108,41 +102,35 @@ def search_priors(spec: DiscrepancyConfig, rms: float, axis: Axis) -> dict[str, 
     return {AMPLITUDE: amp, LENGTH: length}
 
 
-def likelihood_ratio(log_likelihood: float, ssr_white: float, n: int,
-                     sigma0: float | None) -> float:
-    """2 (log L with the discrepancy - log L white), both at their maximum: the evidence of model
-    error. The white one at the white optimum, with σ0² = SSR/n when σ0 is estimated."""
-    s2 = ssr_white / n if sigma0 is None else sigma0**2
-    white = -0.5 * ssr_white / s2 - 0.5 * n * math.log(2.0 * math.pi * s2)
-    return 2.0 * (log_likelihood - white)
+def amplitude_prior(spec: DiscrepancyConfig, rms: float) -> ParameterSpec:
+    """The amplitude's prior: the configured one, or half-normal with scale 2 × the rms residual of
+    the projection θ*: a priori the discrepancy is about as large as the misfit the data show. (A
+    smooth kernel fitted without it reached 135 MPa on a 42 MPa curve, its length at the window's
+    span: the kernel extrapolating to what no data constrain, not a measurement.)"""
+    if spec.amplitude is not None:
+        return spec.amplitude
+    return ParameterSpec(prior="half-normal", scale=float(DEFAULT_AMPLITUDE_SCALE * max(rms, 1e-12)))
 
 
-def resolved_priors(spec: DiscrepancyConfig, rms: float, axis: Axis, amplitude_ml: float,
+def resolved_priors(spec: DiscrepancyConfig, rms: float, axis: Axis,
                     evident: bool) -> dict[str, ParameterSpec]:
     """The priors (or fixed values) the posterior uses. Left out in the config, they follow the
     evidence of model error in the test (docs/model-error.md):
 
     - with evidence (``evident``: the likelihood ratio against the white model above EVIDENCE_LR):
-      amplitude half-normal with scale 2 × max(amplitude_ml, rms/√n), length log-uniform from
-      3 median sampling steps to the span of the window;
+      ``amplitude_prior``, length log-uniform from 3 median sampling steps to the span of the window;
     - without: the amplitude fixed at 0, i.e. exactly the white likelihood. The data cannot tell a
       smooth discrepancy of a few hundredths of σ0 from a change of the parameters, so without
-      evidence only the prior would decide how much of it to admit (measured on the shipped white
-      examples: an amplitude prior of scale 2 × rms widened sd(G) 2.5×, one of 2 × rms/√n still
-      1.4×).
+      evidence only the prior would decide how much of it to admit.
 
     An amplitude or length given in the config is always used as given.
     """
     out = search_priors(spec, rms, axis)
-    if spec.amplitude is None:
-        if evident:
-            floor = rms / math.sqrt(max(axis.values.size, 1))
-            scale = DEFAULT_AMPLITUDE_SCALE * max(amplitude_ml, floor, 1e-12)
-            out[AMPLITUDE] = ParameterSpec(prior="half-normal", scale=float(scale))
-        else:
-            out[AMPLITUDE] = ParameterSpec(value=0.0)
-            if spec.length is None:
-                out[LENGTH] = ParameterSpec(value=float(axis.span))
+    out[AMPLITUDE] = amplitude_prior(spec, rms)
+    if spec.amplitude is None and not evident:
+        out[AMPLITUDE] = ParameterSpec(value=0.0)
+        if spec.length is None:
+            out[LENGTH] = ParameterSpec(value=float(axis.span))
     return out
 
 
@@ -176,109 +164,9 @@ def whitener(axis: Axis, h: Hyper, kind: str) -> Callable[[np.ndarray], np.ndarr
     return w
 
 
-@dataclass
-class MaximumLikelihood:
-    """The ML hyperparameters and what came with them."""
-
-    hyper: Hyper
-    beta: np.ndarray                 # the model parameters at the optimum (free, problem order)
-    log_likelihood: float
-    free: list[str]                  # the hyperparameters that were estimated (sigma0, ...)
-    covariance_log: np.ndarray       # of ln(free hyperparameters), from the curvature (for starts)
-    evaluations: int
-    message: str
-
-
 def _bounds(spec: ParameterSpec, floor: float, cap: float) -> tuple[float, float]:
     lo, hi = spec.bounds()
     return math.log(max(lo, floor)), math.log(min(hi, cap))
-
-
-def maximum_likelihood(problem: LsqProblem, beta0: np.ndarray, axis: Axis, kind: str,
-                       priors: dict[str, ParameterSpec], sigma0: float | None,
-                       residuals: np.ndarray) -> MaximumLikelihood:
-    """Maximise the profile likelihood over the time constants and the free hyperparameters.
-
-    ``sigma0``: fixed white-noise sd, or None to estimate it; ``residuals``: those of the white fit
-    (for starting values); ``beta0``: the white estimate (time constants start there).
-    """
-    rms = float(np.sqrt(np.mean(residuals**2)))
-    scale = max(rms, 1e-12)
-    fixed = {k: s.value for k, s in priors.items() if s.fixed}
-    names = [k for k in ("sigma0", AMPLITUDE, LENGTH)
-             if (k == "sigma0" and sigma0 is None) or (k != "sigma0" and k not in fixed)]
-    nl = [problem.names.index(k) for k in problem.nonlinear]
-
-    # starting values from the white residuals
-    d = np.diff(axis.sort(residuals))
-    s0_start = float(np.std(d) / math.sqrt(2.0)) if d.size else scale / 2
-    s0_start = min(max(s0_start, 1e-3 * scale), scale)
-    a_start = math.sqrt(max(rms**2 - s0_start**2, (0.1 * scale) ** 2))
-    bounds = {"sigma0": (math.log(1e-6 * scale), math.log(10.0 * scale))}
-    if AMPLITUDE in names:
-        bounds[AMPLITUDE] = _bounds(priors[AMPLITUDE], AMPLITUDE_FLOOR * scale, 100.0 * scale)
-        if not bounds[AMPLITUDE][0] < bounds[AMPLITUDE][1]:
-            bounds[AMPLITUDE] = (bounds[AMPLITUDE][0], bounds[AMPLITUDE][0] + 1.0)
-    if LENGTH in names:
-        bounds[LENGTH] = _bounds(priors[LENGTH], 1e-12, math.inf)
-    support = {k: (math.exp(lo), math.exp(hi)) for k, (lo, hi) in bounds.items()}
-    for k in (AMPLITUDE, LENGTH):
-        if k in names:
-            lo, hi = priors[k].bounds()
-            support[k] = (max(support[k][0], lo), min(support[k][1], hi))
-    lengths = [_acf_length(axis, residuals)] if LENGTH in names else [fixed[LENGTH]]
-    if LENGTH in names:
-        lo, hi = bounds[LENGTH]
-        lengths += [math.exp(lo + 0.25 * (hi - lo)), math.exp(lo + 0.75 * (hi - lo))]
-
-    def hyper(v: np.ndarray) -> Hyper:
-        # exp(ln bound) can land a rounding step outside the bound: clip into the support
-        val = {k: float(np.clip(np.exp(x), *support[k])) for k, x in zip(names, v[len(nl):], strict=True)}
-        return Hyper(sigma0=val.get("sigma0", sigma0 if sigma0 is not None else s0_start),
-                     amplitude=val.get(AMPLITUDE, fixed.get(AMPLITUDE, a_start)),
-                     length=val.get(LENGTH, fixed.get(LENGTH, lengths[0])))
-
-    base = np.asarray(beta0, dtype=float).copy()
-    evals = 0
-
-    def objective(v: np.ndarray) -> float:
-        nonlocal evals
-        evals += 1
-        h = hyper(v)
-        beta = base.copy()
-        beta[nl] = np.exp(v[: len(nl)])
-        problem.whiten = w = whitener(axis, h, kind)
-        params = problem.project(problem.params(beta))
-        rw = problem.residuals(params)
-        value = 0.5 * float(rw @ rw) + 0.5 * w.logdet
-        return value if math.isfinite(value) else math.inf
-
-    from scipy.optimize import minimize  # here: `sample` reads fit.json, never optimises
-
-    lo = np.concatenate([problem.u_lower[nl], [bounds[k][0] for k in names]])
-    hi = np.concatenate([problem.u_upper[nl], [bounds[k][1] for k in names]])
-    best = None
-    for length0 in lengths:
-        start = {"sigma0": s0_start, AMPLITUDE: a_start, LENGTH: length0}
-        v0 = np.concatenate([np.log(base[nl]), [math.log(start[k]) for k in names]])
-        v0 = np.clip(v0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
-        res = minimize(objective, v0, method="Nelder-Mead", bounds=list(zip(lo, hi, strict=True)),
-                       options={"xatol": 1e-5, "fatol": 1e-7, "maxfev": 400 * (len(v0) + 1),
-                                "adaptive": True})
-        if best is None or res.fun < best.fun:
-            best = res
-    h = hyper(best.x)
-    beta = base.copy()
-    beta[nl] = np.exp(best.x[: len(nl)])
-    problem.whiten = whitener(axis, h, kind)
-    beta = problem.vector(problem.project(problem.params(beta)))
-    cov = _log_covariance(objective, best.x, len(nl), len(names))
-    problem.whiten = None
-    n = axis.values.size
-    return MaximumLikelihood(
-        hyper=h, beta=beta, log_likelihood=-float(best.fun) - 0.5 * n * math.log(2.0 * math.pi), free=names,
-        covariance_log=cov, evaluations=evals,
-        message=f"Nelder-Mead from {len(lengths)} starting lengths: {best.message}")
 
 
 def _acf_length(axis: Axis, residuals: np.ndarray) -> float:
@@ -318,3 +206,114 @@ def _log_covariance(objective: Callable[[np.ndarray], float], v: np.ndarray, n_m
     vals, vecs = np.linalg.eigh(H)
     vals = np.where(vals > 1e-6, vals, 1.0)      # flat directions: a unit spread in ln h
     return (vecs / vals) @ vecs.T
+
+
+@dataclass
+class HyperFit:
+    """The maximum a-posteriori hyperparameters of one kernel under one likelihood of h."""
+
+    kernel: str
+    hyper: Hyper
+    log_likelihood: float            # the likelihood of h at ``hyper``
+    log_posterior: float             # ... plus the amplitude's log prior (what the kernels compare)
+    free: list[str]
+    covariance_log: np.ndarray       # of ln(free hyperparameters), from the curvature (for starts)
+    evaluations: int
+
+
+def restricted_log_likelihood(x: np.ndarray, r: np.ndarray, X: np.ndarray, h: Hyper, kind: str,
+                              start: float | None = None) -> float:
+    """The restricted (REML) log-likelihood of h: of the residual r (axis order) with the parameters
+    of the linearized model y ≈ y(θ) + X Δθ integrated out under a flat prior,
+
+        -½ [rᵀC⁻¹r - bᵀ(XᵀC⁻¹X)⁻¹b + log det C + log det XᵀC⁻¹X + (n - p) ln 2π],  b = XᵀC⁻¹r,
+
+    (up to ½ log det XᵀX, the same for every h). It does not depend on where along X the residual
+    is taken, so the hyperparameters are not confounded with θ (Patterson & Thompson 1971); it is
+    also the evidence of a kernel against another up to that constant."""
+    n, p = X.shape
+    if not (h.sigma0 > 0 and h.amplitude >= 0 and h.length > 0):
+        return -math.inf
+    Z, logdet = gp.whiten(x, np.column_stack([r, X]), h.sigma0, h.amplitude, h.length, kind, start)
+    zr, zX = Z[:, 0], Z[:, 1:]
+    G = zX.T @ zX
+    d = np.sqrt(np.diag(G))
+    try:
+        L = np.linalg.cholesky(G / d[:, None] / d[None, :])
+    except np.linalg.LinAlgError:
+        return -math.inf
+    b = np.linalg.solve(L, (zX.T @ zr) / d)
+    logdet_g = 2.0 * float(np.log(np.diag(L)).sum() + np.log(d).sum())
+    value = -0.5 * (float(zr @ zr) - float(b @ b) + logdet + logdet_g + (n - p) * math.log(2.0 * math.pi))
+    return value if math.isfinite(value) else -math.inf
+
+
+def hyper_fit(kind: str, loglik: Callable[[Hyper], float], axis: Axis, r: np.ndarray,
+              priors: dict[str, ParameterSpec], sigma0: float | None, floor: float) -> HyperFit:
+    """Maximise ``loglik(h)`` plus the amplitude's log prior over ln σ0 (when ``sigma0`` is None;
+    never below the noise ``floor``), ln a and ln ℓ within their priors' supports (Nelder-Mead from
+    a few lengths); r: the residual in axis order (for starting values)."""
+    from scipy.optimize import minimize  # here: `sample` reads fit.json, never optimises
+
+    from bayes_dnlr.inference.posterior.priors import Prior
+
+    rms = float(np.sqrt(np.mean(r**2)))
+    scale = max(rms, 1e-12)
+    fixed = {k: s.value for k, s in priors.items() if s.fixed}
+    names = [k for k in ("sigma0", AMPLITUDE, LENGTH)
+             if (k == "sigma0" and sigma0 is None) or (k != "sigma0" and k not in fixed)]
+    amp_prior = (Prior.from_spec(AMPLITUDE, priors[AMPLITUDE], key="noise.discrepancy.amplitude")
+                 if AMPLITUDE in names else None)
+    d = np.diff(r)
+    s0_start = max(float(np.std(d) / math.sqrt(2.0)) if d.size else scale / 2, floor, 1e-3 * scale)
+    s0_start = min(s0_start, max(scale, floor))
+    a_start = math.sqrt(max(rms**2 - s0_start**2, (0.1 * scale) ** 2))
+    bounds = {"sigma0": (math.log(max(floor, 1e-6 * scale)), math.log(max(10.0 * scale, 2 * floor)))}
+    if AMPLITUDE in names:
+        bounds[AMPLITUDE] = _bounds(priors[AMPLITUDE], AMPLITUDE_FLOOR * scale, 100.0 * scale)
+        if not bounds[AMPLITUDE][0] < bounds[AMPLITUDE][1]:
+            bounds[AMPLITUDE] = (bounds[AMPLITUDE][0], bounds[AMPLITUDE][0] + 1.0)
+    if LENGTH in names:
+        bounds[LENGTH] = _bounds(priors[LENGTH], 1e-12, math.inf)
+    lo = np.array([bounds[k][0] for k in names])
+    hi = np.array([bounds[k][1] for k in names])
+    evals = 0
+
+    def hyper(v: np.ndarray) -> Hyper:
+        val = {k: float(np.exp(np.clip(z, lo[j], hi[j])))
+               for j, (k, z) in enumerate(zip(names, v, strict=True))}
+        if "sigma0" in val:           # exp(ln floor) may land an ulp below the floor
+            val["sigma0"] = max(val["sigma0"], floor)
+        return Hyper(sigma0=val.get("sigma0", sigma0 if sigma0 is not None else s0_start),
+                     amplitude=val.get(AMPLITUDE, fixed.get(AMPLITUDE, a_start)),
+                     length=val.get(LENGTH, fixed.get(LENGTH, 1.0)))
+
+    def log_post(v: np.ndarray) -> tuple[float, float]:
+        nonlocal evals
+        evals += 1
+        h = hyper(v)
+        ll = loglik(h)
+        lp = float(amp_prior.logpdf(np.array([h.amplitude]))[0]) if amp_prior is not None else 0.0
+        return ll, ll + lp
+
+    def objective(v: np.ndarray) -> float:
+        value = -log_post(v)[1]
+        return value if math.isfinite(value) else math.inf
+
+    lengths = [_acf_length(axis, r)] if LENGTH in names else [fixed[LENGTH]]
+    if LENGTH in names:
+        a, b = bounds[LENGTH]
+        lengths += [math.exp(a + 0.25 * (b - a)), math.exp(a + 0.75 * (b - a))]
+    best = None
+    for length0 in lengths if names else []:
+        start = {"sigma0": s0_start, AMPLITUDE: a_start, LENGTH: length0}
+        v0 = np.clip([math.log(start[k]) for k in names], lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
+        res = minimize(objective, v0, method="Nelder-Mead", bounds=list(zip(lo, hi, strict=True)),
+                       options={"xatol": 1e-5, "fatol": 1e-7, "maxfev": 300 * (len(v0) + 1),
+                                "adaptive": True})
+        if best is None or res.fun < best.fun:
+            best = res
+    v = best.x if best is not None else np.zeros(0)
+    ll, lp = log_post(v)
+    cov = _log_covariance(objective, v, 0, len(names))
+    return HyperFit(kind, hyper(v), ll, lp, names, cov, evals)

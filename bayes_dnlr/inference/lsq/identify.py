@@ -150,7 +150,7 @@ class FitResult:
         head = f"{'parameter':<{w}}{'estimate':>14}{'sd':>12}{'Err %':>9}"
         if d:
             lines.append(f"{'':<{w}}{'white noise (paper, eq. 32-35)':^35}  "
-                         f"{'with the model discrepancy (GLS)':^35}")
+                         f"{'under model error (projection θ*)':^35}")
             head += f"  {'estimate':>14}{'sd':>12}{'Err %':>9}"
         lines.append(head + "  unit")
         for k, v in self.estimate.items():
@@ -169,7 +169,7 @@ class FitResult:
         lines += _delta_tilde_lines("Δ̃ (eq. 35), white noise: Err % on the diagonal, ρ off it",
                                     self.names, self.delta_tilde, w)
         if d:
-            lines += _delta_tilde_lines("Δ̃ with the model discrepancy (Δ = (XᵀK⁻¹X)⁻¹)",
+            lines += _delta_tilde_lines("Δ̃ under model error (Var θ* + projection offset S(h))",
                                         self.names, np.asarray(d["delta_tilde"]), w)
         lines.append(f"condition number of X̃ᵀX̃: {self.condition_number:.4g}")
         lines.append("")
@@ -202,15 +202,19 @@ def _discrepancy_lines(d: dict[str, Any], white_sd: dict[str, float]) -> list[st
     h = d["hyperparameters"]
     unit = d.get("axis_unit", "s")
     amp = "0 (no model error detected)" if d.get("amplitude_is_zero") else f"{fmt(h['amplitude'], 3)} MPa"
-    lines = [f"discrepancy: {d['kernel']} kernel on the {d['axis']} axis, maximum likelihood: "
-             f"sigma0 = {fmt(h['sigma0'], 3)} MPa, amplitude {amp}, length {fmt(h['length'], 3)} {unit}"]
-    moved = [f"{k} {d['shift_in_sd'][k]:+.1f} sd (sd x{d['sd'][k] / white_sd[k]:.2f})"
-             for k in d["shift_in_sd"] if white_sd.get(k)]
-    if moved:
-        lines.append("  generalized vs white estimate, in generalized sd: " + ", ".join(moved))
+    proj = d.get("projection") or {}
+    lines = [f"discrepancy: {d['kernel']} kernel on the {d['axis']} axis (target "
+             f"{d.get('target', 'generalized')}), maximum likelihood: sigma0 = {fmt(h['sigma0'], 3)} MPa "
+             f"(noise floor {fmt(proj.get('sigma0_floor'), 3)}), amplitude {amp}, length "
+             f"{fmt(h['length'], 3)} {unit}"]
+    widening = proj.get("widening") or {}
+    if d.get("evidence") and widening:
+        lines.append("  the estimate: " + str(proj.get("estimate", "")).split(" (")[0]
+                     + "; sd widened by the kernels' model of the error: "
+                     + ", ".join(f"{k} x{v:.2f}" for k, v in widening.items() if math.isfinite(v)))
     lines.append(f"  whitened residuals: {d['whitened_residuals']['verdict']}")
     choice = d.get("kernel_choice")
-    if choice and not choice.get("warning"):       # a kept exp is said among the warnings
+    if choice and len(choice.get("weights") or {}) > 1:
         lines.append(f"  kernel auto: {choice['reason']}")
     return lines
 

@@ -33,6 +33,18 @@ def residual_sigma(residuals: np.ndarray, n_free: int) -> float:
     return math.sqrt(float(r @ r) / dof)
 
 
+def high_frequency_sd(residuals: np.ndarray) -> float:
+    """The sd of the sample-to-sample scatter of residuals in axis order: the robust spread (MAD) of
+    their second differences over √6, the sd of a second difference of independent noise. A smooth
+    misfit adds almost nothing to second differences, so this measures the measurement noise (from
+    above: a rough misfit adds its share). The noise floor of the discrepancy's σ0."""
+    d2 = np.diff(np.asarray(residuals, dtype=float), 2)
+    if d2.size < 3:
+        return 0.0
+    mad = float(np.median(np.abs(d2 - np.median(d2))))
+    return mad / 0.6744897501960817 / math.sqrt(6.0)
+
+
 def resolve_sigma0(cfg: Config, test, residuals: np.ndarray | None = None) -> tuple[float, str]:
     """sigma0 (MPa) and where it comes from, following ``cfg.noise.sigma0``.
 

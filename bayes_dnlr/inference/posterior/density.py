@@ -76,9 +76,10 @@ def one_test(likelihood: TestLikelihood, priors: PriorSet) -> LogPosterior:
 def build_log_posterior(cfg: Config, test: TestData, sigma0: float | None,
                         priors: PriorSet | None = None,
                         discrepancy_priors: Mapping[str, ParameterSpec] | None = None,
-                        kernel: str | None = None) -> LogPosterior:
+                        kernel: str | None = None, columns: np.ndarray | None = None) -> LogPosterior:
     """The log-posterior of a one-test config and its data (sigma0 None when it is sampled): the
-    config's priors (or ``priors``) and the test's likelihood (likelihood.build_likelihood)."""
+    config's priors (or ``priors``) and the test's likelihood (likelihood.build_likelihood; with
+    ``columns`` the orthogonal discrepancy)."""
     priors = priors or build_priors(cfg, discrepancy_priors)
-    like = build_likelihood(cfg, test, sigma0, priors.names, discrepancy_priors, kernel)
+    like = build_likelihood(cfg, test, sigma0, priors.names, discrepancy_priors, kernel, columns)
     return one_test(like, priors)

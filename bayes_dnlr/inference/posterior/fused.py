@@ -4,16 +4,17 @@ For each walker: the model stress by the exponential integrator (``kernel.stress
 no basis is formed), the residual r = y - σ(θ) on the compared samples, then
 
 - white: log L = -½ Σ r² / σ0² - n ln σ0 - (n/2) ln 2π (eq. 27 up to constants);
-- with the discrepancy: log L = log N(r | 0, k(x, x) + σ0² I) by the Kalman filter of
-  ``gp.loglike_lanes`` (inference/discrepancy/gp.py), eight walkers side by side as SIMD lanes.
+- with the discrepancy: log L = log N(r | 0, k(x, x) + σ0² I), or the orthogonal discrepancy's
+  log N(r | 0, C - K V M⁻¹ Vᵀ K), by the Kalman filter of ``kalman.loglike_lanes``
+  (inference/discrepancy/kalman.py), eight walkers side by side as SIMD lanes.
 
-Walkers run in groups of ``gp.LANE_GROUP`` (8), one group per numba thread (``prange``). A group
+Walkers run in groups of ``kalman.LANE_GROUP`` (8), one group per numba thread (``prange``). A group
 is always the same walkers of the call, and nothing is summed across walkers, so the result does
 not depend on the number of threads: a fixed seed gives the same chain with 1 or 2 threads.
 
 numba's on-disk cache keys a function on the content of its own file only, not on the njit
 helpers it calls from other modules (NOTES-apis.md). ``_depend_on`` adds the content of
-model/kernel.py and inference/discrepancy/gp.py to the cache key of ``loglike_walkers``, so an edit there
+model/kernel.py and inference/discrepancy/kalman.py to the cache key of ``loglike_walkers``, so an edit there
 recompiles it instead of loading stale machine code.
 """
 
@@ -27,17 +28,17 @@ from types import ModuleType
 import numpy as np
 from numba import njit, prange
 
-from bayes_dnlr.inference.discrepancy import gp
+from bayes_dnlr.inference.discrepancy import kalman
 from bayes_dnlr.model import kernel, threads
 
 _LOG_2PI = math.log(2.0 * math.pi)
-GROUP = gp.LANE_GROUP
+GROUP = kalman.LANE_GROUP
 _stress_into = kernel.stress_into
-_lanes = gp.loglike_lanes
+_lanes = kalman.loglike_lanes
 
 
 @njit(cache=True)
-def _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out, lo, hi):
+def _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out, lo, hi):
     """Walkers lo..hi-1 of ``loglike_walkers`` (one group, one thread)."""
     n = y.shape[0]
     q = grid[0].shape[0] + 1
@@ -79,14 +80,14 @@ def _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out, lo,
             if bad[w]:
                 for i in range(n):
                     rt[i, w] = 0.0
-        _lanes(x, rt, 0, m, sig[lo:hi], amp[lo:hi], length[lo:hi], kind, gap, out[lo:hi])
+        _lanes(x, rt, 0, m, sig[lo:hi], amp[lo:hi], length[lo:hi], kind, gap, V, out[lo:hi])
     for w in range(m):
         if bad[w]:
             out[lo + w] = -np.inf
 
 
 @njit(cache=True, parallel=True)
-def loglike_walkers(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out):
+def loglike_walkers(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out):
     """log-likelihood of every row of theta into ``out`` (k,); -inf where it is not defined.
     Groups of GROUP walkers in parallel (numba threads).
 
@@ -95,34 +96,36 @@ def loglike_walkers(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp,
     discrepancy's amplitude and length (amp, length unused when ``use_gp`` is False);
     grid: ``DNLR.kernel_args``; y (n,): the observed values in the order of the axis x;
     idx (n,): the model sample of each of them; kind, gap: the kernel code and the pinned start
-    (inf: stationary) of inference/discrepancy/gp.py.
+    (inf: stationary) of inference/discrepancy/kalman.py; V (n, p): the orthogonality columns in the
+    order of x
+    (p = 0: the plain discrepancy).
     """
     k = theta.shape[0]
     groups = (k + GROUP - 1) // GROUP
     for g in prange(groups):
         lo = g * GROUP
-        _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out, lo,
+        _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out, lo,
                min(k, lo + GROUP))
 
 
 @njit(cache=True)
-def loglike_walkers_serial(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out):
+def loglike_walkers_serial(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out):
     """``loglike_walkers`` in the calling thread, the same groups one after the other (the same
     values): for one thread, and in a process forked from one whose numba threads run on GNU
     OpenMP, where numba terminates a child that starts a parallel region."""
     k = theta.shape[0]
     for lo in range(0, k, GROUP):
-        _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out, lo,
+        _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out, lo,
                min(k, lo + GROUP))
 
 
-def evaluate(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out) -> None:
+def evaluate(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out) -> None:
     """``loglike_walkers`` when threads may run, else ``loglike_walkers_serial``
     (``model.threads.parallel_allowed``)."""
     if threads.parallel_allowed():
-        loglike_walkers(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out)
+        loglike_walkers(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out)
     else:
-        loglike_walkers_serial(theta, sig, amp, length, grid, y, idx, x, kind, gap, use_gp, out)
+        loglike_walkers_serial(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out)
 
 
 def _file_digest(module: ModuleType) -> bytes:
@@ -141,4 +144,4 @@ def _depend_on(dispatcher, *modules: ModuleType) -> None:
 
 
 for _f in (_group, loglike_walkers, loglike_walkers_serial):
-    _depend_on(_f, kernel, gp)
+    _depend_on(_f, kernel, kalman)

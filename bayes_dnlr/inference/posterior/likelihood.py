@@ -5,7 +5,9 @@ the identification window, with r = y - σ_model(θ):
   least-squares criterion (eq. 27 is -2 σ0² log L up to constants);
 - with the model discrepancy (the default): r = δ + ε, δ a Gaussian process with amplitude and
   correlation length on the time or strain axis, log L = log N(r | 0, k(x, x) + σ0² I), exact and
-  O(n) (inference/discrepancy/gp.py), all walkers of a call at once. The hyperparameters
+  O(n) (inference/discrepancy/gp.py), all walkers of a call at once; with orthogonality columns
+  (``target: l2``, inference/discrepancy/orthogonal.py) δ is conditioned on having no component along the
+  sensitivities, log L = log N(r | 0, K - K V M⁻¹ Vᵀ K + σ0² I), O(n p²). The hyperparameters
   ``disc_amplitude`` and ``disc_length`` are sampled with the others, or fixed.
 
 All walkers of a call are evaluated by one compiled call, in parallel over walkers
@@ -26,8 +28,7 @@ import numpy as np
 
 from bayes_dnlr.config import Config, ParameterSpec
 from bayes_dnlr.data import TestData
-from bayes_dnlr.inference.discrepancy import gp
-from bayes_dnlr.inference.discrepancy.hyper import AMPLITUDE, LENGTH, Axis, is_white, test_axis
+from bayes_dnlr.inference.discrepancy.hyper import AMPLITUDE, LENGTH, Axis, gp, is_white, test_axis
 from bayes_dnlr.inference.posterior import fused as fused_kernel
 from bayes_dnlr.model import DNLR
 from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS, pack_theta
@@ -112,10 +113,12 @@ class TestLikelihood:
         self._y_axis = np.ascontiguousarray(y, dtype=float)
         if d is None:
             self._x, self._kind, self._gap = np.zeros(0), 0, math.inf
+            self._V = np.zeros((0, 0))
         else:
             self._x = np.ascontiguousarray(d.axis.values, dtype=float)
             self._kind = gp.kernel_code(d.kernel)
             self._gap = gp._gap(self._x, d.axis.origin)
+            self._V = gp._columns(d.columns, self._x.size)
 
     def _col(self, theta: np.ndarray, name: str) -> np.ndarray:
         src = self._source[name]
@@ -174,7 +177,7 @@ class TestLikelihood:
             amp = length = sig
         out = np.empty(k)
         fused_kernel.evaluate(sets, sig, amp, length, self.model.kernel_args, self._y_axis,
-                              self._idx, self._x, self._kind, self._gap,
+                              self._idx, self._x, self._kind, self._gap, self._V,
                               self.discrepancy is not None, out)
         return out
 
@@ -209,7 +212,7 @@ class TestLikelihood:
         bad = ~np.all(np.isfinite(R), axis=1)
         R[bad] = 0.0
         out = gp.log_likelihood_batch(d.axis.values, R, sig, self._col(theta, AMPLITUDE),
-                                      self._col(theta, LENGTH), d.kernel, d.axis.origin)
+                                      self._col(theta, LENGTH), d.kernel, d.axis.origin, d.columns)
         out[bad] = -np.inf
         return out
 
@@ -221,17 +224,20 @@ class Discrepancy:
     kernel: str
     axis: Axis
     fixed: dict[str, float] = field(default_factory=dict)   # disc_amplitude / disc_length values
+    columns: np.ndarray | None = None   # (n, p) in axis order: the orthogonal discrepancy's V
 
 
 def build_likelihood(cfg: Config, test: TestData, sigma0: float | None, names: Sequence[str],
                      discrepancy_priors: Mapping[str, ParameterSpec] | None = None,
-                     kernel: str | None = None) -> TestLikelihood:
+                     kernel: str | None = None, columns: np.ndarray | None = None) -> TestLikelihood:
     """The likelihood of a (single-test) config and its test data over the sampled ``names``;
     sigma0 None when it is sampled.
 
     ``discrepancy_priors``: the resolved priors (or fixed values) of disc_amplitude and
     disc_length (fit.json's discrepancy block); needed when the config has a discrepancy.
     ``kernel``: the kernel fit.json records (needed with ``kernel: auto``; else the config's).
+    ``columns`` (n, p), in the order of the discrepancy's axis: the orthogonal discrepancy, δ
+    conditioned on columnsᵀ δ = 0 (inference/discrepancy/orthogonal.py); None: the plain discrepancy.
     """
     model = build_model(cfg, test)
     rows = window_rows(test)
@@ -246,5 +252,6 @@ def build_likelihood(cfg: Config, test: TestData, sigma0: float | None, names: S
         if kernel == "auto":
             raise ValueError("kernel: auto needs the kernel that fit chose (fit.json's discrepancy block)")
         disc = Discrepancy(kernel, axis,
-                           {k: float(v.value) for k, v in discrepancy_priors.items() if v.fixed})
+                           {k: float(v.value) for k, v in discrepancy_priors.items() if v.fixed},
+                           columns)
     return TestLikelihood(model, observed, rows, names, cfg.fixed_values, sigma0, disc)
