@@ -1,4 +1,4 @@
-"""The report's model-error section (issue 8): which interval of E to believe, under white noise and
+"""The report's model-error section : the two analyses of E and the checks, under white noise and
 under the model discrepancy, with the residual autocorrelation and δ's posterior mean."""
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ def test_discrepancy_run_reports_both_intervals_and_the_verdict(runs) -> None:
     assert noise["model"] == "discrepancy" and noise["evidence_of_model_error"]
     assert {"disc_amplitude", "disc_length"} <= set(summary["parameters"])
     page = build_report(run).read_text()
-    assert "5. Model error: which uncertainty to believe" in page
+    assert "5. Model error: the two analyses and the checks" in page
     for row in ("white noise, linearized (the paper", "with the discrepancy, linearized (GLS",
                 "posterior, with the discrepancy"):
         assert row in page, row
