@@ -1,4 +1,4 @@
-"""The report's model-error section : the two analyses of E and the checks, under white noise and
+"""The report's model-error section: the two analyses of E and the checks, under white noise and
 under the model discrepancy, with the residual autocorrelation and δ's posterior mean."""
 
 from __future__ import annotations
