@@ -94,8 +94,9 @@ def autocorrelation(x: np.ndarray, max_lag: int) -> np.ndarray:
 
 
 def interval_table(run: RunResults, parameter: str = "E") -> Table | None:
-    """The interval of a parameter under white noise and under the discrepancy, side by side."""
-    fit = run.fit or {}
+    """The interval of a parameter under white noise and under the discrepancy, side by side: the
+    run's analyses (fit.json) beside the run's posterior."""
+    rec = run.record
     s = run.summary or {}
     rows = []
 
@@ -106,17 +107,20 @@ def interval_table(run: RunResults, parameter: str = "E") -> Table | None:
         rows.append([label, fmt_at(est, sd), fmt_sd(sd), interval(lo, hi, sd), pct(err)])
 
     z = Z90
-    w_est, w_sd = (fit.get("estimate") or {}).get(parameter), (fit.get("sd") or {}).get(parameter)
+    white = rec.white if rec is not None else None
+    w_est = white.estimate.get(parameter) if white is not None else None
+    w_sd = white.sd.get(parameter) if white is not None else None
     if w_est is not None and w_sd is not None:
         row("white noise, linearized (the paper's eq. 32)", w_est, w_sd, w_est - z * w_sd, w_est + z * w_sd)
-    d = fit.get("discrepancy") or {}
-    g_est, g_sd = (d.get("estimate") or {}).get(parameter), (d.get("sd") or {}).get(parameter)
+    gls = rec.generalized if rec is not None else None
+    g_est = gls.estimate.get(parameter) if gls is not None else None
+    g_sd = gls.sd.get(parameter) if gls is not None else None
     if g_est is not None and g_sd is not None and np.isfinite(g_sd):
         row("with the discrepancy, linearized (GLS, Δ = (XᵀK⁻¹X)⁻¹)", g_est, g_sd, g_est - z * g_sd,
             g_est + z * g_sd)
     post = (s.get("posterior") or {}).get(parameter)
     if post:
-        model = (s.get("noise") or {}).get("model", "white")
+        model = run.run_noise or (s.get("noise") or {}).get("model", "white")
         label = ("posterior, with the discrepancy" if model == "discrepancy"
                  else "posterior, white likelihood")
         row(label, post["mean"], post["sd"], *post["hdi_90"])
@@ -128,8 +132,9 @@ def interval_table(run: RunResults, parameter: str = "E") -> Table | None:
 
 
 def hyper_table(run: RunResults) -> Table | None:
-    """σ0, amplitude and length of the discrepancy: ML, prior, posterior."""
-    d = (run.fit or {}).get("discrepancy")
+    """σ0, amplitude and length of the test's discrepancy: ML, prior, posterior."""
+    own = run.own_fit()
+    d = own.discrepancy if own is not None else None
     if not d:
         return None
     noise = (run.summary or {}).get("noise") or {}
@@ -167,23 +172,24 @@ def hyper_table(run: RunResults) -> Table | None:
                  rows, "The model discrepancy δ", notes)
 
 
-def noise_section(run: RunResults, figdir: Path, disc: Discrepancy | None,
+def noise_section(run: RunResults, figure: Path, disc: Discrepancy | None,
                   resid: np.ndarray | None) -> list[str]:
-    """HTML of the section; the ACF figure of ``resid`` (the white fit's residuals on the window,
-    in window order) when given."""
+    """HTML of the section for one test; the ACF figure ``figure`` of ``resid`` (the white fit's
+    residuals on the window, in window order) when given."""
     out: list[str] = []
     noise = (run.summary or {}).get("noise") or {}
-    fit = run.fit or {}
+    own = run.own_fit()
+    residuals = own.residuals if own is not None else {}
     verdict = noise.get("verdict")
-    if verdict is None and fit.get("discrepancy"):
+    if verdict is None and own is not None and own.discrepancy:
         verdict = ("The posterior is not sampled yet; the linearized analyses above show how the "
                    "discrepancy moves and widens the interval.")
     elif verdict is None:
         verdict = ("This run has no discrepancy analysis (noise.discrepancy: none): the interval "
                    "assumes the model fits to within white noise."
                    + (" The residuals are not white, so that interval is too narrow."
-                      if (fit.get("residuals") or {}).get("white") is False else ""))
-    resid_white = (fit.get("residuals") or {}).get("white")
+                      if residuals.get("white") is False else ""))
+    resid_white = residuals.get("white")
     cls = "ok" if resid_white else "warn"
     out.append(f'<div class="box {cls}"><b>Verdict.</b> {html.escape(verdict)}</div>')
     for t in (interval_table(run), hyper_table(run)):
@@ -199,13 +205,13 @@ def noise_section(run: RunResults, figdir: Path, disc: Discrepancy | None,
                 disc.whitened, min(MAX_LAGS, disc.whitened.size // 2))[: len(next(iter(series.values())))]
         m = len(next(iter(series.values())))
         lags = np.arange(m) * step
-        p = figs.acf_plot(lags, series, resid.size, figdir / "acf.png", xlabel=f"lag ({unit})")
+        p = figs.acf_plot(lags, series, resid.size, figure, xlabel=f"lag ({unit})")
         out.append(img(p, "residual autocorrelation", (
             "Autocorrelation of the residuals against the lag. White residuals stay inside the shaded "
             "band; long positive correlation is the model error the white likelihood ignores. Whitened "
             "by the discrepancy (green) they should fall into the band; what stays outside is model "
             "error the kernel does not describe.")))
-    elif not fit:
+    elif own is None:
         out.append(para("No fit.json: no residual autocorrelation."))
     return out
 
