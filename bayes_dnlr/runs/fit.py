@@ -100,8 +100,9 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
     if write and not overwrite and path.exists():
         reason = stale_fit_reason(cfg, test.sha256)
         if reason is not None:
-            raise RunError(f"{path} exists and was made from {reason}; pass --force "
-                           "(overwrite=True) to replace it")
+            config = cfg.source if cfg.source is not None else "<config.yaml>"
+            raise RunError(f"{path} exists and was made from {reason}; `python -m bayes_dnlr fit "
+                           f"--force {config}` replaces it")
     result = fit_run(cfg, test.tests, plain=test.plain)
     secs = sections(cfg)
     result.config_digest = config_digest(cfg, secs)

@@ -217,10 +217,10 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool) -> Pos
             reason = stale_reason(attrs, parts)
         except OSError as err:
             raise StaleRunError(f"{chains}: cannot read the stored chain ({err}); sample --restart "
-                           "(restart=True) discards it and starts again") from None
+                           "discards it and starts again") from None
         if reason is not None:
             raise StaleRunError(f"{chains} was sampled from another config or data: {reason}. Refusing to "
-                           "mix chains; sample --restart (restart=True) discards it and starts again, "
+                           "mix chains; sample --restart discards it and starts again, "
                            "or set output.dir to sample into another run directory")
         try:
             stored = read_run(chains)
