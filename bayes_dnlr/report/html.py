@@ -27,6 +27,7 @@ from bayes_dnlr.report import model_error as rn
 from bayes_dnlr.report import run_sections as rs
 from bayes_dnlr.report import test_sections as ts
 from bayes_dnlr.report.across_tests import rate_question, rate_section, tables_3_5
+from bayes_dnlr.report.figure_cache import tracking
 from bayes_dnlr.report.headline import headline as _headline
 from bayes_dnlr.report.headline import warnings as _warnings
 from bayes_dnlr.report.page_parts import CSS, bullets
@@ -220,17 +221,24 @@ def page_html(run: RunResults, figdir: Path, t0: float) -> str:
             + "\n".join(sec) + "</body></html>")
 
 
-def build_report(run_dir: Path | str, source: Path | str | None = None) -> Path:
+def build_report(run_dir: Path | str, source: Path | str | None = None,
+                 on_stale: Callable[[str], None] | None = None) -> Path:
     """Write run_dir/report.html and run_dir/figures/*.png; return the path of report.html.
-    ``source``: the user's config file, when known (the results are checked against it)."""
+    ``source``: the user's config file, when known (the results are checked against it);
+    ``on_stale``: called with each result made from another config or data (also on the page)."""
     t0 = time.perf_counter()
     run_dir = Path(run_dir)
     run = load_run(run_dir, source=source)
+    for note in run.stale if on_stale is not None else []:
+        on_stale(note)
     figdir = run_dir / FIGURES_DIR
     figdir.mkdir(exist_ok=True)
-    for old in figdir.glob("*.png"):     # figures of an earlier report that may not apply any more
-        old.unlink()
+    with tracking() as used:             # a figure drawn from the same inputs as before is kept
+        page = page_html(run, figdir, t0)
+    for old in figdir.glob("*.png"):     # figures of an earlier report that do not apply any more
+        if old not in used:
+            old.unlink()
     out = run_dir / REPORT_FILE
-    out.write_text(page_html(run, figdir, t0), encoding="utf-8")
+    out.write_text(page, encoding="utf-8")
     return out
 

@@ -18,6 +18,7 @@ import numpy as np
 
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pct, pm
 from bayes_dnlr.report import figures as figs
+from bayes_dnlr.report.figure_cache import drawn
 from bayes_dnlr.report.page_parts import img, para
 from bayes_dnlr.report.tables import Table
 from bayes_dnlr.runs.results import RunResults
@@ -205,7 +206,7 @@ def noise_section(run: RunResults, figure: Path, disc: Discrepancy | None,
                 disc.whitened, min(MAX_LAGS, disc.whitened.size // 2))[: len(next(iter(series.values())))]
         m = len(next(iter(series.values())))
         lags = np.arange(m) * step
-        p = figs.acf_plot(lags, series, resid.size, figure, xlabel=f"lag ({unit})")
+        p = drawn(figs.acf_plot, lags, series, resid.size, figure, xlabel=f"lag ({unit})")
         out.append(img(p, "residual autocorrelation", (
             "Autocorrelation of the residuals against the lag. White residuals stay inside the shaded "
             "band; long positive correlation is the model error the white likelihood ignores. Whitened "

@@ -20,6 +20,7 @@ from bayes_dnlr.report import figures as figs
 from bayes_dnlr.report import model_error as rn
 from bayes_dnlr.report import tables as tb
 from bayes_dnlr.report import views
+from bayes_dnlr.report.figure_cache import drawn
 from bayes_dnlr.report.page_parts import bullets, img, para
 from bayes_dnlr.runs.curves import N_DRAWS, Curves
 from bayes_dnlr.runs.results import RunResults
@@ -53,12 +54,11 @@ def fit_section(part: Part, figdir: Path) -> list[str]:
     if curves is not None:
         inset = views.fit_inset(curves.x, run.test.relaxation_start)
         disc = part.discrepancy
-        p = figs.fit_plot(curves.x, curves.data, part.figure(figdir, "fit"), window=curves.window,
-                          median=curves.median, band=curves.band, predictive=curves.predictive,
-                          gn_curve=curves.gn_curve, sigma0=run.sigma0(), xlabel=curves.xlabel,
-                          inset_xmax=inset.xmax if inset else None,
-                          inset_title=inset.title if inset else None,
-                          discrepancy=None if disc is None else disc.mean)
+        p = drawn(figs.fit_plot, curves.x, curves.data, part.figure(figdir, "fit"), window=curves.window,
+                  median=curves.median, band=curves.band, predictive=curves.predictive,
+                  gn_curve=curves.gn_curve, sigma0=run.sigma0(), xlabel=curves.xlabel,
+                  inset_xmax=inset.xmax if inset else None, inset_title=inset.title if inset else None,
+                  discrepancy=None if disc is None else disc.mean)
         n_used = min(N_DRAWS, next(iter(run.draws.values())).size) if run.draws else 0
         noise_txt = "model + discrepancy δ + noise σ0" if run.uses_discrepancy else "model + noise σ0"
         what = (f"the posterior median of the model over {n_used} posterior draws, its 90 % credible band "
@@ -99,18 +99,18 @@ def sensitivity_section(part: Part, figdir: Path) -> list[str]:
     if curves is None or not curves.sensitivities:
         return []
     sec = _head(part)
-    p = figs.sensitivity_plot(curves.x, curves.sensitivities, part.figure(figdir, "sensitivity"),
-                              window=curves.window, xlabel=curves.xlabel)
+    p = drawn(figs.sensitivity_plot, curves.x, curves.sensitivities, part.figure(figdir, "sensitivity"),
+              window=curves.window, xlabel=curves.xlabel)
     sec.append(img(p, "sensitivities", (
         "Normalised sensitivities X̃<sub>j</sub> = β<sub>j</sub> ∂σ/∂β<sub>j</sub> (eq. 37, MPa) at the "
         "least-squares estimate (paper Fig. 11). Parameters are identifiable where their curves differ "
         "in shape; proportional curves mean correlated parameters.")))
     view = views.xy_view(curves.sensitivities, curves.strain, run.test.time, run.test.relaxation_start)
     if view is not None:
-        p = figs.sensitivity_xy_plot(view.x_tau, view.x_e, view.colour, part.figure(figdir, "sensitivity_xy"),
-                                     colour_label=view.colour_label, zoom=view.zoom,
-                                     zoom_title=view.zoom_title, mark=view.mark,
-                                     mark_label=view.mark_label, log_colour=view.log_colour)
+        p = drawn(figs.sensitivity_xy_plot, view.x_tau, view.x_e, view.colour,
+                  part.figure(figdir, "sensitivity_xy"), colour_label=view.colour_label, zoom=view.zoom,
+                  zoom_title=view.zoom_title, mark=view.mark, mark_label=view.mark_label,
+                  log_colour=view.log_colour)
         sec.append(img(p, "X(E) against X(tau_max)", view.caption))
     return sec
 
