@@ -63,6 +63,12 @@ def _corner_impl():
     return corner_impl
 
 
+def import_figure_modules() -> None:
+    """matplotlib's pyplot and corner, imported ahead of the first figure."""
+    pyplot()
+    _corner_impl()
+
+
 def _arviz_corner(*args, **kwargs):
     from corner.arviz_corner import arviz_corner
 

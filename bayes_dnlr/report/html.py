@@ -27,10 +27,10 @@ from bayes_dnlr.report import model_error as rn
 from bayes_dnlr.report import run_sections as rs
 from bayes_dnlr.report import test_sections as ts
 from bayes_dnlr.report.across_tests import rate_question, rate_section, tables_3_5
-from bayes_dnlr.report.figure_cache import tracking
+from bayes_dnlr.report.figure_cache import figure_session
 from bayes_dnlr.report.headline import headline as _headline
 from bayes_dnlr.report.headline import warnings as _warnings
-from bayes_dnlr.report.page_parts import CSS, bullets
+from bayes_dnlr.report.page_parts import CSS, bullets, embed
 from bayes_dnlr.runs.curves import model_curves, run_white_curve
 from bayes_dnlr.runs.layout import (
     CHAINS_FILE,
@@ -114,6 +114,9 @@ SECTIONS = (
             _per_test(lambda p, _: ts.standards_section(p))),
     Section("sampler", "Sampler diagnostics", False, _sampler),
 )
+
+
+FIRST = ("corner", "sampler")     # sections whose figures the worker process draws
 
 
 def _h2(page: Page, key: str) -> str:
@@ -201,12 +204,13 @@ def page_html(run: RunResults, figdir: Path, t0: float) -> str:
     warns = _warnings(run)
     if warns:
         sec.append('<div class="box warn"><b>Warnings</b>' + bullets(warns) + "</div>")
+    bodies = {}
+    for s in sorted(SECTIONS, key=lambda s: s.key not in FIRST):   # the worker's figures first
+        if s.key in numbers:
+            bodies[s.key] = s.body(page)
     for s in SECTIONS:
-        if s.key not in numbers:
-            continue
-        body = s.body(page)
-        if body:
-            sec += ([_h2(page, s.key)] if s.titled else []) + body
+        if bodies.get(s.key):
+            sec += ([_h2(page, s.key)] if s.titled else []) + bodies[s.key]
     elapsed = time.perf_counter() - t0
     run_dir = run.run_dir
     files = ", ".join(f for f in (RESOLVED_CONFIG, FIT_FILE, SUMMARY_FILE, POSTERIOR_FILE, CHAINS_FILE)
@@ -228,13 +232,14 @@ def build_report(run_dir: Path | str, source: Path | str | None = None,
     ``on_stale``: called with each result made from another config or data (also on the page)."""
     t0 = time.perf_counter()
     run_dir = Path(run_dir)
-    run = load_run(run_dir, source=source)
-    for note in run.stale if on_stale is not None else []:
-        on_stale(note)
-    figdir = run_dir / FIGURES_DIR
-    figdir.mkdir(exist_ok=True)
-    with tracking() as used:             # a figure drawn from the same inputs as before is kept
+    with figure_session() as used:              # a figure drawn from the same inputs as before is kept
+        run = load_run(run_dir, source=source)
+        for note in run.stale if on_stale is not None else []:
+            on_stale(note)
+        figdir = run_dir / FIGURES_DIR
+        figdir.mkdir(exist_ok=True)
         page = page_html(run, figdir, t0)
+    page = embed(page)
     for old in figdir.glob("*.png"):     # figures of an earlier report that do not apply any more
         if old not in used:
             old.unlink()

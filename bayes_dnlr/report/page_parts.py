@@ -1,10 +1,14 @@
 """The pieces of the report's self-contained HTML pages: the style sheet, a figure embedded as
-base64 PNG, a paragraph and a list, every text escaped."""
+base64 PNG, a paragraph and a list, every text escaped.
+
+A figure is placed by ``img`` and embedded by ``embed`` once the page is complete, so that a PNG
+drawn by another process (``figure_cache.figure_session``) is read after it is written."""
 
 from __future__ import annotations
 
 import base64
 import html
+import re
 from pathlib import Path
 
 CSS = """
@@ -32,10 +36,18 @@ footer{margin-top:40px;color:#888;font-size:.85em;border-top:1px solid #eee;padd
 """
 
 
+_PNG = re.compile("\x00png:([^\x00]*)\x00")
+
+
 def img(path: Path, alt: str, caption: str) -> str:
-    data = base64.b64encode(Path(path).read_bytes()).decode("ascii")
-    return (f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,{data}">'
+    """A figure with its caption; its PNG is embedded by ``embed``."""
+    return (f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,\x00png:{path}\x00">'
             f"<figcaption>{caption}</figcaption></figure>")
+
+
+def embed(page: str) -> str:
+    """The page with each figure's PNG embedded as base64 (the files are read now)."""
+    return _PNG.sub(lambda m: base64.b64encode(Path(m.group(1)).read_bytes()).decode("ascii"), page)
 
 
 def para(text: str) -> str:

@@ -55,7 +55,7 @@ def corner_section(run: RunResults, figdir: Path, title: str) -> list[str]:
             cov = gn["covariance"][np.ix_(idx, idx)]
         true = truths(run, names)
         p = drawn(figs.corner_plot, samples, names, figdir / "corner.png", est, cov, true,
-                  linearized_label="GLS" if _uses_gls(run) else "Gauss-Newton")
+                  linearized_label="GLS" if _uses_gls(run) else "Gauss-Newton", aside=True)
         lin_txt = ("the generalized least-squares estimate and the linearized 1σ and 2σ ellipses of "
                    "Δ = (XᵀK⁻¹X)⁻¹ (eq. 32 with the discrepancy's covariance K, blue)"
                    if _uses_gls(run) else
@@ -113,7 +113,7 @@ def sampler_section(run: RunResults, figdir: Path) -> list[str]:
     if st is not None:
         sec.append(st.html())
     sampled = {n: run.draws[n] for n in run.names if n in run.draws}
-    p = drawn(figs.trace_plot, sampled, figdir / "trace.png")
+    p = drawn(figs.trace_plot, sampled, figdir / "trace.png", aside=True)
     sec.append(img(p, "trace plot", (
         "Trace plot, one row per parameter. Left: the marginal density of all kept draws (grey) and "
         "of the walkers pooled into 8 groups (lines); right: the kept draws of every walker against "
@@ -123,7 +123,7 @@ def sampler_section(run: RunResults, figdir: Path) -> list[str]:
     taus = [float(v) for v in (tau.values() if isinstance(tau, dict) else [tau])
             if isinstance(v, int | float) and np.isfinite(v)]
     thin = max(1, int(np.ceil(max(taus)))) if taus else 1
-    p = drawn(figs.rank_plot, sampled, figdir / "rank.png", thin=thin)
+    p = drawn(figs.rank_plot, sampled, figdir / "rank.png", thin=thin, aside=True)
     sec.append(img(p, "rank plot", (
         f"Rank plot (ArviZ's plot_rank): walkers thinned by their autocorrelation time ({thin} "
         "steps) and pooled into 8 groups; each line is the ECDF of one group's fractional "
