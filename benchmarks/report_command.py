@@ -7,7 +7,11 @@ included).
 2. The split of a first build, in one more fresh process: imports, loading the run (config, data,
    fit.json, summary.json, posterior.nc), the model curves (posterior draws through the model), and
    each figure (every ``report.figures`` function timed where it is called), the rest of the page.
-3. ``--refjob SCRIPT``: a reference job (a script printing its own seconds), run before and after,
+3. The two processes of a first build, in one more fresh process with the figure worker forced on
+   (the report uses it only when the last minute's load leaves a core free): the CPU of this
+   process and of the worker. On an idle machine with two cores the wall time is about the larger
+   of the two plus the start; on a loaded one, about their sum (then the report draws alone).
+4. ``--refjob SCRIPT``: a reference job (a script printing its own seconds), run before and after,
    and the report's times as ratios to it.
 
 The run directory is copied to a temporary folder (the shipped one is not touched); it must hold a
@@ -63,6 +67,17 @@ split["rest of the page (tables, standards, HTML)"] = total - sum(split.values()
 cpu["rest of the page (tables, standards, HTML)"] = total_cpu - sum(cpu.values())
 print(json.dumps({"imports": t_imp, "imports_cpu": c1, "build": total, "build_cpu": total_cpu,
                   "split": split, "cpu": cpu}))
+"""
+
+PAIR = r"""
+import json, resource, sys, time
+from bayes_dnlr.report import figure_cache, html
+figure_cache._free_core = lambda: True            # the worker, whatever the load
+t = time.perf_counter()
+html.build_report(sys.argv[1])
+wall = time.perf_counter() - t
+me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+print(json.dumps({"wall": wall, "self": me.ru_utime + me.ru_stime, "worker": kids.ru_utime + kids.ru_stime}))
 """
 
 
@@ -121,6 +136,12 @@ def main() -> None:
               f"({res['imports_cpu']:.2f} s), build {res['build']:.2f} s ({res['build_cpu']:.2f} s)")
         for label, v in sorted(res["split"].items(), key=lambda kv: -kv[1]):
             print(f"  {label:<60s} {v:6.3f} s  ({res['cpu'][label]:.3f} s CPU)")
+        shutil.rmtree(run / "figures", ignore_errors=True)
+        out = subprocess.run([sys.executable, "-c", PAIR, str(run)], check=True, capture_output=True,
+                             text=True, env=env, cwd=ROOT)
+        pair = json.loads(out.stdout.strip().splitlines()[-1])
+        print(f"first build with the figure worker: wall {pair['wall']:.2f} s, CPU of this process "
+              f"{pair['self']:.2f} s (imports included), of the worker {pair['worker']:.2f} s")
     ref.append(_refjob(args.refjob))
     if ref[0] is not None:
         best = min(ref)

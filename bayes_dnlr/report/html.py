@@ -116,7 +116,7 @@ SECTIONS = (
 )
 
 
-FIRST = ("corner", "sampler")     # sections whose figures the worker process draws
+FIRST = ("corner", "sampler")     # the worker process draws their figures, and Fig. 12 of each test
 
 
 def _h2(page: Page, key: str) -> str:

@@ -110,7 +110,7 @@ def sensitivity_section(part: Part, figdir: Path) -> list[str]:
         p = drawn(figs.sensitivity_xy_plot, view.x_tau, view.x_e, view.colour,
                   part.figure(figdir, "sensitivity_xy"), colour_label=view.colour_label, zoom=view.zoom,
                   zoom_title=view.zoom_title, mark=view.mark, mark_label=view.mark_label,
-                  log_colour=view.log_colour)
+                  log_colour=view.log_colour, aside=True)
         sec.append(img(p, "X(E) against X(tau_max)", view.caption))
     return sec
 
