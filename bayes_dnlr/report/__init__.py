@@ -1,6 +1,15 @@
 """Reports: figures, tables and the self-contained HTML page of a run; ``compare`` across runs.
 
-The only package that imports matplotlib, corner and ArviZ's plotting (inside the functions).
+The only package that imports matplotlib, corner and ArviZ's plotting (inside the functions). It
+imports ``runs`` and below, computes no model, and reads fit.json through ``runs.records``.
+
+- ``html``: the page of a run with any number of tests (its numbered sections);
+- ``run_sections``, ``across_tests``, ``test_sections``, ``headline``: the run's sections, those
+  across tests, each test's, and the top of the page;
+- ``tables``, ``model_error``, ``views``: tables, the model-error words, what each figure shows;
+- ``figures``, ``rank``, ``figure_cache``: the figures, the rank plot's statistics, drawing only
+  when inputs change (and in a worker process); ``page_parts``: the page's pieces;
+- ``current``: whether report.html is up to date; ``compare``: Tables 3/5 across runs.
 """
 
 from __future__ import annotations
