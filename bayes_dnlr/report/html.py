@@ -76,7 +76,7 @@ def _per_test(write: Callable[[ts.Part, Path], list[str]]) -> Callable[[Page], l
 
 def _model_error(page: Page) -> list[str]:
     note = ("" if page.run.layout.plain else
-            f"The rows above are the run's: its joint analyses and its posterior from all "
+            f"These rows are the run's: its joint analyses and its posterior from all "
             f"{len(page.parts)} tests; the verdict, δ and the autocorrelation are this test's.")
     return [h for p in page.parts.values()
             for h in ts.model_error_section(p, page.figdir, note, "Model error: " if p.heading else "")]
@@ -99,7 +99,8 @@ def _rate(page: Page) -> list[str]:
 
 
 SECTIONS = (
-    Section("parameters", "Parameters", False, lambda page: rs.parameters_section(page.run)),
+    Section("parameters", "Parameters", False,
+            lambda page: rs.parameters_section(page.run, page.numbers["model_error"])),
     Section("corner", "Posterior and its linearization", False, _corner, titled=False),
     Section("correlations", "Correlations", False, _correlations, titled=False),
     Section("tables_3_5", "Tables 3 and 5 of the paper, from the run's posterior", True,
@@ -170,7 +171,8 @@ def _top(run: RunResults) -> list[str]:
     else:
         title = f"joint identification report ({len(tests)} tests)"
         data = "Tests: " + "; ".join(f"{html.escape(t)}: {_data_text(v)}" for t, v in tests.items())
-        data += f" · one parameter per test: {html.escape(', '.join(layout.per_test) or 'none')}"
+        data += (f" · one value per test: {html.escape(', '.join(layout.per_test))}" if layout.per_test
+                 else " · every parameter shared by the tests")
     meta = (f"{data} · model: {cfg.model.modes} modes over {cfg.model.decades:g} decades · free "
             f"parameters: {', '.join(run.model_names)}"
             + (" (and sigma0, sampled)" if any(base_name(n) == "sigma0" for n in run.names) else ""))
@@ -197,7 +199,7 @@ def page_html(run: RunResults, figdir: Path, t0: float) -> str:
                    "posterior.nc: the report shows the least-squares part only. Run "
                    "<code>python -m bayes_dnlr sample "
                    f"{html.escape(str(run.run_dir))}/config.yaml</code>, then this report again.</div>")
-    if run.fit is None:
+    if run.record is None:
         sec.append('<div class="box warn"><b>No fit.json.</b> The least-squares results (estimate, '
                    "linearized covariance, residual diagnostics) are missing: run <code>python -m bayes_dnlr "
                    "fit</code>.</div>")

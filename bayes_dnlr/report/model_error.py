@@ -94,9 +94,9 @@ def autocorrelation(x: np.ndarray, max_lag: int) -> np.ndarray:
     return acf / acf[0] if acf[0] > 0 else np.zeros(max_lag + 1)
 
 
-def interval_table(run: RunResults, parameter: str = "E") -> Table | None:
+def interval_table(run: RunResults, parameter: str = "E", note: str = "") -> Table | None:
     """The interval of a parameter under white noise and under the discrepancy, side by side: the
-    run's analyses (fit.json) beside the run's posterior."""
+    run's analyses (fit.json) beside the run's posterior (``note``: a first line under it)."""
     rec = run.record
     s = run.summary or {}
     rows = []
@@ -129,7 +129,8 @@ def interval_table(run: RunResults, parameter: str = "E") -> Table | None:
         return None
     return Table(["analysis", f"{parameter} (MPa)" if parameter in ("E", "G") else parameter, "sd",
                   "90 % interval", "Err"], rows,
-                 f"{parameter}: which uncertainty to believe", [PAPER_BY_HAND], css="num")
+                 f"{parameter}: which uncertainty to believe", [n for n in (note, PAPER_BY_HAND) if n],
+                 css="num")
 
 
 def hyper_table(run: RunResults) -> Table | None:
@@ -174,9 +175,9 @@ def hyper_table(run: RunResults) -> Table | None:
 
 
 def noise_section(run: RunResults, figure: Path, disc: Discrepancy | None,
-                  resid: np.ndarray | None) -> list[str]:
+                  resid: np.ndarray | None, note: str = "") -> list[str]:
     """HTML of the section for one test; the ACF figure ``figure`` of ``resid`` (the white fit's
-    residuals on the window, in window order) when given."""
+    residuals on the window, in window order) when given; ``note`` under the intervals."""
     out: list[str] = []
     noise = (run.summary or {}).get("noise") or {}
     own = run.own_fit()
@@ -193,7 +194,7 @@ def noise_section(run: RunResults, figure: Path, disc: Discrepancy | None,
     resid_white = residuals.get("white")
     cls = "ok" if resid_white else "warn"
     out.append(f'<div class="box {cls}"><b>Verdict.</b> {html.escape(verdict)}</div>')
-    for t in (interval_table(run), hyper_table(run)):
+    for t in (interval_table(run, note=note), hyper_table(run)):
         if t is not None:
             out.append(t.html())
     if resid is not None and resid.size > 3:

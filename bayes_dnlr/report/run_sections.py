@@ -38,8 +38,8 @@ def _uses_gls(run: RunResults) -> bool:
     return run.uses_discrepancy and run.gls() is not None
 
 
-def parameters_section(run: RunResults) -> list[str]:
-    return [tb.parameter_table(run).html()]
+def parameters_section(run: RunResults, model_error: int) -> list[str]:
+    return [tb.parameter_table(run, model_error).html()]
 
 
 def corner_section(run: RunResults, figdir: Path, title: str) -> list[str]:

@@ -73,9 +73,10 @@ class Table:
 # tables
 # ---------------------------------------------------------------------------------------------
 
-def parameter_table(run: RunResults) -> Table:
+def parameter_table(run: RunResults, model_error: int = 5) -> Table:
     """Posterior mean, sd, median, 90 % HDI, ESS, R-hat beside the least-squares estimate ± sd (the
-    generalized one when the posterior used the discrepancy) and the truth."""
+    generalized one when the posterior used the discrepancy) and the truth (``model_error``: the
+    number of the page's model-error section)."""
     gn = run.linearized()
     gls = run.uses_discrepancy and run.gls() is not None
     post = (run.summary or {}).get("posterior") or {}
@@ -120,7 +121,7 @@ def parameter_table(run: RunResults) -> Table:
     if gn is not None and gls:
         notes.append("GLS: generalized least-squares estimate under the model discrepancy, with the "
                      "linearized sd √Δ_jj (Δ = (XᵀK⁻¹X)⁻¹) and its Err = sd/|estimate|; the paper's "
-                     "white analysis is in section 5.")
+                     f"white analysis is in section {model_error}.")
     elif gn is not None:
         notes.append("Gauss-Newton: least-squares estimate with the linearized sd √Δ_jj "
                      "(eq. 32, Δ = σ0² (XᵀX)⁻¹).")

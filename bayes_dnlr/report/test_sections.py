@@ -81,16 +81,14 @@ def fit_section(part: Part, figdir: Path) -> list[str]:
 
 
 def model_error_section(part: Part, figdir: Path, note: str = "", topic: str = "") -> list[str]:
-    """Which uncertainty of E to believe: the verdict, the intervals, δ's hyperparameters, the ACF."""
+    """Which uncertainty of E to believe: the verdict, the intervals (``note`` under them), δ's
+    hyperparameters, the ACF."""
     white_resid = None
     curves = part.curves
     if curves is not None and curves.gn_curve is not None:
         white_resid = (curves.data - part.white_curve)[curves.window]
-    sec = _head(part, topic) + rn.noise_section(part.view, part.figure(figdir, "acf"), part.discrepancy,
-                                                white_resid)
-    if note:
-        sec.append(f'<p class="note">{html.escape(note)}</p>')
-    return sec
+    return _head(part, topic) + rn.noise_section(part.view, part.figure(figdir, "acf"), part.discrepancy,
+                                                 white_resid, note)
 
 
 def sensitivity_section(part: Part, figdir: Path) -> list[str]:
