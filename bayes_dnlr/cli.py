@@ -95,13 +95,21 @@ def cmd_sample(args: argparse.Namespace) -> None:
 def cmd_report(args: argparse.Namespace) -> None:
     from bayes_dnlr.report import build_report
     from bayes_dnlr.report.current import REPORT_FILE, stale_inputs
+    from bayes_dnlr.runs.results import stale_notes
 
-    for run_dir in [_run(d, "report") for d in args.run_dirs]:
+    def warn(note: str) -> None:
+        print(f"warning: {note}", file=sys.stderr)
+
+    for arg in args.run_dirs:
+        run_dir = _run(arg, "report")
+        source = arg if Path(arg).is_file() else None     # the user's config, when given
         if not args.force and stale_inputs(run_dir) == []:
+            for note in stale_notes(run_dir, source):
+                warn(note)
             print(f"{_shown(run_dir / REPORT_FILE)} is current (newer than its config, data and results): "
                   "not rebuilt; report --force rebuilds it")
             continue
-        print(_shown(build_report(run_dir)))
+        print(_shown(build_report(run_dir, source=source, on_stale=warn)))
 
 
 def cmd_compare(args: argparse.Namespace) -> None:

@@ -12,7 +12,7 @@ from joint_support import make_joint
 def _verdict(tmp_path, name: str, per_decade: float):
     from bayes_dnlr.config import load_config
     from bayes_dnlr.report import build_report
-    from bayes_dnlr.report.joint import rate_question, test_view
+    from bayes_dnlr.report.across_tests import rate_question
     from bayes_dnlr.runs.results import load_run
     from bayes_dnlr.runs.sample import sample
 
@@ -21,7 +21,7 @@ def _verdict(tmp_path, name: str, per_decade: float):
     sample(load_config(path), progress=False)
     run = load_run(path.parent)
     assert [n for n in run.names if n.startswith("E[")] == ["E[r2.5e-3]", "E[r5e-3]", "E[r1e-2]"]
-    ra = rate_question(run, {t: test_view(run, t) for t in run.cfg.test_names})
+    ra = rate_question(run)
     page = build_report(path.parent).read_text()
     return ra, page
 
@@ -46,11 +46,11 @@ def test_e_rising_ten_percent_per_decade_is_rate_dependent(tmp_path):
 def test_shared_e_gives_no_rate_verdict(tmp_path, per_decade):
     """With E shared the joint posterior cannot ask the question: no verdict is invented."""
     from bayes_dnlr.config import load_config
-    from bayes_dnlr.report.joint import rate_question, test_view
+    from bayes_dnlr.report.across_tests import rate_question
     from bayes_dnlr.runs.fit import fit
     from bayes_dnlr.runs.results import load_run
 
     path = make_joint(tmp_path, "shared", e_per_decade=per_decade)
     fit(load_config(path))
     run = load_run(path.parent)
-    assert rate_question(run, {t: test_view(run, t) for t in run.cfg.test_names}) is None
+    assert rate_question(run) is None

@@ -27,7 +27,7 @@ def _age(path: Path, seconds: float) -> None:
 def test_current_report_is_skipped_stale_or_forced_is_rebuilt(finished, monkeypatch, capsys):
     built = []
 
-    def fake(run_dir):
+    def fake(run_dir, **_):          # the CLI also passes the user's config and a warning callback
         built.append(run_dir)
         (Path(run_dir) / "report.html").write_text("<html></html>")
         return Path(run_dir) / "report.html"

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bayes_dnlr.report.figure_cache import png_metadata
 from bayes_dnlr.vocabulary import QUANTITIES
 
 DPI = 110
@@ -63,6 +64,12 @@ def _corner_impl():
     return corner_impl
 
 
+def import_figure_modules() -> None:
+    """matplotlib's pyplot and corner, imported ahead of the first figure."""
+    pyplot()
+    _corner_impl()
+
+
 def _arviz_corner(*args, **kwargs):
     from corner.arviz_corner import arviz_corner
 
@@ -92,9 +99,9 @@ def save_figure(fig, path: Path) -> Path:
         rgba = np.asarray(renderer.buffer_rgba())
         top, bottom = int(math.floor(h - y1)), int(math.ceil(h - y0))
         crop = rgba[max(top, 0):min(bottom, h), max(int(math.floor(x0)), 0):min(int(math.ceil(x1)), w)]
-        mimage.imsave(tmp, crop, format="png", dpi=DPI)
+        mimage.imsave(tmp, crop, format="png", dpi=DPI, metadata=png_metadata())
     else:
-        fig.savefig(tmp, dpi=DPI, bbox_inches="tight", format="png")
+        fig.savefig(tmp, dpi=DPI, bbox_inches="tight", format="png", metadata=png_metadata())
     os.replace(tmp, path)
     pyplot().close(fig)
     return path
@@ -437,6 +444,8 @@ def trace_plot(draws: Mapping[str, np.ndarray], path: Path, max_draws: int = 100
     draws against the step after burn-in (thinned to at most ``max_draws`` per walker; ``step``:
     steps between stored draws)."""
     plt = pyplot()
+    from matplotlib.collections import LineCollection
+
     names = list(draws)
     fig, axes = plt.subplots(len(names), 2, figsize=(11.0, 2.3 * len(names) + 0.6), squeeze=False,
                              gridspec_kw={"width_ratios": [1.0, 1.6], "hspace": 0.55, "wspace": 0.22})
@@ -454,7 +463,8 @@ def trace_plot(draws: Mapping[str, np.ndarray], path: Path, max_draws: int = 100
         per_group = min(idx.size for idx in parts) * v.shape[1]
         bins = int(np.clip(np.sqrt(per_group), 8, 40))       # a group's histogram is not all noise
         edges = np.linspace(lo, hi, bins + 1)
-        ad.hist(flat, bins=edges, density=True, color="0.8", label="all walkers")
+        h, _ = np.histogram(flat, bins=edges, density=True)     # one filled outline, not a bar each
+        ad.stairs(h, edges, fill=True, color="0.8", label="all walkers")
         for g, idx in enumerate(parts):
             h, _ = np.histogram(v[idx].ravel(), bins=edges, density=True)
             ad.stairs(h, edges, color=cmap(g % 10), lw=0.9, alpha=0.9)
@@ -464,8 +474,10 @@ def trace_plot(draws: Mapping[str, np.ndarray], path: Path, max_draws: int = 100
         thin = max(1, int(math.ceil(v.shape[1] / max_draws)))
         vt = v[:, ::thin]
         xs = np.arange(vt.shape[1]) * thin * step
-        for w in range(vt.shape[0]):
-            at.plot(xs, vt[w], lw=0.5, alpha=0.45, color=cmap(w % 10))
+        walkers = LineCollection([np.column_stack([xs, vt[w]]) for w in range(vt.shape[0])], lw=0.5,
+                                 alpha=0.45, colors=[cmap(w % 10) for w in range(vt.shape[0])])
+        at.add_collection(walkers)          # one artist for all walkers: drawn in one pass
+        at.autoscale_view()
         at.set_ylabel(label)
         at.set_xlabel("step after burn-in")
         at.grid(alpha=0.3)

@@ -1,4 +1,5 @@
-"""The report's model-error section: the two analyses of E and what the checks say of them (docs/model-error.md).
+"""The report's model-error section: the two analyses of E and what the checks say of them
+(docs/model-error.md).
 
 - the interval of E under white noise (the paper's linearized analysis), under the model
   discrepancy (linearized GLS, and the posterior), with the paper's by-hand ±6.5 % as context;
@@ -18,6 +19,7 @@ import numpy as np
 
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pct, pm
 from bayes_dnlr.report import figures as figs
+from bayes_dnlr.report.figure_cache import drawn
 from bayes_dnlr.report.page_parts import img, para
 from bayes_dnlr.report.tables import Table
 from bayes_dnlr.runs.results import RunResults
@@ -92,9 +94,10 @@ def autocorrelation(x: np.ndarray, max_lag: int) -> np.ndarray:
     return acf / acf[0] if acf[0] > 0 else np.zeros(max_lag + 1)
 
 
-def interval_table(run: RunResults, parameter: str = "E") -> Table | None:
-    """The interval of a parameter under white noise and under the discrepancy, side by side."""
-    fit = run.fit or {}
+def interval_table(run: RunResults, parameter: str = "E", note: str = "") -> Table | None:
+    """The interval of a parameter under white noise and under the discrepancy, side by side: the
+    run's analyses (fit.json) beside the run's posterior (``note``: a first line under it)."""
+    rec = run.record
     s = run.summary or {}
     rows = []
 
@@ -105,19 +108,25 @@ def interval_table(run: RunResults, parameter: str = "E") -> Table | None:
         rows.append([label, fmt_at(est, sd), fmt_sd(sd), interval(lo, hi, sd), pct(err)])
 
     z = Z90
-    w_est, w_sd = (fit.get("estimate") or {}).get(parameter), (fit.get("sd") or {}).get(parameter)
+    white = rec.white if rec is not None else None
+    w_est = white.estimate.get(parameter) if white is not None else None
+    w_sd = white.sd.get(parameter) if white is not None else None
     if w_est is not None and w_sd is not None:
         row("white noise, linearized (the paper's eq. 32)", w_est, w_sd, w_est - z * w_sd, w_est + z * w_sd)
-    d = fit.get("discrepancy") or {}
-    g_est, g_sd = (d.get("estimate") or {}).get(parameter), (d.get("sd") or {}).get(parameter)
+    gls = rec.generalized if rec is not None else None
+    g_est = gls.estimate.get(parameter) if gls is not None else None
+    g_sd = gls.sd.get(parameter) if gls is not None else None
     if g_est is not None and g_sd is not None and np.isfinite(g_sd):
+        disc = (run.fit or {}).get("discrepancy") or {}
         label = ("with the discrepancy, linearized (the projection θ*, Var θ* + S(h))"
-                 if d.get("target") == "l2" else
-                 "with the discrepancy, linearized (GLS under the exp covariance, the kernels' sandwich sd)")
+                 if disc.get("target") == "l2" else
+                 "with the discrepancy, linearized (GLS under the exp covariance, the kernels' sandwich sd)"
+                 if disc.get("projection") else
+                 "with the discrepancy, linearized (GLS, Δ = (XᵀK⁻¹X)⁻¹)")
         row(label, g_est, g_sd, g_est - z * g_sd, g_est + z * g_sd)
     post = (s.get("posterior") or {}).get(parameter)
     if post:
-        model = (s.get("noise") or {}).get("model", "white")
+        model = run.run_noise or (s.get("noise") or {}).get("model", "white")
         label = ("posterior, with the discrepancy" if model == "discrepancy"
                  else "posterior, white likelihood")
         row(label, post["mean"], post["sd"], *post["hdi_90"])
@@ -125,12 +134,14 @@ def interval_table(run: RunResults, parameter: str = "E") -> Table | None:
         return None
     return Table(["analysis", f"{parameter} (MPa)" if parameter in ("E", "G") else parameter, "sd",
                   "90 % interval", "Err"], rows,
-                 f"{parameter}: the two analyses", [PAPER_BY_HAND], css="num")
+                 f"{parameter}: the two analyses", [n for n in (note, PAPER_BY_HAND) if n],
+                 css="num")
 
 
 def hyper_table(run: RunResults) -> Table | None:
-    """σ0, amplitude and length of the discrepancy: ML, prior, posterior."""
-    d = (run.fit or {}).get("discrepancy")
+    """σ0, amplitude and length of the test's discrepancy: ML, prior, posterior."""
+    own = run.own_fit()
+    d = own.discrepancy if own is not None else None
     if not d:
         return None
     noise = (run.summary or {}).get("noise") or {}
@@ -168,26 +179,27 @@ def hyper_table(run: RunResults) -> Table | None:
                  rows, "The model discrepancy δ", notes)
 
 
-def noise_section(run: RunResults, figdir: Path, disc: Discrepancy | None,
-                  resid: np.ndarray | None) -> list[str]:
-    """HTML of the section; the ACF figure of ``resid`` (the white fit's residuals on the window,
-    in window order) when given."""
+def noise_section(run: RunResults, figure: Path, disc: Discrepancy | None,
+                  resid: np.ndarray | None, note: str = "") -> list[str]:
+    """HTML of the section for one test; the ACF figure ``figure`` of ``resid`` (the white fit's
+    residuals on the window, in window order) when given; ``note`` under the intervals."""
     out: list[str] = []
     noise = (run.summary or {}).get("noise") or {}
-    fit = run.fit or {}
+    own = run.own_fit()
+    residuals = own.residuals if own is not None else {}
     verdict = noise.get("verdict")
-    if verdict is None and fit.get("discrepancy"):
+    if verdict is None and own is not None and own.discrepancy:
         verdict = ("The posterior is not sampled yet; the linearized analyses above show how the "
                    "discrepancy moves and widens the interval.")
     elif verdict is None:
         verdict = ("This run has no discrepancy analysis (noise.discrepancy: none): the interval "
                    "assumes the model fits to within white noise."
                    + (" The residuals are not white, so that interval is too narrow."
-                      if (fit.get("residuals") or {}).get("white") is False else ""))
-    resid_white = (fit.get("residuals") or {}).get("white")
+                      if residuals.get("white") is False else ""))
+    resid_white = residuals.get("white")
     cls = "ok" if resid_white else "warn"
     out.append(f'<div class="box {cls}"><b>Verdict.</b> {html.escape(verdict)}</div>')
-    for t in (interval_table(run), hyper_table(run)):
+    for t in (interval_table(run, note=note), hyper_table(run)):
         if t is not None:
             out.append(t.html())
     if resid is not None and resid.size > 3:
@@ -200,13 +212,13 @@ def noise_section(run: RunResults, figdir: Path, disc: Discrepancy | None,
                 disc.whitened, min(MAX_LAGS, disc.whitened.size // 2))[: len(next(iter(series.values())))]
         m = len(next(iter(series.values())))
         lags = np.arange(m) * step
-        p = figs.acf_plot(lags, series, resid.size, figdir / "acf.png", xlabel=f"lag ({unit})")
+        p = drawn(figs.acf_plot, lags, series, resid.size, figure, xlabel=f"lag ({unit})")
         out.append(img(p, "residual autocorrelation", (
             "Autocorrelation of the residuals against the lag. White residuals stay inside the shaded "
             "band; long positive correlation is the model error the white likelihood ignores. Whitened "
             "by the discrepancy (green) they should fall into the band; what stays outside is model "
             "error the kernel does not describe.")))
-    elif not fit:
+    elif own is None:
         out.append(para("No fit.json: no residual autocorrelation."))
     return out
 

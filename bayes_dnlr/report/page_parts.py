@@ -1,10 +1,14 @@
 """The pieces of the report's self-contained HTML pages: the style sheet, a figure embedded as
-base64 PNG, a paragraph and a list, every text escaped."""
+base64 PNG, a paragraph and a list, every text escaped.
+
+A figure is placed by ``img`` and embedded by ``embed`` once the page is complete, so that a PNG
+drawn by another process (``figure_cache.figure_session``) is read after it is written."""
 
 from __future__ import annotations
 
 import base64
 import html
+import re
 from pathlib import Path
 
 CSS = """
@@ -15,6 +19,7 @@ padding-bottom:4px}h3{font-size:1.05em;margin:20px 0 6px}
 .meta{color:#666;font-size:.9em;margin-bottom:18px}
 .box{background:#f5f7fa;border:1px solid #dde3ea;border-radius:6px;padding:12px 16px;margin:14px 0}
 .warn{background:#fff6e5;border-color:#f0c36d}.bad{color:#a61b1b;font-weight:600}.ok{background:#eef8f0;border-color:#a6d8b0}
+.stale{background:#fde8e8;border:2px solid #c9302c;color:#5a1010}
 table{border-collapse:collapse;margin:10px 0 6px;font-size:.92em}
 caption{text-align:left;font-weight:600;padding:4px 0;color:#333}
 th,td{border:1px solid #d8dde3;padding:4px 9px}thead th{background:#eef1f5}
@@ -31,10 +36,18 @@ footer{margin-top:40px;color:#888;font-size:.85em;border-top:1px solid #eee;padd
 """
 
 
+_PNG = re.compile("\x00png:([^\x00]*)\x00")
+
+
 def img(path: Path, alt: str, caption: str) -> str:
-    data = base64.b64encode(Path(path).read_bytes()).decode("ascii")
-    return (f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,{data}">'
+    """A figure with its caption; its PNG is embedded by ``embed``."""
+    return (f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,\x00png:{path}\x00">'
             f"<figcaption>{caption}</figcaption></figure>")
+
+
+def embed(page: str) -> str:
+    """The page with each figure's PNG embedded as base64 (the files are read now)."""
+    return _PNG.sub(lambda m: base64.b64encode(Path(m.group(1)).read_bytes()).decode("ascii"), page)
 
 
 def para(text: str) -> str:

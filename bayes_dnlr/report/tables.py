@@ -16,6 +16,7 @@ import numpy as np
 from bayes_dnlr.crosscheck import crosscheck_values, deborah_max
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pct
 from bayes_dnlr.runs.layout import FIT_FILE
+from bayes_dnlr.runs.records import TestFit
 from bayes_dnlr.runs.results import RunResults
 from bayes_dnlr.vocabulary import QUANTITIES, unit
 
@@ -72,9 +73,10 @@ class Table:
 # tables
 # ---------------------------------------------------------------------------------------------
 
-def parameter_table(run: RunResults) -> Table:
+def parameter_table(run: RunResults, model_error: int = 5) -> Table:
     """Posterior mean, sd, median, 90 % HDI, ESS, R-hat beside the least-squares estimate ± sd (the
-    generalized one when the posterior used the discrepancy) and the truth."""
+    generalized one when the posterior used the discrepancy) and the truth (``model_error``: the
+    number of the page's model-error section)."""
     gn = run.linearized()
     gls = run.uses_discrepancy and run.gls() is not None
     post = (run.summary or {}).get("posterior") or {}
@@ -83,7 +85,8 @@ def parameter_table(run: RunResults) -> Table:
     if post:
         header += ["posterior mean", "sd", "median", "90 % HDI", "ESS bulk", "ESS tail", "R-hat"]
     if gn is not None:
-        header += ["least squares (GLS)" if gls else "Gauss-Newton", "± sd", "Err (eq. 33)"]
+        header += ["least squares (GLS)" if gls else "Gauss-Newton", "± sd",
+                   "Err (eq. 33, GLS)" if gls else "Err (eq. 33)"]
     if truth:
         header += ["true value"]
     rows = []
@@ -98,9 +101,8 @@ def parameter_table(run: RunResults) -> Table:
                     fmt(s.get("ess_tail"), 3), fmt(s.get("r_hat"), 4)]
         if gn is not None:
             est, sd = gn["estimate"].get(n), (gn["sd"] or {}).get(n)
-            saved_err = (run.fit or {}).get("err")
-            if isinstance(saved_err, dict) and n in saved_err:
-                err = saved_err[n]          # fit's Err: null for a value of zero (e.g. on a bound)
+            if n in gn["err"]:              # the same analysis' Err: null for a value of zero
+                err = gn["err"][n]
             else:
                 err = None if est in (None, 0) or sd is None else sd / abs(est)
             row += [fmt_at(est, sd if sd else prec), fmt_sd(sd), pct(err)]
@@ -119,7 +121,8 @@ def parameter_table(run: RunResults) -> Table:
     if gn is not None and gls:
         notes.append("GLS: the estimate under model error (generalized least squares under the exp "
                      "covariance), with the linearized sd of that estimate under the kernels' model of "
-                     "the error (docs/model-error.md); the paper's white analysis is in section 5.")
+                     "the error and its Err = sd/|estimate| (docs/model-error.md); the paper's white "
+                     f"analysis is in section {model_error}.")
     elif gn is not None:
         notes.append("Gauss-Newton: least-squares estimate with the linearized sd √Δ_jj "
                      "(eq. 32, Δ = σ0² (XᵀX)⁻¹).")
@@ -261,12 +264,12 @@ def comparison_table(run: RunResults) -> Table | None:
                  css="num")
 
 
-def residual_words(fit: dict | None, sigma0: float | None = None) -> list[str]:
-    """The residual diagnostics of fit.json, in sentences."""
-    if not fit or not fit.get("residuals"):
+def residual_words(fit: TestFit | None, sigma0: float | None = None) -> list[str]:
+    """A test's residual diagnostics at the run's white estimate (fit.json), in sentences."""
+    if fit is None or not fit.residuals:
         return ["No residual diagnostics (fit.json is missing or has no 'residuals')."]
-    r = fit["residuals"]
-    n = fit.get("n_points")
+    r = fit.residuals
+    n = fit.n_points
     out = []
     if r.get("rms") is not None:
         s = f"RMS of the residuals: {fmt(r['rms'], 3)} MPa"
@@ -300,6 +303,9 @@ def residual_words(fit: dict | None, sigma0: float | None = None) -> list[str]:
         out.append("The residuals look like white noise.")
     if r.get("verdict"):
         out.append(f"Verdict: {r['verdict']}")
+    if fit.rms_alone is not None:
+        out.append(f"RMS of this test's residuals at its own estimate (fitted alone): "
+                   f"{fmt(fit.rms_alone, 3)} MPa; above: at the run's estimate, shared with the other tests.")
     return out
 
 
@@ -388,11 +394,13 @@ def deborah(run: RunResults) -> tuple[float | None, float | None, str]:
     if run.draws is not None and "tau_max" in run.draws:
         d = run.draws["tau_max"].ravel() * rate
         return float(np.mean(d)), float(np.std(d)), "posterior of tau_max"
-    for src in (run.summary, run.fit):
-        if src and src.get("deborah_max") is not None:
-            v = src["deborah_max"]
-            v = v.get("mean", v.get("value")) if isinstance(v, dict) else v
-            return float(v), None, "summary" if src is run.summary else FIT_FILE
+    v = (run.summary or {}).get("deborah_max")
+    v = v.get("mean", v.get("value")) if isinstance(v, dict) else v
+    if v is not None:
+        return float(v), None, "summary"
+    own = run.own_fit()
+    if own is not None and own.deborah_max is not None:
+        return own.deborah_max, None, FIT_FILE
     tau = run.point().get("tau_max")
     return (None, None, "no tau_max") if tau is None else (deborah_max(tau, rate), None, "point estimate")
 

@@ -27,17 +27,18 @@ class Curves:
     median: np.ndarray | None = None
     band: tuple[np.ndarray, np.ndarray] | None = None
     predictive: tuple[np.ndarray, np.ndarray] | None = None
-    gn_curve: np.ndarray | None = None
+    gn_curve: np.ndarray | None = None          # the least-squares fit the posterior is compared with
+    white_curve: np.ndarray | None = None       # the white (paper's) least-squares fit
     sensitivities: dict[str, np.ndarray] | None = None
 
 
 def _model(run: RunResults):
-    from bayes_dnlr.model import DNLR
+    from bayes_dnlr.model import cached_model
 
     t = run.test
     n = t.model_end
-    return DNLR(t.time[:n], t.strain_input[:n], run.cfg.model.modes, run.cfg.model.decades,
-                t.relaxation_start), n
+    return cached_model(t.time[:n], t.strain_input[:n], run.cfg.model.modes, run.cfg.model.decades,
+                        t.relaxation_start), n
 
 
 def _stress(basis_values: np.ndarray, p: dict[str, float]) -> np.ndarray:
@@ -63,13 +64,7 @@ def sensitivities(model, params: dict[str, float], names: list[str]) -> dict[str
 
 def run_white_curve(run: RunResults, curves: Curves) -> np.ndarray:
     """The white least-squares fit (fit.json's estimate) on the data grid."""
-    gn = run.gn()
-    if gn is None:
-        return curves.gn_curve
-    model, _ = _model(run)
-    p = dict(run.cfg.fixed_values)
-    p.update(gn["estimate"])
-    return _stress(model.basis(p["tau_max"], p.get("tau_max_R")).values, p)
+    return curves.white_curve if curves.white_curve is not None else curves.gn_curve
 
 
 def model_curves(run: RunResults, n_draws: int = N_DRAWS, seed: int = 0) -> Curves:
@@ -84,8 +79,13 @@ def model_curves(run: RunResults, n_draws: int = N_DRAWS, seed: int = 0) -> Curv
     fixed = run.cfg.fixed_values
     point = run.point()
     if all(k in point for k in model.parameter_names()):
-        if run.gn() is not None:
+        gn = run.gn()
+        if gn is not None:
             c.gn_curve = _stress(model.basis(point["tau_max"], point.get("tau_max_R")).values, point)
+            white = {**fixed, **gn["estimate"]}
+            c.white_curve = (c.gn_curve if all(white.get(k) == point.get(k) for k in model.parameter_names())
+                             else _stress(model.basis(white["tau_max"], white.get("tau_max_R")).values,
+                                          white))
         c.sensitivities = sensitivities(model, point, [k for k in model.parameter_names()
                                                        if k in run.model_names])
     if run.draws is not None and all(k in run.draws or k in fixed for k in model.parameter_names()):
@@ -95,11 +95,10 @@ def model_curves(run: RunResults, n_draws: int = N_DRAWS, seed: int = 0) -> Curv
         flat = {k: v.reshape(-1)[pick] for k, v in run.draws.items()}
         sig = flat.get("sigma0")
         s0 = run.sigma0()
-        curves = np.empty((pick.size, n))
-        for i in range(pick.size):
-            p = dict(fixed)
-            p.update({k: float(flat[k][i]) for k in model.parameter_names() if k in flat})
-            curves[i] = _stress(model.basis(p["tau_max"], p.get("tau_max_R")).values, p)
+        names = model.parameter_names()
+        theta = np.column_stack([flat[k] if k in flat else np.full(pick.size, float(fixed[k]))
+                                 for k in names])
+        curves = model.stress_batch(theta, names)       # every draw at once, compiled
         c.median = np.median(curves, axis=0)
         lo, hi = np.quantile(curves, [0.05, 0.95], axis=0)
         c.band = (lo, hi)

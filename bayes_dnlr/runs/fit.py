@@ -92,8 +92,10 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
     if write and not overwrite and path.exists():
         reason = stale_fit_reason(cfg, test.sha256)
         if reason is not None:
-            raise RunError(f"{path} exists and was made from {reason}; `fit --force` replaces it, "
-                           "or set output.dir to fit into another run directory and keep it")
+            config = cfg.source if cfg.source is not None else "<config.yaml>"
+            raise RunError(f"{path} exists and was made from {reason}; `python -m bayes_dnlr fit "
+                           f"--force {config}` replaces it, or set output.dir to fit into another "
+                           "run directory and keep it")
     result = fit_run(cfg, test.tests, plain=test.plain)
     secs = sections(cfg)
     result.config_digest = identity.config_digest(cfg, secs)

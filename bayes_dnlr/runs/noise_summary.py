@@ -3,7 +3,8 @@ the interval of E under white noise and under the model discrepancy, with a verd
 
 The white interval is the paper's linearized one (fit.json, eq. 32: estimate ± 1.645 sd, which the
 white posterior matches to a few percent on white data, docs/sampling.md); the discrepancy interval
-is the posterior's 90 % HDI. docs/model-error.md explains why they differ; the run's checks (summary.json `checks`) decide which is trusted.
+is the posterior's 90 % HDI. docs/model-error.md explains why they differ; the run's checks
+(summary.json `checks`) decide which is trusted.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from typing import Any
 from bayes_dnlr.config import Config
 from bayes_dnlr.inference.discrepancy.hyper import AMPLITUDE, LENGTH
 from bayes_dnlr.inference.layout import Layout
+from bayes_dnlr.runs.records import Analysis, FitRecord
 from bayes_dnlr.vocabulary import Z90
 
 
@@ -21,6 +23,13 @@ def _linearized(estimate: float | None, sd: float | None) -> dict[str, Any] | No
     if estimate is None or sd is None or not math.isfinite(sd):
         return None
     return {"estimate": estimate, "sd": sd, "interval_90": [estimate - Z90 * sd, estimate + Z90 * sd]}
+
+
+def _of(analysis: Analysis | None, name: str) -> dict[str, Any] | None:
+    """The linearized interval of the run's parameter ``name`` in one of the run's analyses."""
+    if analysis is None:
+        return None
+    return _linearized(analysis.estimate.get(name), analysis.sd.get(name))
 
 
 def _hyper(name: str, summary: dict[str, Any], fixed: float | None) -> dict[str, Any] | None:
@@ -31,13 +40,21 @@ def _hyper(name: str, summary: dict[str, Any], fixed: float | None) -> dict[str,
 
 
 def noise_block(cfg: Config, fit: dict[str, Any], summary: dict[str, Any], sigma0: float,
-                sigma0_source: str, parameter: str = "E") -> dict[str, Any]:
-    """The ``noise`` block of summary.json (docs/sampling.md)."""
+                sigma0_source: str, parameter: str = "E",
+                run: tuple[Analysis | None, Analysis | None, str] | None = None) -> dict[str, Any]:
+    """The ``noise`` block of summary.json (docs/sampling.md) of one test: its noise from its own
+    fit ``fit``; the linearized intervals of ``parameter`` from ``run`` (the run's white and
+    generalized analyses and the parameter's name in them; None: the test's own fit is the run's),
+    so that the posterior is set beside the analyses of its own likelihood."""
     disc = fit.get("discrepancy") if cfg.noise.has_discrepancy else None
     switched_off = bool(disc) and not disc.get("evidence") and cfg.noise.discrepancy.amplitude is None
     white_fit = (fit.get("residuals") or {}).get("white")
     post = (summary.get("posterior") or {}).get(parameter)
-    white = _linearized((fit.get("estimate") or {}).get(parameter), (fit.get("sd") or {}).get(parameter))
+    if run is None:
+        run = (Analysis.from_dict(fit, list(fit.get("parameters") or [])),
+               Analysis.from_dict(disc, list(fit.get("parameters") or [])), parameter)
+    run_white, run_gls, name = run
+    white = _of(run_white, name)
     block: dict[str, Any] = {
         "model": "discrepancy" if disc and not switched_off else "white",
         "sigma0": _hyper("sigma0", summary, sigma0) | {"source": sigma0_source},
@@ -59,9 +76,9 @@ def noise_block(cfg: Config, fit: dict[str, Any], summary: dict[str, Any], sigma
         choice = disc.get("kernel_choice")
         if choice:
             block["kernel_choice"] = {k: choice[k] for k in ("reason", "weights",
-                                                             "log_likelihood_gain_matern32") if k in choice}
-        interval["gls_linearized"] = _linearized((disc.get("estimate") or {}).get(parameter),
-                                                 (disc.get("sd") or {}).get(parameter))
+                                                             "log_likelihood_gain_matern32",
+                                                             "move_in_sd") if k in choice}
+        interval["gls_linearized"] = _of(run_gls, name)
     if post is not None:
         interval["posterior"] = {k: post[k] for k in ("mean", "sd", "hdi_90")}
         interval["posterior_likelihood"] = block["model"]
@@ -145,15 +162,18 @@ def noise_summary(cfg: Config, fit: dict[str, Any], summary: dict[str, Any], lay
                   sigma0: dict[str, float], sigma0_source: dict[str, str]) -> dict[str, Any]:
     """The ``noise`` block of a run's summary.json: each test's own block (its hyperparameters, E's
     interval under white noise and under the discrepancy); a run with one test writes its block
-    itself, a run with several puts them under ``tests`` with a verdict over all."""
+    itself, a run with several puts them under ``tests`` with a verdict over all. E's intervals
+    are the run's (its joint analyses beside its joint posterior): like with like."""
     post = summary.get("posterior") or {}
     singles = fit.get("single_fits") or {}
+    record = FitRecord.from_dict(fit, layout.tests)
     blocks = {}
     for t in layout.tests:
         local = {k: post[layout.name(k, t)] for k in layout.local[t] if layout.name(k, t) in post}
         own = fit if layout.plain else singles.get(t) or {}
         blocks[t] = noise_block(cfg.for_test(t), own, {"posterior": local}, sigma0.get(t),
-                                sigma0_source.get(t, ""))
+                                sigma0_source.get(t, ""),
+                                run=(record.white, record.generalized, layout.name("E", t)))
     if layout.plain:
         return layout.collapse(blocks)
     models = {b["model"] for b in blocks.values()}

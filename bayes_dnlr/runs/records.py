@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -39,7 +39,7 @@ class Analysis:
     names: list[str]
     estimate: dict[str, float]          # the free parameters (and fixed ones, when recorded)
     sd: dict[str, float]
-    err: dict[str, float]
+    err: dict[str, float | None]        # None where fit.json has null (an estimate of zero)
     covariance: np.ndarray | None
     correlation: np.ndarray | None
     delta_tilde: np.ndarray | None
@@ -50,10 +50,27 @@ class Analysis:
             return None
         names = list(names)
         est = {k: float(v) for k, v in block["estimate"].items() if v is not None}
-        return cls(names, est, _floats(block.get("sd"), names), _floats(block.get("err"), names),
+        err = block.get("err") or {}
+        return cls(names, est, _floats(block.get("sd"), names),
+                   {k: None if err[k] is None else float(err[k]) for k in names if k in err},
                    _matrix(block.get("covariance"), len(names)),
                    _matrix(block.get("correlation"), len(names)),
                    _matrix(block.get("delta_tilde"), len(names)))
+
+    def restrict(self, names: Mapping[str, str]) -> Analysis:
+        """The analysis of some of the parameters under other names: ``names`` maps each new name
+        to this analysis' name (a test's own names to the run's). The covariance of a subset is
+        the sub-block (eq. 32), and so are the correlations and Δ̃ (eq. 35)."""
+        idx = [self.names.index(g) for g in names.values()]
+
+        def sub(m: np.ndarray | None) -> np.ndarray | None:
+            return None if m is None else m[np.ix_(idx, idx)]
+
+        def pick(d: Mapping[str, Any]) -> dict[str, Any]:
+            return {k: d[g] for k, g in names.items() if g in d}
+
+        return Analysis(list(names), pick(self.estimate), pick(self.sd), pick(self.err),
+                        sub(self.covariance), sub(self.correlation), sub(self.delta_tilde))
 
 
 @dataclass(frozen=True)
@@ -73,6 +90,7 @@ class TestFit:
     deborah_max: float | None
     n_points: int | None
     raw: dict[str, Any] = field(repr=False, default_factory=dict)
+    rms_alone: float | None = None       # rms at the test's own estimate, when the run's is another
 
     @classmethod
     def from_dict(cls, name: str, d: Mapping[str, Any], names: Sequence[str]) -> TestFit:
@@ -106,12 +124,15 @@ class FitRecord:
     warnings: list[str]
     per_test: list[str]
     raw: dict[str, Any] = field(repr=False, default_factory=dict)
+    at_run: dict[str, dict[str, Any]] = field(default_factory=dict)   # per test, at the run's estimate
+    data_sha256: str | None = None       # the data file(s) the fit was made from
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any], test_names: Sequence[str]) -> FitRecord:
         """Either layout of fit.json (``test_names``: the run's tests, in config order)."""
         names = list(d.get("parameters") or [])
         plain = not d.get("joint")
+        at_run: dict[str, dict[str, Any]] = {}
         if plain:
             tests = {test_names[0]: TestFit.from_dict(test_names[0], d, names)}
         else:
@@ -122,10 +143,27 @@ class FitRecord:
                 own.setdefault("n_points", (info.get(t) or {}).get("n_points"))
                 own_names = [k for k in own.get("sd") or {}] or names
                 tests[t] = TestFit.from_dict(t, own, own_names)
+                at_run[t] = dict(info.get(t) or {})
         return cls(names=names, white=Analysis.from_dict(d, names),
                    generalized=Analysis.from_dict(d.get("discrepancy"), names), tests=tests, plain=plain,
                    warnings=list(d.get("warnings") or []), per_test=list(d.get("per_test") or []),
-                   raw=dict(d))
+                   raw=dict(d), at_run=at_run, data_sha256=d.get("data_sha256"))
+
+    def for_test(self, test: str, names: Mapping[str, str]) -> FitRecord:
+        """One test of the run read as a run with one test: the run's analyses restricted to the
+        test's own parameters (``names``: its own name -> the run's), its residuals at the run's
+        estimate, its own σ0, warnings and discrepancy analysis. A run with one test is its own."""
+        if self.plain:
+            return self
+        own = self.tests[test]
+        white = self.white.restrict(names) if self.white is not None else None
+        generalized = self.generalized.restrict(names) if self.generalized is not None else None
+        at = self.at_run.get(test) or {}
+        rms = at.get("rms_single_fit")
+        seen = replace(own, white=white, residuals=dict(at.get("residuals") or own.residuals),
+                       rms_alone=float(rms) if isinstance(rms, int | float) else None)
+        return FitRecord(names=list(names), white=white, generalized=generalized, tests={test: seen},
+                         plain=True, warnings=list(own.warnings), per_test=[])
 
     @property
     def sigma0(self) -> float | None:

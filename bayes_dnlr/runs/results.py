@@ -16,15 +16,18 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config import Config, load_config
+from bayes_dnlr.inference.layout import Layout, joint_name
 from bayes_dnlr.runs.folder import find_config
 from bayes_dnlr.runs.layout import FIT_FILE, POSTERIOR_FILE, SUMMARY_FILE
+from bayes_dnlr.runs.records import Analysis, FitRecord, TestFit
 from bayes_dnlr.runs.testset import plain_names
-from bayes_dnlr.vocabulary import NOISE_NAMES
+from bayes_dnlr.vocabulary import NOISE_NAMES, base_name
 
 
 @dataclass
 class RunResults:
-    """What a run directory holds, read once for the report and compare."""
+    """What a run directory holds, read once for the report and compare; or one test of a run
+    with several, seen as a run with one test (``of_test``)."""
 
     run_dir: Path
     cfg: Config
@@ -34,6 +37,10 @@ class RunResults:
     test: Any = None                             # bayes_dnlr.data.TestData, or None
     data_error: str | None = None
     problems: list[str] = field(default_factory=list)
+    stale: list[str] = field(default_factory=list)   # results made from another config or data
+    fit_record: FitRecord | None = None          # fit.json, typed (read from ``fit`` on first use)
+    run_noise: str | None = None                 # a test's view: the noise model of the run's posterior
+    _tests: dict[str, RunResults] = field(default_factory=dict, repr=False)
 
     @property
     def name(self) -> str:
@@ -50,28 +57,31 @@ class RunResults:
     @property
     def model_names(self) -> list[str]:
         """The free model parameters (without a sampled sigma0 and discrepancy hyperparameters)."""
-        return [n for n in self.names if n not in NOISE_NAMES]
+        return [n for n in self.names if base_name(n) not in NOISE_NAMES]
 
     @property
     def uses_discrepancy(self) -> bool:
-        """True when the posterior used the model-discrepancy likelihood."""
+        """True when the posterior used the model-discrepancy likelihood (a test's view: that
+        test's own likelihood)."""
         return ((self.summary or {}).get("noise") or {}).get("model") == "discrepancy"
+
+    @property
+    def record(self) -> FitRecord | None:
+        """fit.json as a typed record (None without fit.json)."""
+        if self.fit_record is None and self.fit is not None:
+            self.fit_record = FitRecord.from_dict(self.fit, self.cfg.test_names)
+        return self.fit_record
 
     def gls(self) -> dict[str, Any] | None:
         """The generalized least-squares analysis (fit.json's discrepancy block), in gn()'s layout."""
-        d = (self.fit or {}).get("discrepancy")
-        if not d or d.get("estimate") is None:
-            return None
-        names = list((self.fit or {}).get("parameters") or self.model_names)
-        return {"names": names, "estimate": per_name(d["estimate"], names),
-                "sd": per_name(d.get("sd"), names), "correlation": matrix(d.get("correlation"), len(names)),
-                "covariance": matrix(d.get("covariance"), len(names)),
-                "delta_tilde": matrix(d.get("delta_tilde"), len(names))}
+        rec = self.record
+        return None if rec is None or rec.generalized is None else _layout(rec.generalized, False)
 
     def linearized(self) -> dict[str, Any] | None:
-        """The linearized analysis the posterior is to be compared with: GLS when the posterior used
-        the discrepancy, else the paper's white Gauss-Newton analysis."""
-        return (self.gls() if self.uses_discrepancy else None) or self.gn()
+        """The linearized analysis the posterior is to be compared with: GLS when the run's
+        posterior used the discrepancy, else the paper's white Gauss-Newton analysis."""
+        run_gls = (self.run_noise or ((self.summary or {}).get("noise") or {}).get("model")) == "discrepancy"
+        return (self.gls() if run_gls else None) or self.gn()
 
     @property
     def truth(self) -> dict[str, float] | None:
@@ -82,25 +92,74 @@ class RunResults:
         return self.summary is not None and bool(self.summary.get("posterior"))
 
     def gn(self) -> dict[str, Any] | None:
-        """Gauss-Newton results as {estimate, sd (per name), correlation, delta_tilde, covariance}."""
-        src = None
-        if self.fit is not None:
-            src = self.fit
+        """Gauss-Newton results as {estimate, sd (per name), correlation, delta_tilde, covariance,
+        err}: fit.json's white analysis, else summary.json's copy of it."""
+        rec = self.record
+        if rec is not None:
+            a = rec.white
         elif self.summary is not None and self.summary.get("gauss_newton"):
             src = self.summary["gauss_newton"]
-        if src is None or src.get("estimate") is None:
-            return None
-        names = list(src.get("parameters") or self.model_names)
-        est = per_name(src["estimate"], names)
-        sd = per_name(src.get("sd"), names)
-        corr = matrix(src.get("correlation"), len(names))
-        cov = matrix(src.get("covariance"), len(names))
-        if cov is None and corr is not None and sd is not None:
-            s = np.array([sd[n] for n in names])
-            cov = corr * np.outer(s, s)
-        dt = matrix(src.get("delta_tilde"), len(names))
-        return {"names": names, "estimate": est, "sd": sd, "correlation": corr, "covariance": cov,
-                "delta_tilde": dt}
+            a = Analysis.from_dict(src, list(src.get("parameters") or self.model_names))
+        else:
+            a = None
+        return None if a is None else _layout(a, True)
+
+    @property
+    def layout(self) -> Layout:
+        """The run's names and each test's own (``Layout.plain`` for a run with one test)."""
+        rec = self.record
+        per_test = (rec.per_test if rec is not None and rec.per_test else self.cfg.per_test_parameters)
+        plain = plain_names(self.cfg)
+        names = self.names
+        local = {}
+        for t in self.cfg.test_names:
+            own = [*self.cfg.for_test(t).free_parameters, *NOISE_NAMES]
+            local[t] = [k for k in own if (k if plain or (k not in per_test and k not in NOISE_NAMES)
+                                          else joint_name(k, t)) in names]
+        return Layout.build(local, per_test, plain)
+
+    def of_test(self, test: str) -> RunResults:
+        """One test of the run seen as a run with one test: the run's draws, posterior and
+        analyses under the test's own names (``tau_max[r5e-3]`` -> ``tau_max``), its own noise,
+        data and residuals. A run with one test is its own (as ``Config.for_test``)."""
+        layout = self.layout
+        if layout.plain:
+            return self
+        if test in self._tests:
+            return self._tests[test]
+        cfg = self.cfg.for_test(test)
+        own = {k: layout.name(k, test) for k in layout.local[test]}
+        rec = self.record
+        record = None
+        if rec is not None:
+            record = rec.for_test(test, {k: g for k, g in own.items() if g in rec.names})
+        summary = None
+        if self.summary is not None:
+            s = self.summary
+            post = s.get("posterior") or {}
+
+            def per(key: str) -> Any:
+                v = s.get(key)
+                return v.get(test) if isinstance(v, dict) else None
+
+            summary = {"parameters": [k for k, g in own.items() if g in post],
+                       "posterior": {k: post[g] for k, g in own.items() if g in post},
+                       "noise": ((s.get("noise") or {}).get("tests") or {}).get(test),
+                       "sigma0": per("sigma0"), "standards": per("standards"),
+                       "deborah_max": per("deborah_max")}
+        draws = None
+        if self.draws is not None:
+            draws = {k: self.draws[g] for k, g in own.items() if g in self.draws}
+        view = RunResults(run_dir=self.run_dir, cfg=cfg, summary=summary, draws=draws, fit_record=record,
+                          run_noise=((self.summary or {}).get("noise") or {}).get("model"))
+        attach_test(view, cfg)
+        self._tests[test] = view
+        return view
+
+    @property
+    def tests(self) -> dict[str, RunResults]:
+        """Each test of the run, seen as a run with one test (``of_test``), in config order."""
+        return {t: self.of_test(t) for t in self.cfg.test_names}
 
     def point(self) -> dict[str, float]:
         """All model parameters at the best point: the least-squares estimate (generalized when the
@@ -113,10 +172,17 @@ class RunResults:
             out.update({k: v["median"] for k, v in self.summary["posterior"].items() if k != "sigma0"})
         return out
 
+    def own_fit(self) -> TestFit | None:
+        """The test's fit of a run with one test (None for a run with several, or without fit.json)."""
+        rec = self.record
+        return next(iter(rec.tests.values())) if rec is not None and rec.plain else None
+
     def strain_rate(self) -> float | None:
-        for src in (self.fit, self.summary):
-            if src and src.get("strain_rate") is not None:
-                return float(src["strain_rate"])
+        own = self.own_fit()
+        if own is not None and own.strain_rate is not None:
+            return own.strain_rate
+        if self.summary and self.summary.get("strain_rate") is not None:
+            return float(self.summary["strain_rate"])
         if self.test is not None:
             return float(self.test.strain_rate)
         if self.cfg.truth is not None:
@@ -125,18 +191,33 @@ class RunResults:
 
     def sigma0(self) -> float | None:
         """The noise sd used (MPa): a number from summary or fit (posterior mean when sampled)."""
-        for src in (self.summary, self.fit):
-            if src and src.get("sigma0") is not None:
-                s = src["sigma0"]
-                if isinstance(s, dict):
-                    s = s.get("mean", s.get("value"))
-                try:
-                    return float(s)
-                except (TypeError, ValueError):
-                    continue
+        s = (self.summary or {}).get("sigma0")
+        if isinstance(s, dict):
+            s = s.get("mean", s.get("value"))
+        try:
+            if s is not None:
+                return float(s)
+        except (TypeError, ValueError):
+            pass
+        own = self.own_fit()
+        if own is not None and own.sigma0 is not None:
+            return own.sigma0
         if self.summary and "sigma0" in (self.summary.get("posterior") or {}):
             return float(self.summary["posterior"]["sigma0"]["mean"])
         return None
+
+
+def _layout(a: Analysis, cov_from_sd: bool) -> dict[str, Any]:
+    """An analysis as {names, estimate, sd, correlation, covariance, delta_tilde, err}."""
+    names = a.names
+    sd = {n: a.sd[n] for n in names if n in a.sd} or None
+    cov = a.covariance
+    if cov is None and cov_from_sd and a.correlation is not None and sd is not None and len(sd) == len(names):
+        s = np.array([sd[n] for n in names])
+        cov = a.correlation * np.outer(s, s)
+    return {"names": names, "estimate": {n: a.estimate[n] for n in names if n in a.estimate}, "sd": sd,
+            "correlation": a.correlation, "covariance": cov, "delta_tilde": a.delta_tilde,
+            "err": dict(a.err)}
 
 
 def per_name(obj: Any, names: Sequence[str]) -> dict[str, float] | None:
@@ -221,8 +302,10 @@ def _read_draws_xarray(path: Path, names: Sequence[str] | None) -> dict[str, np.
     return out
 
 
-def load_run(run_dir: Path | str, load_data: bool = True) -> RunResults:
-    """Read a run directory. Missing pieces are None; what went wrong is listed in ``problems``."""
+def load_run(run_dir: Path | str, load_data: bool = True, source: Path | str | None = None) -> RunResults:
+    """Read a run directory. Missing pieces are None; what went wrong is listed in ``problems``;
+    results made from another config or data than the current ones (``source``: the user's config
+    when known, see ``runs.provenance``) are listed in ``stale``."""
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
         from bayes_dnlr.errors import RunError
@@ -247,6 +330,9 @@ def load_run(run_dir: Path | str, load_data: bool = True) -> RunResults:
             problems.append(f"posterior.nc could not be read: {err}")
     if load_data and plain_names(cfg):     # a run with several tests: each by its view
         attach_test(run, cfg)
+    from bayes_dnlr.runs.provenance import stale_results
+
+    run.stale = stale_results(run_dir, cfg, run.fit, run.summary, source)
     return run
 
 
@@ -260,3 +346,19 @@ def attach_test(run: RunResults, cfg: Config) -> None:
         run.data_error = f"{type(err).__name__}: {err}"
 
 
+
+
+def stale_notes(run_dir: Path | str, source: Path | str | None = None) -> list[str]:
+    """``load_run(run_dir, source=source).stale`` without reading the draws or the data: why the
+    folder's results do not belong to the current config and data (empty when they do)."""
+    from bayes_dnlr.errors import BayesDnlrError
+    from bayes_dnlr.runs.provenance import stale_results
+
+    run_dir = Path(run_dir)
+    try:
+        cfg = load_config(find_config(run_dir))
+    except (FileNotFoundError, BayesDnlrError):
+        return []              # the report itself says what is wrong with the folder
+    problems: list[str] = []
+    return stale_results(run_dir, cfg, _read_json(run_dir / FIT_FILE, problems),
+                         _read_json(run_dir / SUMMARY_FILE, problems), source)

@@ -377,7 +377,7 @@ def _write(path: Path, data: bytes, overwrite: bool, source: object, layout: str
                 return "up to date", ["the file differs from this machine's output only in the last "
                                       "printed digit (floating-point rounding); kept"]
             raise DataError(f"{path}: exists and differs from what simulate makes from {source} "
-                            f"(truth: section); not overwritten. Use --force (overwrite=True) to "
+                            f"(truth: section); not overwritten. Use --force to "
                             f"replace it, or point data.file elsewhere")
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")

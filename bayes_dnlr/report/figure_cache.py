@@ -1,0 +1,196 @@
+"""How the report's figures are drawn: only when their inputs change, and beside the page.
+
+- A rebuilt report (``report --force``, a batch page, a config comment edited) keeps each PNG whose
+  inputs are the same: the report draws each figure through ``drawn(figure_function, ...)``; the
+  function's name, its arguments (arrays by their bytes), the package's and matplotlib's versions
+  and the source of the figure modules make a key, written into the PNG's text chunk. A PNG that
+  holds the same key is not drawn again. The figure functions themselves always draw.
+- When a core is free (two or more, and the last minute's load leaves one), a worker process
+  forked when the report starts (before this process runs any other Python thread) imports
+  matplotlib while the run is loaded, then draws the figures handed to it (``aside=True``) while
+  this process draws the others. ``figure_session`` waits for them at its end; the page embeds
+  every PNG after that (``page_parts.embed``). Under load the figures are drawn here, one by one.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import os
+import pickle
+import sys
+from collections.abc import Callable, Iterator, Mapping
+from concurrent.futures import Future
+from contextlib import contextmanager
+from contextvars import ContextVar
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+KEY = "bayes_dnlr-figure-key"
+_current: ContextVar[str | None] = ContextVar("figure_key", default=None)
+
+
+@dataclass
+class _Figures:
+    used: set[Path] = field(default_factory=set)
+    worker: Any = None                          # a ProcessPoolExecutor of one forked process
+    pending: list[tuple[Future, Callable[[], Path]]] = field(default_factory=list)
+
+
+_session: ContextVar[_Figures | None] = ContextVar("figures", default=None)
+
+
+def _single_threaded() -> bool:
+    """No other Python thread (one could hold the import lock the worker needs). Native threads
+    (BLAS's, numba's) stay idle in the worker, which uses neither."""
+    import threading
+
+    return threading.active_count() == 1
+
+
+def _warm() -> None:
+    """The worker's first task: the imports of the figures, while the parent loads the run."""
+    from bayes_dnlr.report.figures import import_figure_modules
+
+    import_figure_modules()
+
+
+def _free_core() -> bool:
+    """Two cores or more for this process, and the last minute's load leaves one of them free."""
+    cores = len(os.sched_getaffinity(0))
+    return cores >= 2 and os.getloadavg()[0] <= cores - 1
+
+
+def _fork_worker():
+    if not (sys.platform == "linux" and _free_core() and _single_threaded()):
+        return None
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    worker = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork"))
+    worker.submit(_warm)                 # forks now, while this process has no other thread
+    return worker
+
+
+@contextmanager
+def figure_session(aside: bool = True) -> Iterator[set[Path]]:
+    """The block's figures: yields the set of the PNGs ``drawn`` returns in it (drawn or kept);
+    with ``aside``, a worker process draws those handed to it. At the end every PNG is written."""
+    session = _Figures(worker=_fork_worker() if aside else None)
+    token = _session.set(session)
+    try:
+        yield session.used
+        for future, again in session.pending:
+            try:
+                future.result()
+            except Exception as err:  # noqa: BLE001 - a lost worker: draw here; a figure's own error again
+                from concurrent.futures.process import BrokenProcessPool
+
+                if not isinstance(err, BrokenProcessPool):
+                    raise
+                again()
+    finally:
+        _session.reset(token)
+        if session.worker is not None:
+            session.worker.shutdown(wait=True, cancel_futures=True)
+
+
+def png_metadata() -> dict[str, str]:
+    """The text chunk of the figure being saved (empty outside ``drawn``)."""
+    key = _current.get()
+    return {KEY: key} if key else {}
+
+
+def _feed(h, obj: Any) -> None:
+    """Hash ``obj`` by value: arrays by dtype, shape and bytes; containers element by element."""
+    if isinstance(obj, np.ndarray):
+        a = np.ascontiguousarray(obj)
+        h.update(f"a{a.dtype.str}{a.shape}".encode())
+        h.update(a.tobytes())
+    elif isinstance(obj, Mapping):
+        h.update(b"{")
+        for k, v in obj.items():
+            _feed(h, k)
+            _feed(h, v)
+        h.update(b"}")
+    elif isinstance(obj, list | tuple):
+        h.update(b"[")
+        for v in obj:
+            _feed(h, v)
+        h.update(b"]")
+    elif isinstance(obj, float | int | str | bool | np.generic | Path) or obj is None:
+        h.update(f"{type(obj).__name__}:{obj!r};".encode())
+    else:
+        h.update(f"{type(obj).__name__}:{np.asarray(obj).tobytes().hex()};".encode())
+
+
+@functools.cache
+def _code_key() -> str:
+    """The versions and the figure modules' source: a figure drawn by other code is drawn again."""
+    import matplotlib
+
+    from bayes_dnlr import __version__
+
+    here = Path(__file__).parent
+    h = hashlib.sha256(f"{__version__} {matplotlib.__version__}".encode())
+    for name in ("figures.py", "rank.py", "figure_cache.py"):
+        h.update((here / name).read_bytes())
+    return h.hexdigest()
+
+
+def stored_key(path: Path) -> str | None:
+    """The key in the text chunk of the PNG at ``path`` (None: no file, or none written)."""
+    if not path.is_file():
+        return None
+    try:
+        from PIL import Image
+
+        with Image.open(path) as im:
+            return im.info.get(KEY)
+    except (OSError, ValueError):
+        return None
+
+
+def _draw(key: str, func: Callable[..., Path], args: tuple, kwargs: dict) -> Path:
+    token = _current.set(key)
+    try:
+        return func(*args, **kwargs)
+    finally:
+        _current.reset(token)
+
+
+def _picklable(func: Callable[..., Path]) -> bool:
+    try:
+        pickle.dumps(func)
+    except (pickle.PicklingError, AttributeError, TypeError):
+        return False
+    return True
+
+
+def drawn(func: Callable[..., Path], *args: Any, aside: bool = False, **kwargs: Any) -> Path:
+    """``func(*args, **kwargs)``, a figure function writing the PNG given as its ``Path`` argument,
+    unless that PNG was drawn from the same inputs; returns the PNG's path. ``aside``: by the
+    worker process when there is one (the PNG is then written by the end of ``figure_session``)."""
+    path = Path(kwargs.get("path") or next(a for a in args if isinstance(a, Path)))
+    h = hashlib.sha256(f"{getattr(func, '__name__', func)} {_code_key()}".encode())
+    for value in args:
+        if not isinstance(value, Path) or value != path:
+            _feed(h, value)
+    for name, value in sorted(kwargs.items()):
+        if name != "path":
+            _feed(h, name)
+            _feed(h, value)
+    key = h.hexdigest()
+    session = _session.get()
+    if session is not None:
+        session.used.add(path)
+    if stored_key(path) == key:
+        return path
+    if aside and session is not None and session.worker is not None and _picklable(func):
+        future = session.worker.submit(_draw, key, func, args, kwargs)
+        session.pending.append((future, functools.partial(_draw, key, func, args, kwargs)))
+        return path
+    return _draw(key, func, args, kwargs)
