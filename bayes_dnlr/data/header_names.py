@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from bayes_dnlr.data.units import split_name
+from bayes_dnlr.units import split_name
 
 # 'Time 1', 'Time_1', 'Time-1', 'Time #1', 'Time (1)'  /  'Specimen 1 - Time', '#1 Time', '1: Time'
 _TRAILING = re.compile(r"^(?P<base>.*?\D)[\s_\-#.]*[(\[]?(?P<index>\d{1,3})[)\]]?$")
