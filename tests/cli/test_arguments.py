@@ -7,7 +7,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from finished_run import make_finished_run
+from support.finished_run import make_finished_run
 
 from bayes_dnlr.cli import main
 

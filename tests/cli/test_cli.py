@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
+from support import REPO
 
 from bayes_dnlr import __version__
 from bayes_dnlr.cli import main
-
-REPO = Path(__file__).resolve().parents[1]
 
 
 def test_help_lists_every_command_without_heavy_imports():

@@ -8,7 +8,7 @@ import subprocess
 import sys
 
 import pytest
-from sampling_support import write_case
+from support.sampling import write_case
 
 HEAVY = ("matplotlib", "arviz", "arviz_plots", "arviz_stats", "scipy.stats", "distributed", "corner",
          "xarray", "pandas", "scipy.optimize", "scipy.special")

@@ -1,7 +1,7 @@
 """fit notices what init would have: a hold without relaxation_start, an engineering stress taken as
 the true stress, a window just past the load peak, a force read with a placeholder or contradicted
 area0; one warning line each, with the fix (data/hints.py). The exports are the corpus the package
-makes (tests/export_corpus.py)."""
+makes (tests/support/export_corpus.py)."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from export_corpus import S0, both_stresses, force_extension_strain, ramp_hold_plain, shifted_relax
-from real_data import ETFE, REAL_MARKS, RHDPE
+from support.export_corpus import S0, both_stresses, force_extension_strain, ramp_hold_plain, shifted_relax
+from support.real_data import ETFE, REAL_MARKS, RHDPE
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.config import parse_config

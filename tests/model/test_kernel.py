@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from numba import njit
-from test_model import RELAX, TABLE3_5E3, ramp, reference, rel_err
+from support.model import RELAX, TABLE3_5E3, ramp, reference, rel_err
 
 import bayes_dnlr as bd
 from bayes_dnlr.model import DNLR, cached_model, default_threads, get_threads, kernel, set_threads

@@ -7,7 +7,7 @@ import os
 from pathlib import Path
 
 import pytest
-from finished_run import make_finished_run
+from support.finished_run import make_finished_run
 
 import bayes_dnlr.report as report
 from bayes_dnlr.cli import main

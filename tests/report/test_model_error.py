@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 
 import pytest
-from sampling_support import write_case
+from support.sampling import write_case
 
 from bayes_dnlr.config import load_config
 from bayes_dnlr.report import build_report

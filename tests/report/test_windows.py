@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from run_support import WIDE_RELAXATION_PRIORS, make_run, ramp_truth, small_ramp_relaxation_truth
+from support.runs import WIDE_RELAXATION_PRIORS, make_run, ramp_truth, small_ramp_relaxation_truth
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.report import build_report

@@ -11,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from sampling_support import TRUTH, calibration, coverage
+from support.sampling import TRUTH, calibration, coverage
 
 
 @pytest.mark.slow

@@ -9,50 +9,22 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from support import REPO
+from support.chains import create_writer, make_blocks, phys
 
-from bayes_dnlr.inference.mcmc.state import SamplerState
 from bayes_dnlr.runs.chains import ChainWriter, read_attrs, read_run
-
-W, D = 8, 3
-
-
-def _phys(z: np.ndarray) -> np.ndarray:
-    out = np.array(z, dtype=float, copy=True)
-    out[..., 2] = np.exp(out[..., 2])
-    return out
-
-
-def _state(rs: np.random.RandomState, coords: np.ndarray) -> SamplerState:
-    return SamplerState(coords.copy(), -coords.sum(axis=1), rs.get_state())
-
-
-def _blocks(seed: int, n_blocks: int, m: int = 10):
-    rng = np.random.default_rng(seed)
-    rs = np.random.RandomState(seed)
-    for _ in range(n_blocks):
-        z = rng.normal(size=(m, W, D))
-        rs.standard_normal(7)              # the sampler's RNG moves on
-        yield z, -np.abs(z).sum(axis=2), rng.uniform(size=(m, W)) < 0.3, _state(rs, z[-1])
-
-
-def _create(path: Path, seed: int = 0) -> ChainWriter:
-    rs = np.random.RandomState(seed)
-    z0 = np.random.default_rng(seed + 100).normal(size=(W, D))
-    meta = {"names": ["E", "G", "tau_max"], "log_space": [False, False, True], "walkers": W,
-            "fingerprint": "abc", "fingerprint_parts": '{"data": "x"}', "config": "name: t\n"}
-    return ChainWriter.create(path, meta, W, D, _state(rs, z0), _phys, chunk_steps=10)
 
 
 def test_round_trip_is_exact(tmp_path: Path) -> None:
     path = tmp_path / "chains.h5"
-    w = _create(path)
-    blocks = list(_blocks(1, 3))
+    w = create_writer(path)
+    blocks = list(make_blocks(1, 3))
     for k, (z, lp, acc, st) in enumerate(blocks):
         w.append(z, lp, acc, st, elapsed=1.5 * (k + 1), n_evals=100 * (k + 1))
     w.finish({"stop_reason": "converged"})
     run = read_run(path)
     assert run.steps == 30 and run.finished and run.attrs["stop_reason"] == "converged"
-    np.testing.assert_array_equal(run.chain, _phys(np.concatenate([b[0] for b in blocks])))
+    np.testing.assert_array_equal(run.chain, phys(np.concatenate([b[0] for b in blocks])))
     np.testing.assert_array_equal(run.log_prob, np.concatenate([b[1] for b in blocks]))
     np.testing.assert_array_equal(run.accepted, np.concatenate([b[2] for b in blocks]))
     np.testing.assert_array_equal(run.checkpoint_steps, [0, 10, 20, 30])
@@ -74,7 +46,7 @@ def test_chunked_and_compressed(tmp_path: Path) -> None:
     import h5py
 
     path = tmp_path / "chains.h5"
-    w = _create(path)
+    w = create_writer(path)
     w.close()
     with h5py.File(path, "r", libver="latest", swmr=True) as f:
         for name in ("chain", "log_prob", "accepted"):
@@ -92,8 +64,8 @@ READER = textwrap.dedent("""
 
 def test_readable_by_another_process_while_open_for_writing(tmp_path: Path) -> None:
     path = tmp_path / "chains.h5"
-    w = _create(path)
-    blocks = list(_blocks(2, 3))
+    w = create_writer(path)
+    blocks = list(make_blocks(2, 3))
     seen = []
     for z, lp, acc, st in blocks:
         w.append(z, lp, acc, st, elapsed=1.0, n_evals=1)
@@ -105,16 +77,16 @@ def test_readable_by_another_process_while_open_for_writing(tmp_path: Path) -> N
     assert w.steps == 30
     w.close()
     assert [s[:2] for s in seen] == [["10", "2"], ["20", "3"], ["30", "4"]]
-    assert float(seen[-1][2]) == pytest.approx(float(_phys(blocks[-1][0])[-1].sum()))
+    assert float(seen[-1][2]) == pytest.approx(float(phys(blocks[-1][0])[-1].sum()))
 
 
 KILLED_WRITER = textwrap.dedent("""
     import os, signal, sys
     import numpy as np
     sys.path.insert(0, sys.argv[2])
-    from test_store import _blocks, _create
-    w = _create(__import__("pathlib").Path(sys.argv[1]))
-    blocks = list(_blocks(3, 3))
+    from support.chains import create_writer, make_blocks
+    w = create_writer(__import__("pathlib").Path(sys.argv[1]))
+    blocks = list(make_blocks(3, 3))
     for z, lp, acc, st in blocks[:2]:
         w.append(z, lp, acc, st, elapsed=1.0, n_evals=1)
     # a third block reaches the file but its checkpoint does not: it must not count
@@ -128,7 +100,7 @@ KILLED_WRITER = textwrap.dedent("""
 
 def test_recovers_after_sigkill_and_appends(tmp_path: Path) -> None:
     path = tmp_path / "chains.h5"
-    out = subprocess.run([sys.executable, "-c", KILLED_WRITER, str(path), str(Path(__file__).parent)],
+    out = subprocess.run([sys.executable, "-c", KILLED_WRITER, str(path), str(REPO / "tests")],
                          capture_output=True, text=True, timeout=60)
     assert out.returncode == -9, out.stderr
     import h5py
@@ -136,18 +108,18 @@ def test_recovers_after_sigkill_and_appends(tmp_path: Path) -> None:
     with pytest.raises(OSError):       # HDF5 refuses a plain write-open of a killed SWMR writer's file
         h5py.File(path, "r+")
     run = read_run(path)
-    blocks = list(_blocks(3, 4))
+    blocks = list(make_blocks(3, 4))
     assert run.steps == 20 and not run.finished
-    np.testing.assert_array_equal(run.chain, _phys(np.concatenate([b[0] for b in blocks[:2]])))
+    np.testing.assert_array_equal(run.chain, phys(np.concatenate([b[0] for b in blocks[:2]])))
     np.testing.assert_array_equal(run.state.coords, blocks[1][3].coords)
-    w = ChainWriter.resume(path, _phys)
+    w = ChainWriter.resume(path, phys)
     for z, lp, acc, st in blocks[2:]:
         w.append(z, lp, acc, st, elapsed=2.0, n_evals=2)
     w.finish({"stop_reason": "max_steps"})
     run = read_run(path)
     assert run.steps == 40 and run.finished
     np.testing.assert_array_equal(run.checkpoint_steps, [0, 10, 20, 30, 40])
-    np.testing.assert_array_equal(run.chain, _phys(np.concatenate([b[0] for b in blocks])))
+    np.testing.assert_array_equal(run.chain, phys(np.concatenate([b[0] for b in blocks])))
 
 
 def test_not_a_chain_file(tmp_path: Path) -> None:

@@ -4,7 +4,7 @@ a start or a resume, the finish). After each kill the file opens, holds a prefix
 uninterrupted chain with every step committed before the kill, and a plain `sample` (no
 --restart) finishes the very chain an uninterrupted run gives, bit for bit.
 
-The kills happen in `sample` processes forked from a zygote (crash_support.py: the CLI's main, with
+The kills happen in `sample` processes forked from a zygote (support/crash.py: the CLI's main, with
 BAYES_DNLR_KILL_AT naming the instant); one case runs `python -m bayes_dnlr sample` itself.
 """
 
@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from sampling_support import write_case
+from support.sampling import write_case
 
 from bayes_dnlr.diskio import KILL_ENV
 from bayes_dnlr.runs import chains as store

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from sampling_support import write_case
-from test_store import _blocks, _create, _phys
+from support.chains import create_writer, make_blocks, phys
+from support.sampling import write_case
 
 from bayes_dnlr import cli, diskio
 from bayes_dnlr.errors import DiskFullError
@@ -61,8 +61,8 @@ def _temporaries(folder: Path) -> list[str]:
 
 def test_enospc_inside_a_commit_keeps_the_committed_chain(tmp_path: Path, monkeypatch) -> None:
     path = tmp_path / "chains.h5"
-    blocks = list(_blocks(5, 3))
-    w = _create(path)
+    blocks = list(make_blocks(5, 3))
+    w = create_writer(path)
     for z, lp, acc, st in blocks[:2]:
         w.append(z, lp, acc, st, elapsed=1.0, n_evals=1)
     _enospc_at(monkeypatch, "append.checkpoint")
@@ -75,12 +75,12 @@ def test_enospc_inside_a_commit_keeps_the_committed_chain(tmp_path: Path, monkey
     monkeypatch.undo()
     run = read_run(path)
     assert run.steps == 20 and not run.finished
-    np.testing.assert_array_equal(run.chain, _phys(np.concatenate([b[0] for b in blocks[:2]])))
+    np.testing.assert_array_equal(run.chain, phys(np.concatenate([b[0] for b in blocks[:2]])))
     # space again: continue; the chain is the uninterrupted one
-    w = ChainWriter.resume(path, _phys)
+    w = ChainWriter.resume(path, phys)
     w.append(*blocks[2], elapsed=2.0, n_evals=2)
     w.finish({"stop_reason": "max_steps"})
-    ref = _create(tmp_path / "ref.h5")
+    ref = create_writer(tmp_path / "ref.h5")
     for z, lp, acc, st in blocks:
         ref.append(z, lp, acc, st, elapsed=1.0, n_evals=1)
     ref.finish({"stop_reason": "max_steps"})
@@ -93,8 +93,8 @@ def test_enospc_inside_a_commit_keeps_the_committed_chain(tmp_path: Path, monkey
 
 def test_free_space_check_refuses_a_commit_before_writing(tmp_path: Path, monkeypatch) -> None:
     path = tmp_path / "chains.h5"
-    blocks = list(_blocks(6, 2))
-    w = _create(path)
+    blocks = list(make_blocks(6, 2))
+    w = create_writer(path)
     w.append(*blocks[0], elapsed=1.0, n_evals=1)
     monkeypatch.setattr(diskio, "free_bytes", lambda p: 1000.0)
     with pytest.raises(DiskFullError) as info:
@@ -111,37 +111,37 @@ def test_free_space_check_refuses_a_commit_before_writing(tmp_path: Path, monkey
 def test_enospc_while_resuming_leaves_the_old_file_untouched(tmp_path: Path, monkeypatch,
                                                             point) -> None:
     path = tmp_path / "chains.h5"
-    w = _create(path)
-    w.append(*next(_blocks(7, 1)), elapsed=1.0, n_evals=1)
+    w = create_writer(path)
+    w.append(*next(make_blocks(7, 1)), elapsed=1.0, n_evals=1)
     w.close()
     before = _sha(path)
     _enospc_at(monkeypatch, point)
     with pytest.raises(DiskFullError) as info:
-        ChainWriter.resume(path, _phys)
+        ChainWriter.resume(path, phys)
     assert "unchanged" in _one_line(info.value, path.with_name("chains.h5.tmp"))
     assert _sha(path) == before and _temporaries(tmp_path) == []
     monkeypatch.undo()
-    assert ChainWriter.resume(path, _phys).steps == 10
+    assert ChainWriter.resume(path, phys).steps == 10
 
 
 def test_enospc_while_creating_leaves_nothing(tmp_path: Path, monkeypatch) -> None:
     _enospc_at(monkeypatch, "create.checkpoint")
     with pytest.raises(DiskFullError, match="nothing was sampled yet"):
-        _create(tmp_path / "chains.h5")
+        create_writer(tmp_path / "chains.h5")
     assert list(tmp_path.iterdir()) == []
 
 
 def test_enospc_while_finishing_keeps_the_run_resumable(tmp_path: Path, monkeypatch) -> None:
     path = tmp_path / "chains.h5"
-    w = _create(path)
-    w.append(*next(_blocks(8, 1)), elapsed=1.0, n_evals=1)
+    w = create_writer(path)
+    w.append(*next(make_blocks(8, 1)), elapsed=1.0, n_evals=1)
     _enospc_at(monkeypatch, "finish.record")
     with pytest.raises(DiskFullError):
         w.finish({"stop_reason": "converged"})
     monkeypatch.undo()
     run = read_run(path)
     assert run.steps == 10 and not run.finished       # finishing again is a plain resume
-    w = ChainWriter.resume(path, _phys)
+    w = ChainWriter.resume(path, phys)
     w.finish({"stop_reason": "converged"})
     assert read_run(path).finished and read_run(path).attrs["stop_reason"] == "converged"
 

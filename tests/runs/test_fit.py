@@ -10,8 +10,8 @@ import re
 
 import numpy as np
 import pytest
-from run_support import WIDE_RELAXATION_PRIORS, make_run, small_ramp_relaxation_truth
-from sampling_support import write_case
+from support.runs import WIDE_RELAXATION_PRIORS, make_run, small_ramp_relaxation_truth
+from support.sampling import write_case
 
 from bayes_dnlr.config import load_config
 from bayes_dnlr.data import load_test

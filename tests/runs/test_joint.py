@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from joint_support import RATES, SHARED, TAU_MAX, make_joint
-from run_support import make_run, ramp_truth
+from support.joint import RATES, SHARED, TAU_MAX, make_joint
+from support.runs import make_run, ramp_truth
 
 JOINT_NAMES = ["E", "G", *(f"tau_max[{t}]" for t in RATES)]
 
@@ -169,7 +169,7 @@ def test_joint_recovery(tmp_path):
     """Three rates with one E and G (issue 11, "Joint recovery"): the joint E within 3 sd of the
     truth, its sd at most 0.75 × the best single-test posterior sd, R-hat ≤ 1.01 and ESS ≥ 1000
     for every parameter (benchmarks/joint.py prints these with the times)."""
-    from joint_support import recovery
+    from support.joint import recovery
 
     r = recovery(tmp_path, seed=0)
     j = r["joint"]

@@ -9,7 +9,7 @@ import math
 
 import h5py
 import pytest
-from sampling_support import write_case
+from support.sampling import write_case
 
 from bayes_dnlr.config import load_config, parse_config
 from bayes_dnlr.inference.discrepancy.gls import SAME_ESTIMATE_SD, choose_kernel

@@ -8,11 +8,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from support import REPO
 
 from bayes_dnlr.config import load_config
 from bayes_dnlr.runs.sample import sample
 
-RUNS = Path(__file__).resolve().parents[1] / "runs"
+RUNS = REPO / "runs"
 EXAMPLES = ["hdpe-a-2.5e-3", "hdpe-a-5e-3", "hdpe-a-1e-2", "hdpe-b-relax-5e-3"]
 
 

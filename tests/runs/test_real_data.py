@@ -1,6 +1,6 @@
 """Optional: real machine exports read as they are, with a config only (issue 9, item 7 of the brief).
 
-The real curves live outside the project, never copied into it (tests/real_data.py finds them:
+The real curves live outside the project, never copied into it (tests/support/real_data.py finds them:
 $BAYES_DNLR_REAL_DATA or ../shared/data/real); without them these tests skip, and the summary says
 so. No file is edited and no origin row is made by hand: everything is in the config.
 """
@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from real_data import ETFE, REAL_MARKS, RHDPE
+from support.real_data import ETFE, REAL_MARKS, RHDPE
 
 from bayes_dnlr.config import parse_config
 from bayes_dnlr.data import load_test

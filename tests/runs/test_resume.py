@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from sampling_support import write_case
+from support.sampling import write_case
 
 from bayes_dnlr.runs.chains import read_run
 

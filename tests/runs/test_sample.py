@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from sampling_support import TRUTH, write_case
+from support.sampling import TRUTH, write_case
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.config import ConfigError, load_config

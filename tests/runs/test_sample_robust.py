@@ -10,7 +10,7 @@ import h5py
 import numpy as np
 import pytest
 import yaml
-from sampling_support import write_case
+from support.sampling import write_case
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.config import load_config

@@ -6,7 +6,8 @@ import csv
 from pathlib import Path
 
 import yaml
-from sampling_support import write_case
+
+from support.sampling import write_case
 
 # a few seconds per test: 250 points, 16 walkers, ESS 100, checkpoints every 50 steps
 TINY = {"walkers": 16, "max_steps": 600, "target_ess": 100, "checkpoint_every": 50}

@@ -55,9 +55,8 @@ def _warm_up() -> None:
     import io
     import tempfile
 
-    from sampling_support import write_case
-
     import bayes_dnlr.cli as cli
+    from support.sampling import write_case
 
     with tempfile.TemporaryDirectory() as tmp:
         path = write_case(Path(tmp), n=300, sampler={"walkers": 8, "max_steps": 20,
@@ -95,4 +94,5 @@ def _serve() -> None:
 
 
 if __name__ == "__main__":
+    sys.path.insert(0, str(HERE.parent))      # run as a script: tests/ holds the support package
     _serve()

@@ -24,7 +24,7 @@ def real_folder() -> Path:
     given = os.environ.get(ENV)
     if given:
         return Path(given)
-    repo = Path(__file__).resolve().parents[1]
+    repo = Path(__file__).resolve().parents[2]
     for up in repo.parents:
         folder = up / "shared" / "data" / "real"
         if (folder / ETFE_NAME).is_file():

@@ -9,13 +9,13 @@ from typing import Any
 
 import pytest
 import yaml
-from real_data import ETFE, REAL_MARKS, RHDPE
+from support import REPO
+from support.real_data import ETFE, REAL_MARKS, RHDPE
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.config import load_config
 from bayes_dnlr.workflows.init import init_config
 
-REPO = Path(__file__).resolve().parents[1]
 BLUEHILL = REPO / "runs/bluehill-like/bluehill-like.csv"
 real = list(REAL_MARKS)
 

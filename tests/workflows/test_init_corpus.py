@@ -1,7 +1,7 @@
 """init -> fit on real-layout exports, with no edit but area0 where a force needs it: the right
 columns, specimens and hold, the window up to the load peak, and the same E as a config written by
-hand to 1e-9. The corpus is made by the package (tests/export_corpus.py); the two real curves are
-read when present (tests/real_data.py)."""
+hand to 1e-9. The corpus is made by the package (tests/support/export_corpus.py); the two real curves are
+read when present (tests/support/real_data.py)."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
-from export_corpus import CASES, Case
-from real_data import ETFE, REAL_MARKS, RHDPE
+from support.export_corpus import CASES, Case
+from support.real_data import ETFE, REAL_MARKS, RHDPE
 
 from bayes_dnlr.config import load_config, parse_config
 from bayes_dnlr.data import load_test

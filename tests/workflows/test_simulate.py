@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import yaml
+from support import REPO
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.config import ConfigError, load_config, parse_config
@@ -14,7 +13,7 @@ from bayes_dnlr.data import DataError, load_test
 from bayes_dnlr.model import simulate
 from bayes_dnlr.workflows.simulate import simulate_test
 
-RUNS = Path(__file__).resolve().parents[1] / "runs"
+RUNS = REPO / "runs"
 EXAMPLES = ["hdpe-a-2.5e-3", "hdpe-a-5e-3", "hdpe-a-1e-2", "hdpe-b-relax-5e-3"]
 TENSILE = {"E": 2854.0, "G": 2.32, "tau_max": 5.79}
 RELAX = {"E": 2270.0, "G": 2.30, "tau_max": 7.16, "sigma_inf": 100.0, "tau_max_R": 150.0}

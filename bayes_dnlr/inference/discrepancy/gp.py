@@ -23,8 +23,9 @@ P∞ = a² (exp) or diag(a², a² λ²) (matern32) and, over a step Δ,
     and the predicted covariance P⁻ = Φ (P - P∞) Φᵀ + P∞  (= Φ P Φᵀ + Q, Q = P∞ - Φ P∞ Φᵀ).
 
 ``celerite2`` (Foreman-Mackey et al. 2017) computes the exp kernel's likelihood exactly too, but its
-Matern32Term is an approximation (a sum of two exponentials with ε = 0.01); tests/test_gp.py checks
-this module against a dense multivariate normal and against celerite2.
+Matern32Term is an approximation (a sum of two exponentials with ε = 0.01);
+tests/inference/discrepancy/test_gp.py checks this module against a dense multivariate normal and
+against celerite2.
 
 All compiled functions live in this one module (numba's cache does not see changes in an imported
 helper of another module).

@@ -12,7 +12,7 @@ Bürkner 2021, "Rank-normalization, folding, and localization: an improved R-hat
 - ``diagnostics``: ess_bulk, ess_tail and R-hat of one parameter's emcee draws (steps, walkers),
   every walker a chain for the ESS, 4 groups of walkers for R-hat (``walker_groups``).
 
-Arrays are (chain, draw). tests/test_ess.py checks every function against ArviZ.
+Arrays are (chain, draw). tests/inference/mcmc/test_ess.py checks every function against ArviZ.
 """
 
 from __future__ import annotations

@@ -9,8 +9,8 @@ import sys
 
 import numpy as np
 import pytest
-from population_support import MU, PRIOR, S, coverage, draw_population
-from run_support import make_run, ramp_truth
+from support.population import MU, PRIOR, S, coverage, draw_population
+from support.runs import make_run, ramp_truth
 
 E_SPECIMENS = (2700.0, 2850.0, 3000.0)
 

@@ -6,7 +6,7 @@ which falls back to white noise where a test shows no model error)."""
 from __future__ import annotations
 
 import pytest
-from joint_support import make_joint
+from support.joint import make_joint
 
 
 def _verdict(tmp_path, name: str, per_decade: float):

@@ -10,7 +10,8 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
-from real_data import ETFE, real
+from support import REPO
+from support.real_data import ETFE, real
 
 from bayes_dnlr.config import load_config, parse_config
 from bayes_dnlr.data import TestData
@@ -21,7 +22,6 @@ from bayes_dnlr.inference.lsq.start import physics_start, spread_starts
 from bayes_dnlr.model import simulate
 from bayes_dnlr.runs.fit import fit, fit_is_current, load_fit
 
-REPO = Path(__file__).resolve().parents[1]
 RATE = 5e-3
 TABLE3 = {"E": 2854.0, "G": 2.32, "tau_max": 5.79}
 RELAX = {**TABLE3, "sigma_inf": 25.0, "tau_max_R": 60.0}

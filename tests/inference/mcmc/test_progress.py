@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from sampling_support import write_case
+from support.sampling import write_case
 
 import bayes_dnlr.inference.mcmc.ensemble as mcmc
 from bayes_dnlr.config import load_config

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from sampling_support import write_case
+from support.sampling import write_case
 
 from bayes_dnlr.config import load_config
 from bayes_dnlr.inference.mcmc.ensemble import CHECK_FRACTION, next_check

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from sampling_support import TRUTH, TRUTH_RELAX, make_test
-from test_likelihood import _cfg, _disc_cfg, _disc_priors, _wobbly
+from support.likelihood import discrepancy_config, discrepancy_priors, white_config, wobbly
+from support.sampling import TRUTH, TRUTH_RELAX, make_test
 
 from bayes_dnlr.config import parse_config
 from bayes_dnlr.inference.posterior.density import build_log_posterior
@@ -28,7 +28,7 @@ def _check_equal_to_reference(post, thetas: np.ndarray) -> None:
 
 def test_white_equals_the_per_walker_reference() -> None:
     test = make_test(seed=3)
-    post = build_log_posterior(_cfg(), test, sigma0=0.3)
+    post = build_log_posterior(white_config(), test, sigma0=0.3)
     th = _spread(np.array([TRUTH[k] for k in post.names]), np.array([0.01, 0.02, 0.05]), 37)
     _check_equal_to_reference(post, th)
 
@@ -37,7 +37,7 @@ def test_white_relaxation_with_a_window_gap_and_sampled_sigma0() -> None:
     window = np.ones(700, bool)
     window[100:150] = False
     test = make_test(relaxation=True, window=window)
-    cfg = _cfg(relaxation=True, sigma0={"prior": "half-normal", "scale": 5.0})
+    cfg = white_config(relaxation=True, sigma0={"prior": "half-normal", "scale": 5.0})
     post = build_log_posterior(cfg, test, sigma0=None)
     center = np.array([*(TRUTH_RELAX[k] for k in post.names[:-1]), 0.3])
     th = _spread(center, np.full(center.size, 0.03), 19, seed=1)
@@ -47,9 +47,9 @@ def test_white_relaxation_with_a_window_gap_and_sampled_sigma0() -> None:
 @pytest.mark.parametrize("kernel", ["exp", "matern32"])
 @pytest.mark.parametrize("axis", ["time", "strain"])
 def test_discrepancy_equals_the_per_walker_reference(kernel, axis) -> None:
-    test = _wobbly(make_test(n=600))         # jittered grid; a noisy strain axis is unsorted
-    post = build_log_posterior(_disc_cfg(kernel, axis), test, sigma0=0.3,
-                               discrepancy_priors=_disc_priors(1e3 if axis == "time" else 1.0))
+    test = wobbly(make_test(n=600))         # jittered grid; a noisy strain axis is unsorted
+    post = build_log_posterior(discrepancy_config(kernel, axis), test, sigma0=0.3,
+                               discrepancy_priors=discrepancy_priors(1e3 if axis == "time" else 1.0))
     length = 12.0 if axis == "time" else 0.02
     center = np.array([2854.0, 2.32, 5.79, 0.5, length])
     th = _spread(center, np.array([0.01, 0.02, 0.05, 0.5, 0.5]), 21, seed=2)
@@ -61,10 +61,10 @@ def test_pinned_discrepancy_on_a_relaxation_test() -> None:
     window = np.ones(700, bool)
     window[100:150] = False
     test = make_test(relaxation=True, window=window)
-    raw = _disc_cfg("matern32", "time", relaxation=True).model_dump(mode="json", exclude_none=True)
+    raw = discrepancy_config("matern32", "time", relaxation=True).model_dump(mode="json", exclude_none=True)
     raw["noise"]["discrepancy"]["start"] = "pinned"
     post = build_log_posterior(parse_config(raw), test, sigma0=0.3,
-                               discrepancy_priors=_disc_priors(1e3))
+                               discrepancy_priors=discrepancy_priors(1e3))
     center = np.array([*TRUTH_RELAX.values(), 0.5, 30.0])
     th = np.abs(_spread(center, np.full(center.size, 0.03), 11, seed=4))
     _check_equal_to_reference(post, th)
@@ -72,8 +72,8 @@ def test_pinned_discrepancy_on_a_relaxation_test() -> None:
 
 def test_bad_points_give_minus_inf_in_both_paths() -> None:
     test = make_test(n=300)
-    post = build_log_posterior(_disc_cfg("exp", "time"), test, sigma0=0.3,
-                               discrepancy_priors=_disc_priors(1e3))
+    post = build_log_posterior(discrepancy_config("exp", "time"), test, sigma0=0.3,
+                               discrepancy_priors=discrepancy_priors(1e3))
     th = np.array([[2854.0, 2.32, 5.79, 0.5, 10.0],
                    [2854.0, 2.32, -1.0, 0.5, 10.0],      # invalid time constant
                    [1e300, 2.32, 5.79, 0.5, 10.0],       # overflowing stress
@@ -83,7 +83,7 @@ def test_bad_points_give_minus_inf_in_both_paths() -> None:
         fused = post.log_likelihood(th)
     assert np.isfinite(fused[0])
     assert np.all(fused[1:] == -np.inf)
-    white = build_log_posterior(_cfg(), test, sigma0=0.3)
+    white = build_log_posterior(white_config(), test, sigma0=0.3)
     with np.errstate(all="ignore"):
         lw = white.log_likelihood(th[:, :3])
     assert np.all(np.isfinite(lw[[0, 3]]))   # row 3 is bad only in its discrepancy length
@@ -110,10 +110,10 @@ def _chain(post, threads: int, steps: int = 25, walkers: int = 24, seed: int = 7
 def test_one_or_two_threads_give_the_same_chain(disc) -> None:
     test = make_test(n=500, seed=9)
     if disc:
-        post = build_log_posterior(_disc_cfg("exp", "time"), test, sigma0=0.3,
-                                   discrepancy_priors=_disc_priors(1e3))
+        post = build_log_posterior(discrepancy_config("exp", "time"), test, sigma0=0.3,
+                                   discrepancy_priors=discrepancy_priors(1e3))
     else:
-        post = build_log_posterior(_cfg(), test, sigma0=0.3)
+        post = build_log_posterior(white_config(), test, sigma0=0.3)
     try:
         one = _chain(post, 1)
         two = _chain(post, 2)
@@ -163,8 +163,8 @@ def test_a_forked_child_computes_in_one_thread_with_the_same_values() -> None:
     import pickle
 
     test = make_test(n=400, seed=2)
-    post = build_log_posterior(_disc_cfg("exp", "time"), test, sigma0=0.3,
-                               discrepancy_priors=_disc_priors(1e3))
+    post = build_log_posterior(discrepancy_config("exp", "time"), test, sigma0=0.3,
+                               discrepancy_priors=discrepancy_priors(1e3))
     th = _spread(np.array([2854.0, 2.32, 5.79, 0.5, 12.0]), np.full(5, 0.01), 20)
     try:
         set_threads(2)

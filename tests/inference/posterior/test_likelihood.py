@@ -7,8 +7,9 @@ import warnings
 
 import numpy as np
 import pytest
-from sampling_support import TRUTH, TRUTH_RELAX, make_test
 from scipy import stats
+from support.likelihood import discrepancy_config, discrepancy_priors, white_config, wobbly
+from support.sampling import TRUTH, TRUTH_RELAX, make_test
 
 from bayes_dnlr.config import parse_config
 from bayes_dnlr.inference.posterior.density import build_log_posterior
@@ -16,21 +17,9 @@ from bayes_dnlr.inference.posterior.priors import build_priors
 from bayes_dnlr.model import simulate
 
 
-def _cfg(relaxation: bool = False, sigma0: object = 0.3, parameters: dict | None = None):
-    raw = {"name": "t",
-           "data": {"file": "x.csv", "columns": {"time": "t", "strain": "e", "stress": "s"},
-                    "observable": "stress"},
-           "noise": {"sigma0": sigma0, "discrepancy": "none"}}
-    if relaxation:
-        raw["data"]["relaxation_start"] = 80.0
-    if parameters:
-        raw["parameters"] = parameters
-    return parse_config(raw)
-
-
 def test_matches_brute_force_gaussian_density() -> None:
     test = make_test()
-    cfg = _cfg()
+    cfg = white_config()
     post = build_log_posterior(cfg, test, sigma0=0.3)
     assert post.names == ["E", "G", "tau_max"]
     thetas = np.array([[2854.0, 2.32, 5.79], [2800.0, 2.5, 6.5], [3000.0, 2.0, 4.0]])
@@ -49,7 +38,7 @@ def test_matches_brute_force_gaussian_density() -> None:
 
 def test_fixed_parameter_and_sampled_sigma0() -> None:
     test = make_test(sigma=0.5, seed=2)
-    cfg = _cfg(sigma0={"prior": "half-normal", "scale": 5.0},
+    cfg = white_config(sigma0={"prior": "half-normal", "scale": 5.0},
                parameters={"G": {"value": 2.32}})
     post = build_log_posterior(cfg, test, sigma0=None)
     assert post.names == ["E", "tau_max", "sigma0"]
@@ -68,7 +57,7 @@ def test_relaxation_model_with_window_gap() -> None:
     window = np.ones(700, bool)
     window[100:150] = False
     test = make_test(relaxation=True, window=window)
-    cfg = _cfg(relaxation=True)
+    cfg = white_config(relaxation=True)
     post = build_log_posterior(cfg, test, sigma0=0.3)
     assert post.names == ["E", "G", "tau_max", "sigma_inf", "tau_max_R"]
     th = np.array([[TRUTH_RELAX[k] for k in post.names]])
@@ -80,7 +69,7 @@ def test_relaxation_model_with_window_gap() -> None:
 
 def test_outside_support_and_garbage_give_minus_inf_without_running_the_model() -> None:
     test = make_test()
-    cfg = _cfg(parameters={"tau_max": {"prior": "uniform", "low": 0.0, "high": 100.0}})
+    cfg = white_config(parameters={"tau_max": {"prior": "uniform", "low": 0.0, "high": 100.0}})
     post = build_log_posterior(cfg, test, sigma0=0.3)
     z = np.array([[2854.0, 2.32, 5.79],
                   [2854.0, 2.32, 0.0],        # on the support's edge: the model refuses tau = 0
@@ -99,7 +88,7 @@ def test_outside_support_and_garbage_give_minus_inf_without_running_the_model() 
 
 def test_true_parameters_are_near_the_maximum() -> None:
     test = make_test(seed=5)
-    post = build_log_posterior(_cfg(), test, sigma0=0.3)
+    post = build_log_posterior(white_config(), test, sigma0=0.3)
     z0 = post.priors.from_physical(np.array([[TRUTH[k] for k in post.names]]))
     far = z0 + np.array([[60.0, 0.0, 0.0]])   # 60 MPa off in E: many sd away for 2000 points
     assert post(z0)[0] > post(far)[0] + 10.0
@@ -107,7 +96,7 @@ def test_true_parameters_are_near_the_maximum() -> None:
 
 def test_overflowing_parameters_give_minus_inf_silently() -> None:
     test = make_test()
-    cfg = _cfg(parameters={"E": {"prior": "normal", "mean": 3000.0, "sd": 1000.0}})
+    cfg = white_config(parameters={"E": {"prior": "normal", "mean": 3000.0, "sd": 1000.0}})
     post = build_log_posterior(cfg, test, sigma0=0.3)
     z = post.priors.from_physical(np.array([[1.0e200, 2.32, 5.79], [-1.0e300, 2.32, 5.79]]))
     with warnings.catch_warnings():
@@ -118,42 +107,15 @@ def test_overflowing_parameters_give_minus_inf_silently() -> None:
 
 # ------------------------------------------------------------------ the model-discrepancy likelihood
 
-def _disc_cfg(kernel: str, axis: str, relaxation: bool = False):
-    raw = {"name": "t",
-           "data": {"file": "x.csv", "columns": {"time": "t", "strain": "e", "stress": "s"},
-                    "observable": "stress"},
-           "noise": {"sigma0": 0.3, "discrepancy": {"kernel": kernel, "axis": axis}}}
-    if relaxation:
-        raw["data"]["relaxation_start"] = 80.0
-    return parse_config(raw)
-
-
-def _disc_priors(high: float):
-    from bayes_dnlr.config import ParameterSpec
-
-    return {"disc_amplitude": ParameterSpec(prior="half-normal", scale=2.0),
-            "disc_length": ParameterSpec(prior="log-uniform", low=1e-4, high=high)}
-
-
-def _wobbly(test):
-    """The test on a jittered time grid, driven by a noisy (non-monotone) strain."""
-    from dataclasses import replace
-
-    rng = np.random.default_rng(11)
-    t = np.cumsum(np.r_[0.0, np.diff(test.time) * (1 + 0.3 * (rng.uniform(size=test.time.size - 1) - 0.5))])
-    e = test.strain_input + rng.normal(0.0, 2e-4, t.size)
-    return replace(test, time=t, strain=e, strain_input=e)
-
-
 @pytest.mark.parametrize("kernel", ["exp", "matern32"])
 @pytest.mark.parametrize("axis", ["time", "strain"])
 def test_discrepancy_likelihood_matches_dense_normal(kernel, axis) -> None:
     from bayes_dnlr.inference.discrepancy import gp
 
-    test = _wobbly(make_test(n=400))
-    cfg = _disc_cfg(kernel, axis)
+    test = wobbly(make_test(n=400))
+    cfg = discrepancy_config(kernel, axis)
     post = build_log_posterior(cfg, test, sigma0=0.3,
-                               discrepancy_priors=_disc_priors(1e3 if axis == "time" else 1.0))
+                               discrepancy_priors=discrepancy_priors(1e3 if axis == "time" else 1.0))
     assert post.names == ["E", "G", "tau_max", "disc_amplitude", "disc_length"]
     length = 12.0 if axis == "time" else 0.02
     thetas = np.array([[2854.0, 2.32, 5.79, 0.8, length], [2700.0, 2.4, 6.5, 0.2, 3 * length]])
@@ -175,8 +137,8 @@ def test_discrepancy_likelihood_on_a_relaxation_test_with_a_window_gap() -> None
     window = np.ones(700, bool)
     window[100:150] = False
     test = make_test(relaxation=True, window=window)
-    cfg = _disc_cfg("exp", "time", relaxation=True)
-    post = build_log_posterior(cfg, test, sigma0=0.3, discrepancy_priors=_disc_priors(1e3))
+    cfg = discrepancy_config("exp", "time", relaxation=True)
+    post = build_log_posterior(cfg, test, sigma0=0.3, discrepancy_priors=discrepancy_priors(1e3))
     th = np.array([[*TRUTH_RELAX.values(), 0.5, 30.0]])
     mu = simulate(test.time, test.strain, TRUTH_RELAX, relaxation_start=test.relaxation_start)[window]
     K = gp.covariance(test.time[window], 0.5, 30.0, "exp", 0.3)
@@ -188,7 +150,7 @@ def test_discrepancy_with_fixed_hyperparameters_and_bad_points() -> None:
     from bayes_dnlr.config import ParameterSpec
 
     test = make_test(n=300)
-    raw = _disc_cfg("matern32", "time").model_dump(mode="json", exclude_none=True)
+    raw = discrepancy_config("matern32", "time").model_dump(mode="json", exclude_none=True)
     raw["noise"]["discrepancy"]["length"] = {"value": 20.0}
     cfg = parse_config(raw)
     priors = {"disc_amplitude": ParameterSpec(prior="half-normal", scale=1.0),

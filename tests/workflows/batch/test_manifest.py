@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from sampling_support import write_case
+from support.sampling import write_case
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.workflows.batch.manifest import (

@@ -8,7 +8,7 @@ import csv
 import json
 from pathlib import Path
 
-from batch_support import tiny_campaign
+from support.batch import tiny_campaign
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.workflows.batch.pooling import PopulationStep, select
@@ -131,7 +131,7 @@ def test_fewer_than_three_tests_opt_out_and_failures_are_notes(tmp_path, capsys,
 
 
 def test_a_joint_run_and_unfinished_tests_are_left_out_by_name(tmp_path):
-    from joint_support import make_joint
+    from support.joint import make_joint
 
     joint = make_joint(tmp_path).parent
     rows = [{"name": "joint", "status": "ok", "run_dir": str(joint), "E_mean": 2854.0},

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from batch_support import tiny_campaign
+from support.batch import tiny_campaign
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.runs.chains import read_run

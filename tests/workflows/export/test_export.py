@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from finished_run import make_finished_run
+from support.finished_run import make_finished_run
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.errors import BayesDnlrError, RunError
