@@ -1,6 +1,6 @@
 """The compiled kernel (issue 14): step levels, the one-set stress, the parallel batch, threads,
 and simulate's reuse of the prepared grid. The physics itself is held against Radau and closed
-forms in test_model.py; here every decay path is held against the same Radau reference."""
+forms in test_dnlr.py; here every decay path is held against the same Radau reference."""
 
 from __future__ import annotations
 
@@ -110,9 +110,20 @@ def test_prepared_grid_is_linear_in_q():
 
 # ------------------------------------------------------- every decay path against Radau
 
-@pytest.mark.parametrize("path", ["default", "level", "full exp"])
-def test_jittered_ramp_then_hold_against_radau_on_every_path(monkeypatch, path):
+RADAU_PARAMS = {**RELAX, "tau_max_R": 40.0}
+
+
+@pytest.fixture(scope="module")
+def jittered_radau():
+    """The jittered ramp and hold, and its Radau reference (seconds of solve_ivp): computed once for
+    the three decay paths, which must all give it."""
     t, e = jittered(160, 0.15, hold=250.0, n_hold=60)
+    return t, e, reference(t, e, RADAU_PARAMS, relaxation_start=380.0)
+
+
+@pytest.mark.parametrize("path", ["default", "level", "full exp"])
+def test_jittered_ramp_then_hold_against_radau_on_every_path(monkeypatch, path, jittered_radau):
+    t, e, ref = jittered_radau
     force_path(monkeypatch, path)
     model = DNLR(t, e, relaxation_start=380.0)
     used = paths(model)
@@ -120,9 +131,8 @@ def test_jittered_ramp_then_hold_against_radau_on_every_path(monkeypatch, path):
         assert used["level"] == t.size - 1 and used["rho != 0"] > 0.9 * used["level"]
     elif path == "full exp":
         assert used["full exp"] == t.size - 1
-    params = {**RELAX, "tau_max_R": 40.0}
+    params = RADAU_PARAMS
     s = model.stress(params)
-    ref = reference(t, e, params, relaxation_start=380.0)
     assert rel_err(s[1:], ref[1:]) < 1e-8
     b = model.basis(params["tau_max"], params["tau_max_R"]).values
     via_basis = params["E"] * b[:, 0] + params["G"] * b[:, 1] + params["sigma_inf"] * b[:, 2]
