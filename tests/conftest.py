@@ -2,13 +2,24 @@
 
 from __future__ import annotations
 
+import os
+
+# BLAS on one thread in the test session and in every process it starts. The suite's matrices are
+# small, and on a loaded 2-core machine OpenBLAS's second thread spins while it waits: it cost
+# tests/inference/discrepancy/test_gp.py 6 times the CPU. (The model's own threads, numba's, are
+# left as they are: the thread tests set them.)
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import pytest
+from threadpoolctl import threadpool_limits
 
 from bayes_dnlr.config import Config, parse_config
+
+threadpool_limits(limits=1, user_api="blas")      # in case numpy was loaded before this file
 
 DEFAULT_DATA: dict[str, Any] = {
     "file": "test.csv",

@@ -6,6 +6,8 @@ interpreter costs seconds of imports.
 
     with Zygote() as z:
         code = z.sample(config, kill="append.step@2", log=tmp / "run.log")   # -9: killed there
+        pid = z.start(config, log=tmp / "run.log")     # running: signal it, then
+        code = z.wait()
 """
 
 from __future__ import annotations
@@ -40,9 +42,22 @@ class Zygote:
 
         ``precheck=False``: the store's free-space check before each write is switched off, so a
         full disk is met by HDF5's own writes."""
+        self.start(config, kill=kill, log=log, precheck=precheck)
+        return self.wait()
+
+    def start(self, config: Path, *, kill: str = "", log: Path, precheck: bool = True) -> int:
+        """Fork `sample config --quiet` and return at once with the child's pid (to signal it);
+        ``wait`` gives its return code. One child at a time."""
         job = {"config": str(config), "kill": kill, "log": str(log), "precheck": precheck}
         self.proc.stdin.write(json.dumps(job) + "\n")
         self.proc.stdin.flush()
+        return self._read()
+
+    def wait(self) -> int:
+        """The return code of the child ``start`` forked (negative: the signal that ended it)."""
+        return self._read()
+
+    def _read(self) -> int:
         line = self.proc.stdout.readline()
         assert line, "the zygote died"
         return int(line)
@@ -89,6 +104,7 @@ def _serve() -> None:
 
                 store.ensure_free = lambda *args, **kwargs: None
             raise SystemExit(cli.main(["sample", job["config"], "--quiet"]))
+        print(pid, flush=True)
         _, status = os.waitpid(pid, 0)
         print(os.waitstatus_to_exitcode(status), flush=True)
 
