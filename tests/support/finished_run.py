@@ -1,9 +1,13 @@
 """A small finished run (fit and sample) for the tests of the commands that start from one
 (export, design with from_run): 300 samples at 1e-2 1/s to strain 1, white noise 0.3 MPa, and a
-transverse strain of ν = 0.45 (column e22; e22_half holds ν = 0.5)."""
+transverse strain of ν = 0.45 (column e22; e22_half holds ν = 0.5).
+
+The run is made once per test session (a fit and a sample) and every caller gets its own copy of
+the folder, file times included, so that one file's tests never see another file's outputs."""
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +24,17 @@ TRUTH = {"E": 2854.0, "G": 2.32, "tau_max": 3.15}
 RATE, N = 1e-2, 300
 
 
+_MADE: list[Path] = []      # the session's pristine run, never handed out
+
+
 def make_finished_run(folder: Path) -> Path:
+    """``folder/tiny``: a copy of the session's finished run."""
+    if not _MADE or not _MADE[0].is_dir():
+        _MADE[:] = [_make(folder.parent / "finished-run-made-once")]
+    return Path(shutil.copytree(_MADE[0], folder / "tiny"))
+
+
+def _make(folder: Path) -> Path:
     from bayes_dnlr.config import load_config
     from bayes_dnlr.model import simulate
     from bayes_dnlr.runs.fit import fit
