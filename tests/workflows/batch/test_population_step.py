@@ -16,8 +16,10 @@ from bayes_dnlr.workflows.batch.population_step import section
 
 
 def _batch(template: Path, manifest: Path, out: Path, *extra: str) -> int:
+    """One job at a time in this process: the population step reads the rows, whoever made them
+    (worker processes are tests/workflows/batch/test_run.py's concern, and cost seconds each)."""
     return main(["batch", str(template), "--manifest", str(manifest), "--out", str(out), "--quiet",
-                 "--jobs", "2", "--no-report", *extra])
+                 "--jobs", "1", "--no-report", *extra])
 
 
 def _set_column(manifest: Path, key: str, cells: dict[str, str]) -> None:
