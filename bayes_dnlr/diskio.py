@@ -133,7 +133,7 @@ _reached: Counter[str] = Counter()
 
 def kill_point(name: str) -> None:
     """A named instant of a write. With BAYES_DNLR_KILL_AT=name[@n] in the environment, the process
-    kills itself with SIGKILL there (tests/test_store_crash.py); otherwise nothing happens."""
+    kills itself with SIGKILL there (tests/runs/test_chains_crash.py); otherwise nothing happens."""
     if _KILL_AT:
         _reached[name] += 1
         if _KILL_AT.get(name) == _reached[name]:

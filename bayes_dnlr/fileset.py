@@ -17,7 +17,7 @@ Two ways, by where the set lives:
   files it added go. So a kill at any instant leaves the old set (journal present, or the new set
   not started) or the new one (journal gone).
 
-The kill points of tests/test_publish_whole.py are named ``fileset.*`` (diskio.kill_point).
+The kill points of tests/test_fileset.py are named ``fileset.*`` (diskio.kill_point).
 """
 
 from __future__ import annotations

@@ -24,7 +24,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from sampling_support import write_case  # noqa: E402
+from support.sampling import write_case  # noqa: E402
 
 
 def batch(configs: list[Path], out: Path, jobs: int, report: bool) -> tuple[float, float]:

@@ -32,7 +32,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from sampling_support import TRUTH, calibration, coverage  # noqa: E402
+from support.sampling import TRUTH, calibration, coverage  # noqa: E402
 
 BAND_WHITE = (0.84, 0.96)
 BAND_ERROR = (0.80, 0.97)

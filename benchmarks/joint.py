@@ -23,7 +23,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from joint_support import SHARED, recovery  # noqa: E402
+from support.joint import SHARED, recovery  # noqa: E402
 
 
 def main() -> None:

@@ -1,6 +1,6 @@
 """Kill `export --draws 2000` and `batch` (with reports) at 20 instants each and count the output
 sets found old, new or mixed after each kill, and the temporaries left after the next run
-(bayes_dnlr/fileset.py; tests/test_publish_whole.py runs a few instants of the same).
+(bayes_dnlr/fileset.py; tests/test_fileset.py runs a few instants of the same).
 
     .venv/bin/python benchmarks/kill_sets.py [--instants 20] [--draws 2000] [--tests 3] [--only export|batch]
 

@@ -44,7 +44,7 @@ def setup(config: str | None):
     from bayes_dnlr.runs.fit import fit
 
     if config is None:
-        from sampling_support import write_case
+        from support.sampling import write_case
 
         config = str(write_case(Path(tempfile.mkdtemp()), "moves"))
     cfg = load_config(config)

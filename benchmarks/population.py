@@ -3,7 +3,7 @@
 1. Coverage: ``--populations`` (default 100) synthetic populations of ``--specimens`` (8) specimens,
    E_k ~ Normal(2850, 100) MPa. Stage 1 is drawn cheaply, NOT sampled: each specimen's posterior is
    4000 normal draws around a centre scattered by its own sd (25-60 MPa, as single HDPE tests give;
-   tests/population_support.py says why this stands in for a full `sample`). Stage 2 is the package's
+   tests/support/population.py says why this stands in for a full `sample`). Stage 2 is the package's
    (inference/analyses/population.py). Printed: the fraction of 90 % HDIs of mu_E and of s_E that hold the
    truth (target 80-97 %), the mean estimates and the Monte Carlo check's pass rate.
 2. Time of the population step on 8 specimens with 40 000 draws each (a full run's worth: 32 walkers
@@ -29,7 +29,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from population_support import MU, PRIOR, S, coverage, draw_population  # noqa: E402
+from support.population import MU, PRIOR, S, coverage, draw_population  # noqa: E402
 
 from bayes_dnlr.inference.analyses.population import population  # noqa: E402
 

@@ -27,8 +27,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from population_support import MU, S  # noqa: E402
-from sampling_support import TRUTH, write_case  # noqa: E402
+from support.population import MU, S  # noqa: E402
+from support.sampling import TRUTH, write_case  # noqa: E402
 
 from bayes_dnlr.workflows.batch.page import run_campaign  # noqa: E402
 from bayes_dnlr.workflows.population.run import run_population  # noqa: E402

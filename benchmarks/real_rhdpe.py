@@ -5,7 +5,7 @@ two remedies the data layer offers for its cropped toe, ``initial_state: ramp-fr
     .venv/bin/python benchmarks/real_rhdpe.py [--windows 0.05 0.07 0.105] [--targets default l2 white]
                                               [--fit-only] [--jobs 2]
 
-The machine export is read as it is, with the config of tests/test_real_data.py (force and
+The machine export is read as it is, with the config of tests/runs/test_real_data.py (force and
 crosshead strain, area 37.2 mm²), G free, the window up to the given nominal strain. Each case goes
 through the ordinary pipeline in a temporary folder (fit, then sample unless --fit-only) and prints
 E (posterior mean ± sd and 90 % HDI, or the linearized estimate ± sd), the difference between the

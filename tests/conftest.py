@@ -2,13 +2,24 @@
 
 from __future__ import annotations
 
+import os
+
+# BLAS on one thread in the test session and in every process it starts. The suite's matrices are
+# small, and on a loaded 2-core machine OpenBLAS's second thread spins while it waits: it cost
+# tests/inference/discrepancy/test_gp.py 6 times the CPU. (The model's own threads, numba's, are
+# left as they are: the thread tests set them.)
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import pytest
+from threadpoolctl import threadpool_limits
 
 from bayes_dnlr.config import Config, parse_config
+
+threadpool_limits(limits=1, user_api="blas")      # in case numpy was loaded before this file
 
 DEFAULT_DATA: dict[str, Any] = {
     "file": "test.csv",
@@ -47,8 +58,8 @@ def make_config(tmp_path: Path) -> Callable[..., Config]:
 
 @pytest.fixture(scope="session")
 def zygote():
-    """Forks `sample` processes at the cost of a fork (crash_support.py)."""
-    from crash_support import Zygote
+    """Forks `sample` processes at the cost of a fork (tests/support/crash.py)."""
+    from support.crash import Zygote
 
     with Zygote() as z:
         yield z
@@ -60,7 +71,7 @@ _REAL_REPORTS: dict[str, list] = {"ran": [], "skipped": []}
 
 
 def pytest_configure(config) -> None:
-    config.addinivalue_line("markers", "real_data: reads the real curves of tests/real_data.py "
+    config.addinivalue_line("markers", "real_data: reads the real curves of tests/support/real_data.py "
                                        "(skipped when they are absent)")
 
 
@@ -77,7 +88,7 @@ def pytest_terminal_summary(terminalreporter) -> None:
     """Say whether the real-data tests ran, on a line of its own (where the curves are, or how to
     give them) and in pytest's last summary line ('11 real-data tests ran'), so that a clone without
     the curves does not run fewer tests silently."""
-    from real_data import ENV, PRESENT, REAL
+    from support.real_data import ENV, PRESENT, REAL
 
     ran, skipped = _REAL_REPORTS["ran"], _REAL_REPORTS["skipped"]
     if not ran and not skipped:

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from finished_run import make_finished_run
+from support.finished_run import make_finished_run
 
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pm
 

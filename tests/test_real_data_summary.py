@@ -19,7 +19,7 @@ def _pytest(env_folder: str, *args: str) -> str:
 
 
 def test_absent_real_curves_are_counted_in_the_summary_line(tmp_path):
-    out = _pytest(str(tmp_path / "nowhere"), "tests/test_real_data.py")
+    out = _pytest(str(tmp_path / "nowhere"), "tests/runs/test_real_data.py")
     last = out.strip().splitlines()[-1]
     assert "real-data tests skipped (curves absent)" in last, out
     assert "real data: absent" in out and "BAYES_DNLR_REAL_DATA" in out
@@ -27,5 +27,5 @@ def test_absent_real_curves_are_counted_in_the_summary_line(tmp_path):
 
 def test_the_folder_comes_from_the_environment(tmp_path):
     """BAYES_DNLR_REAL_DATA names the folder (a copy elsewhere): the skip reason names it."""
-    out = _pytest(str(tmp_path / "elsewhere"), "-rs", "tests/test_real_data.py")
+    out = _pytest(str(tmp_path / "elsewhere"), "-rs", "tests/runs/test_real_data.py")
     assert str(tmp_path / "elsewhere") in out

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from support import REPO
 
 from bayes_dnlr import data as bd_data
 from bayes_dnlr.model import simulate
@@ -140,7 +141,7 @@ def test_sparse_noisy_record_astm_keeps_five_samples_and_the_start():
     assert 0.5 * 2854 < a.modulus < 0.8 * 2854
 
 
-SHIPPED = Path(__file__).resolve().parents[1] / "runs" / "hdpe-a-5e-3" / "config.yaml"
+SHIPPED = REPO / "runs" / "hdpe-a-5e-3" / "config.yaml"
 
 
 @pytest.mark.skipif(not SHIPPED.is_file(), reason="shipped example runs/hdpe-a-5e-3 not present")

@@ -2,7 +2,7 @@
 algorithm of ``scipy.optimize.minimize_scalar(method="bounded")`` (Forsythe, Malcolm & Moler 1977,
 ``fmin``), step for step, so the GCV smoothing of the strain gives the same λ as with scipy,
 without importing scipy.optimize (0.1-0.5 s of every ``sample`` that smooths its strain).
-tests/test_smoothing_brent.py checks it against scipy.
+tests/data/test_brent.py checks it against scipy.
 """
 
 from __future__ import annotations

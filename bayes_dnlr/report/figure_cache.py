@@ -51,11 +51,8 @@ def _single_threaded() -> bool:
     return threading.active_count() == 1
 
 
-def _warm() -> None:
-    """The worker's first task: the imports of the figures, while the parent loads the run."""
-    from bayes_dnlr.report.figures import import_figure_modules
-
-    import_figure_modules()
+def _nothing() -> None:
+    return None
 
 
 def _free_core() -> bool:
@@ -64,22 +61,23 @@ def _free_core() -> bool:
     return cores >= 2 and os.getloadavg()[0] <= cores - 1
 
 
-def _fork_worker():
+def _fork_worker(warm: Callable[[], None] | None):
     if not (sys.platform == "linux" and _free_core() and _single_threaded()):
         return None
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
     worker = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork"))
-    worker.submit(_warm)                 # forks now, while this process has no other thread
+    worker.submit(warm or _nothing)      # forks now, while this process has no other thread
     return worker
 
 
 @contextmanager
-def figure_session(aside: bool = True) -> Iterator[set[Path]]:
+def figure_session(aside: bool = True, warm: Callable[[], None] | None = None) -> Iterator[set[Path]]:
     """The block's figures: yields the set of the PNGs ``drawn`` returns in it (drawn or kept);
-    with ``aside``, a worker process draws those handed to it. At the end every PNG is written."""
-    session = _Figures(worker=_fork_worker() if aside else None)
+    with ``aside``, a worker process draws those handed to it (``warm``: its first task, the imports
+    of the figures while this process loads the run). At the end every PNG is written."""
+    session = _Figures(worker=_fork_worker(warm) if aside else None)
     token = _session.set(session)
     try:
         yield session.used

@@ -28,6 +28,7 @@ from bayes_dnlr.report import run_sections as rs
 from bayes_dnlr.report import test_sections as ts
 from bayes_dnlr.report.across_tests import rate_question, rate_section, tables_3_5
 from bayes_dnlr.report.figure_cache import figure_session
+from bayes_dnlr.report.figures import import_figure_modules
 from bayes_dnlr.report.headline import headline as _headline
 from bayes_dnlr.report.headline import warnings as _warnings
 from bayes_dnlr.report.page_parts import CSS, bullets, embed
@@ -235,7 +236,8 @@ def build_report(run_dir: Path | str, source: Path | str | None = None,
     ``on_stale``: called with each result made from another config or data (also on the page)."""
     t0 = time.perf_counter()
     run_dir = Path(run_dir)
-    with figure_session() as used:              # a figure drawn from the same inputs as before is kept
+    # a figure drawn from the same inputs as before is kept
+    with figure_session(warm=import_figure_modules) as used:
         run = load_run(run_dir, source=source)
         for note in run.stale if on_stale is not None else []:
             on_stale(note)

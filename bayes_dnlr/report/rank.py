@@ -3,7 +3,7 @@ multi-chain uniformity test ("mtc_c": pointwise hypergeometric mid-p tests combi
 combination, with Shapley contributions marking the ranks that drive a deviation; Säilynoja,
 Bürkner & Vehtari). Importing ArviZ's plotting for this one figure cost the report 1-2 s (xarray,
 pandas, scipy.stats); these are the same formulas in numpy (arviz_stats 1.x ``_mtc_c``,
-``_compute_ranks``, ``_ecdf``), checked against ArviZ in tests/test_rank.py.
+``_compute_ranks``, ``_ecdf``), checked against ArviZ in tests/report/test_rank.py.
 """
 
 from __future__ import annotations

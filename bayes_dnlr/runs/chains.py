@@ -32,7 +32,7 @@ a SWMR reader (``read_run``); a kill before the rename leaves the previous gener
 A write that fails (disk full) abandons the writer as a kill would: HDF5's later flushes are sent
 to an anonymous in-memory copy, and a DiskFullError (one line) is raised.
 
-``KILL_POINTS`` name the instants tests/test_store_crash.py kills the writer at.
+``KILL_POINTS`` name the instants tests/runs/test_chains_crash.py kills the writer at.
 
 **Plain h5py after a kill.** A SWMR writer marks the file "open for write" in its superblock (the
 consistency flags); a killed one leaves the mark, and HDF5 then refuses a plain
@@ -71,7 +71,7 @@ _MARGIN = 1 << 20        # bytes of HDF5 metadata a commit may add, beyond the r
 # attributes that describe a finished generation (format /1 kept them in attrs)
 _FINISH_ATTRS = ("status", "stop_reason", "steps", "finished")
 
-# every instant at which tests/test_store_crash.py kills the writer (diskio.kill_point)
+# every instant at which tests/runs/test_chains_crash.py kills the writer (diskio.kill_point)
 KILL_POINTS = (
     "create.open",         # chains.h5.tmp just opened for writing (no SWMR yet)
     "create.checkpoint",   # checkpoint 0 written but for its step (the commit mark)

@@ -8,17 +8,14 @@ that file is left untouched and the resolved config goes to ``config.resolved.ya
 from __future__ import annotations
 
 import json
-import math
 import os
-from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import yaml
 
 from bayes_dnlr.config import Config
-from bayes_dnlr.digests import digest
+from bayes_dnlr.digests import digest, jsonable
 from bayes_dnlr.diskio import storage_error, sweep_stale_temps, temp_path
 from bayes_dnlr.errors import RunError, StorageError
 from bayes_dnlr.runs.layout import RESOLVED_CONFIG, RESOLVED_CONFIG_BESIDE_SOURCE
@@ -107,23 +104,6 @@ def find_config(run_dir: Path) -> Path:
         if p.is_file():
             return p
     raise FileNotFoundError(f"{run_dir}: no config.yaml in this run directory")
-
-
-def jsonable(obj: Any) -> Any:
-    """Plain JSON types: numpy to Python, paths to strings, non-finite floats to null."""
-    if isinstance(obj, Mapping):
-        return {str(k): jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return jsonable(obj.tolist())
-    if isinstance(obj, np.generic):
-        return jsonable(obj.item())
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    if isinstance(obj, Path):
-        return str(obj)
-    return obj
 
 
 def write_atomic(path: Path, content: str | bytes | memoryview) -> None:

@@ -2,7 +2,7 @@
 writes (groups ``posterior`` and ``sample_stats``, dims ``(chain, draw)`` with integer coordinates,
 NaN fill values, ``units`` per parameter, the group attributes), without importing xarray, pandas
 and ArviZ (0.4-0.8 s of a 2.5 s ``sample``). ``xarray.open_datatree`` / ``arviz.from_netcdf`` read
-it as they read ArviZ's (tests/test_netcdf.py compares the two files' contents).
+it as they read ArviZ's (tests/runs/test_netcdf.py compares the two files' contents).
 """
 
 from __future__ import annotations

@@ -29,12 +29,12 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.inference.mcmc import ess
+from bayes_dnlr.inference.mcmc.ess import diagnostics
 from bayes_dnlr.numbers import interval, pm
 from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
 from bayes_dnlr.runs.layout import CHAINS_FILE, POSTERIOR_FILE, SUMMARY_FILE
 from bayes_dnlr.vocabulary import UNITS
 
-RHAT_GROUPS = 4
 HDI_PROB = 0.9
 
 
@@ -56,28 +56,6 @@ def build_datatree(names: list[str], draws: np.ndarray, log_prob: np.ndarray,
     for k in names:
         dt["posterior"][k].attrs["units"] = UNITS.get(k.split("[", 1)[0], "")
     return dt
-
-
-def walker_groups(x: np.ndarray, groups: int = RHAT_GROUPS) -> np.ndarray:
-    """(steps, walkers) -> (groups, steps * walkers_per_group), draws ordered step by step.
-
-    Walkers beyond a multiple of ``groups`` are left out of this statistic.
-    """
-    n, w = x.shape
-    g = min(groups, w)
-    m = w // g
-    return x[:, : g * m].reshape(n, g, m).transpose(1, 0, 2).reshape(g, n * m)
-
-
-def diagnostics(draws: np.ndarray) -> dict[str, float]:
-    """ArviZ ess_bulk, ess_tail (every walker a chain) and R-hat (4 walker groups) of one
-    parameter's draws (steps, walkers)."""
-    by_walker = np.ascontiguousarray(draws.T)     # (chain = walker, draw = step)
-    return {
-        "ess_bulk": ess.ess_bulk(by_walker),
-        "ess_tail": ess.ess_tail(by_walker, 0.05),
-        "r_hat": ess.rhat(walker_groups(draws)),
-    }
 
 
 def parameter_stats(draws: np.ndarray) -> dict[str, float | list[float]]:

@@ -18,8 +18,9 @@ Vᵀ δ = 0 (Plumlee 2017), covariance C - K V (Vᵀ K V)⁻¹ Vᵀ K, in the sa
 (inference/discrepancy/orthogonal.py says what V is).
 
 ``celerite2`` (Foreman-Mackey et al. 2017) computes the exp kernel's likelihood exactly too, but its
-Matern32Term is an approximation (a sum of two exponentials with ε = 0.01); tests/test_gp.py checks
-this module against a dense multivariate normal and against celerite2.
+Matern32Term is an approximation (a sum of two exponentials with ε = 0.01);
+tests/inference/discrepancy/test_gp.py checks this module against a dense multivariate normal and
+against celerite2.
 """
 
 from __future__ import annotations

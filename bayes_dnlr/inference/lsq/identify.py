@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config import Config
+from bayes_dnlr.digests import jsonable
 from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.inference.discrepancy.gls import discrepancy_analysis
 from bayes_dnlr.inference.lsq import optimize
@@ -42,7 +43,6 @@ from bayes_dnlr.inference.lsq.sigma0 import resolve_sigma0
 from bayes_dnlr.inference.lsq.start import clip_to, fallback, physics_start, spread_starts
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd
-from bayes_dnlr.runs.folder import jsonable
 from bayes_dnlr.vocabulary import UNITS
 
 SAME_OPTIMUM_SD = 0.01      # multi-start end points within this many sd of the best: same optimum

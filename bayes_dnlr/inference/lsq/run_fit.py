@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config import Config
+from bayes_dnlr.digests import jsonable
 from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.inference.discrepancy.hyper import Hyper, discrepancy_priors, is_white, test_axis, whitener
 from bayes_dnlr.inference.layout import Layout, test_of
@@ -32,7 +33,6 @@ from bayes_dnlr.inference.lsq.run_problem import RunProblem
 from bayes_dnlr.inference.lsq.sensitivity import StochasticAnalysis, analyse, identifiability_warnings
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd, pm
-from bayes_dnlr.runs.folder import jsonable
 from bayes_dnlr.vocabulary import TIME_CONSTANTS, base_name, unit
 
 

@@ -8,9 +8,11 @@ Bürkner 2021, "Rank-normalization, folding, and localization: an improved R-hat
 - ``ess_tail``: the smaller ESS of the indicators I(x <= q) at the 5 % and 95 % quantiles;
 - ``rhat``: the larger of the split R-hat of the rank-normalised draws and of the rank-normalised
   folded draws |x - median|;
-- ``hdi``: the narrowest interval holding ``prob`` of the sorted draws ("nearest" method).
+- ``hdi``: the narrowest interval holding ``prob`` of the sorted draws ("nearest" method);
+- ``diagnostics``: ess_bulk, ess_tail and R-hat of one parameter's emcee draws (steps, walkers),
+  every walker a chain for the ESS, 4 groups of walkers for R-hat (``walker_groups``).
 
-Arrays are (chain, draw). tests/test_ess.py checks every function against ArviZ.
+Arrays are (chain, draw). tests/inference/mcmc/test_ess.py checks every function against ArviZ.
 """
 
 from __future__ import annotations
@@ -214,3 +216,28 @@ def hdi(x: np.ndarray, prob: float) -> tuple[float, float]:
         raise ValueError("too few draws for an interval")
     k = int(np.argmin(width))
     return float(a[k]), float(a[k + inc])
+
+
+RHAT_GROUPS = 4     # R-hat compares 4 groups of walkers
+
+
+def walker_groups(x: np.ndarray, groups: int = RHAT_GROUPS) -> np.ndarray:
+    """(steps, walkers) -> (groups, steps * walkers_per_group), draws ordered step by step.
+
+    Walkers beyond a multiple of ``groups`` are left out of this statistic.
+    """
+    n, w = x.shape
+    g = min(groups, w)
+    m = w // g
+    return x[:, : g * m].reshape(n, g, m).transpose(1, 0, 2).reshape(g, n * m)
+
+
+def diagnostics(draws: np.ndarray) -> dict[str, float]:
+    """ArviZ ess_bulk, ess_tail (every walker a chain) and R-hat (4 walker groups) of one
+    parameter's draws (steps, walkers)."""
+    by_walker = np.ascontiguousarray(draws.T)     # (chain = walker, draw = step)
+    return {
+        "ess_bulk": ess_bulk(by_walker),
+        "ess_tail": ess_tail(by_walker, 0.05),
+        "r_hat": rhat(walker_groups(draws)),
+    }

@@ -118,7 +118,7 @@ def convergence(chain: np.ndarray, burn_in_tau: float, min_tau_multiple: float,
         needed = max(needed, n + 1)
     arviz_ess = r_hat = None
     if converged and check_arviz:
-        from bayes_dnlr.runs.outputs import diagnostics
+        from bayes_dnlr.inference.mcmc.ess import diagnostics
 
         diag = [diagnostics(chain[burn:, :, j]) for j in range(d)]
         arviz_ess = min(min(x["ess_bulk"], x["ess_tail"]) for x in diag)

@@ -2,7 +2,7 @@
 design's noise (white σ0 plus the model discrepancy δ, a draw of the Gaussian process), fit each
 with ``fit`` (generalized least squares with the known hyperparameters when there is a
 discrepancy: the likelihood the prediction assumes) and compare the spread of the estimates with
-the predicted sd (benchmarks/design_validation.py, tests/test_design.py)."""
+the predicted sd (benchmarks/design_validation.py, tests/workflows/design/test_design.py)."""
 
 from __future__ import annotations
 

@@ -1,0 +1,94 @@
+"""Commands take a config file or a run folder wherever that makes sense; where a form cannot work,
+the one-line error says what is expected (issue 15)."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+from support.finished_run import make_finished_run
+
+from bayes_dnlr.cli import main
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory) -> Path:
+    return make_finished_run(tmp_path_factory.mktemp("runs"))
+
+
+def test_report_takes_the_config_and_the_run_folder(finished, capsys, monkeypatch):
+    import bayes_dnlr.report as report
+
+    seen = []
+    monkeypatch.setattr(report, "build_report", lambda d: seen.append(Path(d)) or Path(d) / "report.html")
+    assert main(["report", str(finished / "config.yaml")]) == 0
+    assert main(["report", str(finished)]) == 0
+    assert [p.resolve() for p in seen] == [finished.resolve()] * 2
+    assert capsys.readouterr().err == ""
+
+
+def test_report_from_a_config_writes_the_report(finished, capsys):
+    assert main(["report", str(finished / "config.yaml")]) == 0
+    assert (finished / "report.html").is_file()
+    assert capsys.readouterr().out.strip().endswith("report.html")
+
+
+def test_sample_and_fit_take_the_run_folder(finished, capsys):
+    assert main(["sample", str(finished), "--quiet"]) == 0      # finished: the summary, no sampling
+    out = capsys.readouterr().out
+    assert "posterior mean" in out and "E " in out
+    assert main(["fit", str(finished), "--quiet"]) == 0          # same config: fit.json is current
+
+
+def test_compare_and_export_take_the_config(finished, capsys):
+    assert main(["compare", str(finished / "config.yaml")]) == 0
+    assert "E posterior (MPa)" in capsys.readouterr().out
+    assert (finished.parent / "compare.md").is_file()
+    assert main(["export", str(finished / "config.yaml"), "--format", "csv", "--nu", "0.45"]) == 0
+    assert (finished / "export" / "csv" / "cards.csv").is_file()
+
+
+def test_a_missing_name_says_what_each_command_takes(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["sample", "etfe0"]) == 2
+    assert capsys.readouterr().err == ("error: etfe0: config file not found (sample takes the config "
+                                       "file, e.g. etfe0/config.yaml)\n")
+    assert main(["report", "etfe0.yaml"]) == 2
+    assert capsys.readouterr().err == (
+        "error: etfe0.yaml: no such run folder or config file; report takes a run folder or its "
+        "config file, e.g. runs/hdpe-a-5e-3 or runs/hdpe-a-5e-3/config.yaml\n")
+
+
+def test_a_run_folder_without_a_written_config(finished, tmp_path, capsys):
+    """The run folder of a config kept elsewhere holds only the copy fit/sample wrote: sample says to
+    give the config file; an empty folder says the same."""
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    shutil.copy(finished / "tiny.csv", runs / "tiny.csv")
+    (runs / "mine.yaml").write_text((finished / "config.yaml").read_text())   # name: tiny -> runs/tiny/
+    assert main(["fit", str(runs / "mine.yaml"), "--quiet"]) == 0
+    assert (runs / "tiny" / "config.yaml").is_file()                    # the resolved copy
+    capsys.readouterr()
+    assert main(["sample", str(runs / "tiny")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {runs / 'tiny'}: sample takes the config file, e.g. "
+                          f"{runs / 'tiny'}/config.yaml; ")
+    assert "is the copy that fit/sample wrote" in err and err.count("\n") == 1
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert main(["fit", str(empty)]) == 2
+    assert capsys.readouterr().err == (f"error: {empty}: fit takes the config file, e.g. "
+                                       f"{empty}/config.yaml; {empty} is a directory with no config.yaml\n")
+
+
+def test_report_of_a_config_not_run_yet(tmp_path, capsys):
+    cfg = tmp_path / "new" / "config.yaml"
+    cfg.parent.mkdir()
+    cfg.write_text("name: other\ndata: {file: x.csv, columns: {time: t, stress: s, strain: e}, "
+                   "observable: stress}\n")
+    assert main(["report", str(cfg)]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"error: {cfg}: its run folder {cfg.parent / 'other'} does not exist yet: run "
+                   f"`python -m bayes_dnlr sample {cfg}` first\n")
+    assert not (cfg.parent / "other").exists()

@@ -1,0 +1,56 @@
+"""The rate question in the data (issue 11): a joint run with one E per test answers whether E
+depends on the strain rate: "consistent" on data made with one E, "rate-dependent" on data made
+with E rising 10 % per decade of rate. Both under each test's discrepancy likelihood (the default,
+which falls back to white noise where a test shows no model error)."""
+
+from __future__ import annotations
+
+import pytest
+from support.joint import make_joint
+
+
+def _verdict(tmp_path, name: str, per_decade: float):
+    from bayes_dnlr.config import load_config
+    from bayes_dnlr.report import build_report
+    from bayes_dnlr.report.across_tests import rate_question
+    from bayes_dnlr.runs.results import load_run
+    from bayes_dnlr.runs.sample import sample
+
+    path = make_joint(tmp_path, name, per_test=("E", "tau_max"), e_per_decade=per_decade,
+                      discrepancy=True, sampler={"max_steps": 300, "walkers": 24})
+    sample(load_config(path), progress=False)
+    run = load_run(path.parent)
+    assert [n for n in run.names if n.startswith("E[")] == ["E[r2.5e-3]", "E[r5e-3]", "E[r1e-2]"]
+    ra = rate_question(run)
+    page = build_report(path.parent).read_text()
+    return ra, page
+
+
+def test_one_e_is_consistent(tmp_path):
+    ra, page = _verdict(tmp_path, "one-e", 0.0)
+    assert ra.verdict == "consistent", ra.words
+    assert ra.log_bf01 > 0 and ra.slope["lo95"] <= 0 <= ra.slope["hi95"]
+    assert "Verdict: consistent." in page and "Savage-Dickey" in page
+
+
+def test_e_rising_ten_percent_per_decade_is_rate_dependent(tmp_path):
+    ra, page = _verdict(tmp_path, "rising-e", 0.10)
+    assert ra.verdict == "rate-dependent", ra.words
+    # the trend recovers the 10 % per decade within its interval
+    assert ra.slope["lo95"] < 10.0 < ra.slope["hi95"], ra.slope
+    assert ra.differences["r1e-2"]["mean"] > 0
+    assert "Verdict: rate-dependent." in page
+
+
+@pytest.mark.parametrize("per_decade", [0.0])
+def test_shared_e_gives_no_rate_verdict(tmp_path, per_decade):
+    """With E shared the joint posterior cannot ask the question: no verdict is invented."""
+    from bayes_dnlr.config import load_config
+    from bayes_dnlr.report.across_tests import rate_question
+    from bayes_dnlr.runs.fit import fit
+    from bayes_dnlr.runs.results import load_run
+
+    path = make_joint(tmp_path, "shared", e_per_decade=per_decade)
+    fit(load_config(path))
+    run = load_run(path.parent)
+    assert rate_question(run) is None

@@ -1,0 +1,88 @@
+"""The stopping rule is checked often enough to stop within 5 % of the target ESS (issue 14), and a
+run that stops between checkpoints resumes and stops exactly like an uninterrupted one."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from support.sampling import write_case
+
+from bayes_dnlr.config import load_config
+from bayes_dnlr.inference.mcmc.ensemble import CHECK_FRACTION, next_check
+from bayes_dnlr.inference.mcmc.stopping import Convergence
+from bayes_dnlr.runs.chains import read_run
+from bayes_dnlr.runs.sample import sample
+
+
+def _conv(needed: int, stuck: bool = False) -> Convergence:
+    return Convergence(np.ones(1), 0, 0, np.ones(1), False, needed, stuck={0: [1]} if stuck else {})
+
+
+def test_check_schedule() -> None:
+    assert next_check(0, None, 100) == 20                 # no τ before 20 steps
+    for n in (20, 150, 700, 3000):
+        step = next_check(n, None, 100) - n
+        assert 1 <= step <= max(1, math.ceil(CHECK_FRACTION * n)) and step <= 100
+    assert next_check(300, _conv(360), 100) == 360        # jump to the step τ says is needed
+    assert next_check(300, _conv(900), 100) == 400        # but check at least once per block
+    assert next_check(300, _conv(900, stuck=True), 100) == 306
+
+
+@pytest.fixture(scope="module")
+def ess_bound_run(tmp_path_factory):
+    """ESS is what binds: a short min_tau_multiple, checkpoints far apart."""
+    path = write_case(tmp_path_factory.mktemp("stop"), n=400, seed=3,
+                      sampler={"max_steps": 3000, "target_ess": 1500, "checkpoint_every": 500,
+                               "min_tau_multiple": 10})
+    post = sample(load_config(path), progress=False)
+    return path, post
+
+
+def test_stops_within_five_percent_of_the_target_ess(ess_bound_run) -> None:
+    path, post = ess_bound_run
+    s = post.summary
+    assert s["stop_reason"] == "converged"
+    steps = s["steps"]
+    assert steps % 500 != 0                                # it stopped between two checkpoints
+    kept_ess = [s["ess_autocorr"][k] for k in s["parameters"]]
+    arviz = [min(s["posterior"][k]["ess_bulk"], s["posterior"][k]["ess_tail"]) for k in s["parameters"]]
+    binding = min(min(kept_ess), min(arviz))
+    assert 1500 <= binding <= 1.05 * 1500
+    assert read_run(path.parent / "chains.h5").steps == steps   # the partial block is committed
+
+
+def test_resume_after_an_early_stop_gives_the_same_chain(tmp_path, ess_bound_run) -> None:
+    path, post = ess_bound_run
+    ref = read_run(path.parent / "chains.h5")
+    # the same run interrupted at its first checkpoint (max_steps 500), then continued
+    other = write_case(tmp_path, n=400, seed=3,
+                       sampler={"max_steps": 500, "target_ess": 1500, "checkpoint_every": 500,
+                                "min_tau_multiple": 10})
+    first = sample(load_config(other), progress=False)
+    assert first.summary["stop_reason"] == "max_steps"
+    text = other.read_text().replace("max_steps: 500", "max_steps: 3000")
+    other.write_text(text)
+    again = sample(load_config(other), progress=False)
+    run = read_run(other.parent / "chains.h5")
+    assert again.summary["steps"] == post.summary["steps"] == run.steps
+    np.testing.assert_array_equal(run.chain, ref.chain)
+
+
+def test_tau_equals_emcee() -> None:
+    from emcee.autocorr import integrated_time
+
+    from bayes_dnlr.inference.mcmc.stopping import _tau
+
+    rng = np.random.default_rng(0)
+    for n in (20, 57, 401):
+        x = np.cumsum(rng.normal(size=(n, 16, 3)), axis=0) * 0.1 + rng.normal(size=(n, 16, 3))
+        x[:, 3, 2] = 1.0                                   # a stuck walker is left out
+        x[:, :, 1] = x[:1, :, 1]                           # no walker moves: tau = inf
+        ours = _tau(x)
+        for j in (0, 2):
+            moving = np.ptp(x[:, :, j], axis=0) > 0
+            ref = integrated_time(x[:, moving, j][:, :, None], c=5, tol=0, quiet=True)[0]
+            assert ours[j] == pytest.approx(ref, rel=1e-12)
+        assert ours[1] == np.inf

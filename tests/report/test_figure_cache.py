@@ -1,0 +1,83 @@
+"""The report's figures are drawn only when their inputs change, and the worker process that draws
+some of them beside the page gives the same page and the same PNGs as drawing them one by one."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+from pathlib import Path
+
+import pytest
+from support.finished_run import make_finished_run
+
+from bayes_dnlr.report import build_report, figure_cache
+
+
+def _text(page: Path) -> str:
+    """The page without its footer (build time)."""
+    return re.sub(r"<footer>.*?</footer>", "", page.read_text(), flags=re.S)
+
+
+def _pngs(run: Path) -> dict[str, tuple[int, bytes]]:
+    return {p.name: (p.stat().st_mtime_ns, p.read_bytes()) for p in (run / "figures").glob("*.png")}
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory) -> Path:
+    return make_finished_run(tmp_path_factory.mktemp("figs"))
+
+
+@pytest.fixture
+def run(finished, tmp_path) -> Path:
+    return Path(shutil.copytree(finished, tmp_path / "tiny", ignore=shutil.ignore_patterns(
+        "report.html", "figures")))
+
+
+def test_a_rebuild_keeps_every_figure_and_redraws_what_changed(run):
+    first = _text(build_report(run))
+    before = _pngs(run)
+    assert set(before) >= {"fit.png", "trace.png", "corner.png"}
+    assert _text(build_report(run)) == first
+    assert _pngs(run) == before                       # not one PNG written again
+    fit = json.loads((run / "fit.json").read_text())
+    fit["estimate"]["E"] *= 1.01                      # the least-squares curve moves
+    (run / "fit.json").write_text(json.dumps(fit))
+    build_report(run)
+    after = _pngs(run)
+    assert after["fit.png"] != before["fit.png"] and after["sensitivity.png"] != before["sensitivity.png"]
+    assert after["trace.png"] == before["trace.png"] and after["rank.png"] == before["rank.png"]
+    assert figure_cache.stored_key(run / "figures" / "fit.png") is not None
+
+
+def test_a_figure_no_longer_drawn_is_removed(run):
+    build_report(run)
+    stray = run / "figures" / "old-figure.png"
+    shutil.copy(run / "figures" / "fit.png", stray)
+    build_report(run)
+    assert not stray.exists()
+
+
+# the sampling of the fixture left tqdm's monitor thread (asleep) in this process: forking is
+# forced here; the CLI forks before any thread starts
+@pytest.mark.filterwarnings("ignore:This process .* is multi-threaded:DeprecationWarning")
+def test_the_worker_draws_the_same_page(run, tmp_path, monkeypatch):
+    forked = []
+    fork = figure_cache._fork_worker
+
+    def counted(warm):
+        worker = fork(warm)
+        forked.append(worker)
+        return worker
+
+    monkeypatch.setattr(figure_cache, "_free_core", lambda: True)
+    monkeypatch.setattr(figure_cache, "_single_threaded", lambda: True)
+    monkeypatch.setattr(figure_cache, "_fork_worker", counted)
+    aside = _text(build_report(run))
+    assert forked and forked[0] is not None
+    pngs = {k: v[1] for k, v in _pngs(run).items()}
+    monkeypatch.setattr(figure_cache, "_free_core", lambda: False)
+    alone = Path(shutil.copytree(run, tmp_path / "alone" / "tiny", ignore=shutil.ignore_patterns(
+        "report.html", "figures")))
+    assert _text(build_report(alone)).replace(str(alone), str(run)) == aside
+    assert {k: v[1] for k, v in _pngs(alone).items()} == pngs

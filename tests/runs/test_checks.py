@@ -1,0 +1,151 @@
+"""The checks of a sampled run and the verdict they decide (runs/checks.py, inference/checks/)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from bayes_dnlr.inference.checks import bounds, physical, power_scaling, predictive
+from bayes_dnlr.runs.checks import verdict
+
+
+def test_power_scaling_equals_arviz_stats_psense() -> None:
+    ab = pytest.importorskip("arviz_base")
+    psense = pytest.importorskip("arviz_stats").psense
+    rng = np.random.default_rng(1)
+    for case in range(3):
+        x = rng.normal(size=(8, 400))
+        y = rng.gamma(2.0, 1.0, size=(8, 400))
+        log_prior = -0.5 * (x / (0.5 + case)) ** 2 - 0.3 * case * y
+        log_lik = -5.0 * (x - 0.3) ** 2
+        dt = ab.from_dict({"posterior": {"x": x, "y": y}, "log_prior": {"lp": log_prior},
+                           "log_likelihood": {"obs": log_lik}})
+        for group, comp in (("prior", log_prior), ("likelihood", log_lik)):
+            ref = psense(dt, group=group)
+            mine = power_scaling.sensitivity({"x": x, "y": y}, comp)
+            for k in ("x", "y"):
+                assert mine[k] == pytest.approx(float(ref[k]), rel=1e-9, abs=1e-12)
+
+
+def test_a_flat_prior_is_not_informative_and_a_tight_one_is() -> None:
+    rng = np.random.default_rng(2)
+    x = rng.normal(1.0, 0.1, size=(4, 1000))
+    tight = -0.5 * ((x - 0.9) / 0.1) ** 2         # a prior as narrow as the posterior
+    wide = -0.5 * ((x - 0.9) / 100.0) ** 2
+    assert power_scaling.sensitivity({"x": x}, tight)["x"] > power_scaling.SENSITIVE
+    assert power_scaling.sensitivity({"x": x}, wide)["x"] < power_scaling.SENSITIVE
+
+
+def test_predictive_coverage_is_ninety_percent_for_the_right_noise_and_low_where_the_model_fails():
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 100.0, 2000)
+    curves = np.sin(t / 10.0)[None, :] + rng.normal(0, 0.01, size=(200, 1))
+    y = np.sin(t / 10.0) + rng.normal(0, 0.3, t.size)
+    masks = predictive.segments(t, None)
+    ok = predictive.coverage(predictive.inside_band(y, curves, 0.09), masks)
+    assert 0.87 < ok["overall"] < 0.93
+    assert all(0.8 < s["share"] < 1.0 for s in ok["segments"].values())
+    y_bad = y + np.where(t < 20.0, 1.0, 0.0)       # a misfit the noise does not describe, early on
+    bad = predictive.coverage(predictive.inside_band(y_bad, curves, 0.09), masks)
+    assert bad["segments"]["time block 1"]["share"] < 0.3
+    assert bad["segments"]["time block 3"]["share"] > 0.8
+    hold = predictive.segments(t, 60.0)
+    assert hold["loading"].sum() + hold["hold"].sum() == t.size and hold["hold"][-1]
+
+
+@pytest.mark.parametrize(("draws", "low", "high", "log", "side"), [
+    (np.linspace(40.0, 50.0, 1001), 0.0, 50.0, False, "high"),
+    (np.linspace(0.0, 10.0, 1001), 0.0, 50.0, False, "low"),
+    (np.linspace(20.0, 30.0, 1001), 0.0, 50.0, False, None),
+    (np.geomspace(1e3, 1e4, 1001), 0.01, 1e4, True, "high"),
+    (np.geomspace(1.0, 10.0, 1001), 0.01, 1e4, True, None),
+])
+def test_posterior_piled_against_a_bound(draws, low, high, log, side) -> None:
+    assert bounds.piled_side(draws, low, high, log) == side
+
+
+def test_a_bound_widened_ten_times() -> None:
+    assert bounds.widened(0.0, 50.0, "high", False) == (0.0, 500.0)
+    assert bounds.widened(0.01, 1e4, "high", True) == (0.01, 1e5)
+    assert bounds.widened(100.0, 200.0, "low", False) == (-800.0, 200.0)
+    assert bounds.physical_limit("low", 0.0) and not bounds.physical_limit("high", 50.0)
+
+
+def test_sigma_inf_above_the_last_stress_of_a_falling_hold_is_implausible() -> None:
+    t = np.linspace(0.0, 1000.0, 501)
+    falling = 10.0 + 5.0 * np.exp(-t / 2000.0)        # still relaxing at the end
+    still, last = physical.hold_still_falling(t, falling, 0.0)
+    assert still and last == pytest.approx(np.median(falling[-5:]), rel=1e-12)
+    assert not physical.sigma_inf_check(np.full(100, last + 0.5), last, still)["ok"]
+    assert physical.sigma_inf_check(np.full(100, last - 0.5), last, still)["ok"]
+    flat, _ = physical.hold_still_falling(t, np.full(t.size, 10.0) + 1e-3 * np.sin(t), 0.0)
+    assert not flat
+    assert not physical.chord_check(np.full(100, 900.0), 1000.0)["ok"]
+    assert not physical.time_constant_check(np.full(10, 2e4), 1000.0)["ok"]
+
+
+def _checks(coverage=0.9, block=0.9, shift=None, sens=0.0, sigma_inf_ok=True) -> dict:
+    segs = {f"time block {b}": {"share": block if b == 1 else 0.9, "points": 200} for b in range(1, 6)}
+    bound = ([] if shift is None else
+             [{"parameter": "G", "side": "high", "bound": 50.0, "widened": [0.0, 500.0],
+               "E_shift_sd": {"E": shift}}])
+    plaus = {"t": {"sigma_inf": {"ok": sigma_inf_ok, "sigma_inf_median": 8.3, "last_stress": 7.7,
+                                 "hold_falling": True}}}
+    return {"predictive_coverage": {"t": {"overall": coverage, "points": 1000, "segments": segs}},
+            "bound_limited": bound, "prior_sensitivity": {"E": sens}, "plausibility": plaus}
+
+
+def test_the_verdict_follows_from_the_checks() -> None:
+    adequate, trust, words = verdict(_checks(), True, False)
+    assert adequate and trust and words.startswith("Use E's interval as it is.")
+    adequate, trust, words = verdict(_checks(block=0.3), True, False)
+    assert not adequate and not trust and "30 % in the time block 1" in words
+    adequate, trust, words = verdict(_checks(shift=30.0), True, False)
+    assert adequate and not trust and "prior box decides E" in words and "+30.0 posterior sd" in words
+    adequate, trust, _ = verdict(_checks(shift=0.4), True, False)
+    assert trust
+    _, trust, words = verdict(_checks(sens=0.2), True, False)
+    assert not trust and "power-scaling sensitivity E 0.20" in words
+    adequate, _, words = verdict(_checks(sigma_inf_ok=False), True, False)
+    assert not adequate and "σ∞ = 8.300 MPa lies above the last stress of the hold (7.700 MPa)" in words
+    _, trust, words = verdict(_checks(), False, False)
+    assert not trust and "not converged" in words
+
+
+def test_a_sampled_run_records_its_checks(tmp_path) -> None:
+    """summary.json's checks block: a clean synthetic test is trusted; its coverage is about 90 %."""
+    from tests.finished_run import make_finished_run
+
+    run = make_finished_run(tmp_path)
+    checks = json.loads((run / "summary.json").read_text())["checks"]
+    assert set(checks) >= {"predictive_coverage", "bound_limited", "prior_sensitivity", "plausibility",
+                           "adequate", "trust_interval", "verdict"}
+    assert 0.8 <= checks["predictive_coverage"]["overall"] <= 0.97
+    summary = json.loads((run / "summary.json").read_text())
+    assert checks["adequate"], checks["verdict"]
+    # the tiny chain stops at max_steps: not converged is the one reason not to trust it
+    assert checks["trust_interval"] == summary["converged"], checks["verdict"]
+    assert checks["bound_limited"] == []
+
+
+def test_a_prior_bound_that_decides_e_is_named_with_the_move_of_e(tmp_path) -> None:
+    """G bounded below its true value: G piles against the bound, and widening it moves E."""
+    import yaml
+    from tests.finished_run import make_finished_run
+
+    from bayes_dnlr.config import load_config
+    from bayes_dnlr.runs.sample import sample
+
+    run = make_finished_run(tmp_path)
+    cfg_path = run / "config.yaml"
+    raw = yaml.safe_load(cfg_path.read_text())
+    raw["parameters"] = {"G": {"prior": "uniform", "low": 0.0, "high": 1.0}}
+    cfg_path.write_text(yaml.safe_dump(raw))
+    post = sample(load_config(cfg_path), restart=True, progress=False)
+    checks = post.summary["checks"]
+    entry = next(b for b in checks["bound_limited"] if b["parameter"] == "G")
+    assert entry["side"] == "high" and entry["widened"] == [0.0, 10.0]
+    assert abs(entry["E_shift_sd"]["E"]) > 1.0
+    assert not checks["trust_interval"] and "prior box decides E" in checks["verdict"]

@@ -1,0 +1,41 @@
+"""Tiny synthetic tests for the batch tests: a template config and a manifest of data files."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import yaml
+
+from support.sampling import write_case
+
+# a few seconds per test: 250 points, 16 walkers, ESS 100, checkpoints every 50 steps
+TINY = {"walkers": 16, "max_steps": 600, "target_ess": 100, "checkpoint_every": 50}
+
+
+def tiny_campaign(folder: Path, n: int, *, long: set[int] = frozenset(),
+                  points: int = 250) -> tuple[Path, Path]:
+    """``n`` data files (different noise seeds) in folder/data, a template config and a manifest
+    (name, data.file, sampler.seed); tests in ``long`` never converge and run to 1500 steps."""
+    data = folder / "data"
+    data.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for i in range(n):
+        cfg = write_case(folder / "cases", f"t{i}", n=points, seed=100 + i, sampler=TINY)
+        (cfg.parent / "data.csv").replace(data / f"t{i}.csv")
+        row = {"name": f"t{i}", "data.file": f"data/t{i}.csv", "sampler.seed": str(i + 1),
+               "sampler.max_steps": "", "sampler.target_ess": ""}
+        if i in long:
+            row["sampler.max_steps"], row["sampler.target_ess"] = "1500", "1e9"
+        rows.append(row)
+    raw = yaml.safe_load(cfg.read_text())
+    raw["name"] = "template"
+    raw["data"]["file"] = "data/t0.csv"
+    template = folder / "template.yaml"
+    template.write_text(yaml.safe_dump(raw, sort_keys=False))
+    manifest = folder / "manifest.csv"
+    with open(manifest, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    return template, manifest

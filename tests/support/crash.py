@@ -1,0 +1,114 @@
+"""Many `sample` processes killed at chosen instants, fast: a zygote process imports bayes_dnlr,
+emcee and ArviZ once, then forks one child per run; the child runs the CLI exactly as
+``python -m bayes_dnlr sample <config> --quiet`` does (``cli.main``, then a normal interpreter exit),
+with ``BAYES_DNLR_KILL_AT`` set to the kill point. A fork costs milliseconds where a fresh
+interpreter costs seconds of imports.
+
+    with Zygote() as z:
+        code = z.sample(config, kill="append.step@2", log=tmp / "run.log")   # -9: killed there
+        pid = z.start(config, log=tmp / "run.log")     # running: signal it, then
+        code = z.wait()
+"""
+
+from __future__ import annotations
+
+import gc
+import json
+import os
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+
+class Zygote:
+    """The forking server (this file run as a script), and its client."""
+
+    def __enter__(self) -> Zygote:
+        self.proc = subprocess.Popen([sys.executable, str(Path(__file__).resolve())],
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+                                     cwd=HERE)
+        assert self.proc.stdout.readline().strip() == "ready"
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.proc.stdin.close()
+        self.proc.wait(timeout=60)
+
+    def sample(self, config: Path, *, kill: str = "", log: Path, precheck: bool = True) -> int:
+        """Run `sample config --quiet` in a forked child; its return code (negative: the signal).
+
+        ``precheck=False``: the store's free-space check before each write is switched off, so a
+        full disk is met by HDF5's own writes."""
+        self.start(config, kill=kill, log=log, precheck=precheck)
+        return self.wait()
+
+    def start(self, config: Path, *, kill: str = "", log: Path, precheck: bool = True) -> int:
+        """Fork `sample config --quiet` and return at once with the child's pid (to signal it);
+        ``wait`` gives its return code. One child at a time."""
+        job = {"config": str(config), "kill": kill, "log": str(log), "precheck": precheck}
+        self.proc.stdin.write(json.dumps(job) + "\n")
+        self.proc.stdin.flush()
+        return self._read()
+
+    def wait(self) -> int:
+        """The return code of the child ``start`` forked (negative: the signal that ended it)."""
+        return self._read()
+
+    def _read(self) -> int:
+        line = self.proc.stdout.readline()
+        assert line, "the zygote died"
+        return int(line)
+
+
+def _warm_up() -> None:
+    """One whole `sample` of a tiny case: every lazy import and numba's cache loaded before forking
+    (no HDF5 file stays open)."""
+    import contextlib
+    import io
+    import tempfile
+
+    import bayes_dnlr.cli as cli
+    from support.sampling import write_case
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = write_case(Path(tmp), n=300, sampler={"walkers": 8, "max_steps": 20,
+                                                      "checkpoint_every": 20, "target_ess": 1e9})
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            assert cli.main(["sample", str(path), "--quiet"]) == 0
+
+
+def _serve() -> None:
+    import bayes_dnlr.cli as cli
+    from bayes_dnlr import diskio
+
+    _warm_up()
+    gc.freeze()      # the children's garbage collector leaves the zygote's objects (and pages) alone
+    print("ready", flush=True)
+    # the only other thread is OpenBLAS's idle worker, which OpenBLAS re-creates after a fork
+    warnings.filterwarnings("ignore", "This process .* is multi-threaded", DeprecationWarning)
+    for line in sys.stdin:
+        job = json.loads(line)
+        pid = os.fork()
+        if pid == 0:
+            fd = os.open(job["log"], os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+            os.dup2(fd, 1)
+            os.dup2(fd, 2)
+            os.environ[diskio.KILL_ENV] = job["kill"]
+            diskio._KILL_AT = diskio._kill_spec(job["kill"])
+            diskio._reached.clear()
+            if not job["precheck"]:
+                from bayes_dnlr.runs import chains as store
+
+                store.ensure_free = lambda *args, **kwargs: None
+            raise SystemExit(cli.main(["sample", job["config"], "--quiet"]))
+        print(pid, flush=True)
+        _, status = os.waitpid(pid, 0)
+        print(os.waitstatus_to_exitcode(status), flush=True)
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, str(HERE.parent))      # run as a script: tests/ holds the support package
+    _serve()

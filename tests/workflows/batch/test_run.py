@@ -1,0 +1,185 @@
+"""The batch runner on tiny synthetic tests: faults stay local, a real Dask cluster gives the very
+chains of the local run, a killed batch resumes without recomputing what had finished."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from support.batch import tiny_campaign
+
+from bayes_dnlr.cli import main
+from bayes_dnlr.runs.chains import read_run
+from bayes_dnlr.workflows.batch.page import run_campaign
+
+PARAMS = ("E", "G", "tau_max")
+
+
+def _batch(template: Path, manifest: Path, out: Path, *extra: str) -> int:
+    return main(["batch", str(template), "--manifest", str(manifest), "--out", str(out),
+                 "--quiet", *extra])
+
+
+def test_one_corrupt_data_file_gives_five_results_and_one_error_row(tmp_path, capsys):
+    template, manifest = tiny_campaign(tmp_path, 6)
+    bad = tmp_path / "data" / "t3.csv"
+    bad.write_text("t_s,eps,stress_MPa\n0,0,0\n1,0.005,abc\n2,0.01,\x00\x01garbage\n")
+    out = tmp_path / "out"
+    assert _batch(template, manifest, out, "--jobs", "2", "--no-report") == 1   # a test failed
+    printed = capsys.readouterr().out
+    assert "5 ok" in printed and "1 failed" in printed and "t3" in printed
+
+    csv = pd.read_csv(out / "results.csv")
+    pq = pd.read_parquet(out / "results.parquet")
+    assert list(csv["name"]) == list(pq["name"]) == [f"t{i}" for i in range(6)]   # input order
+    assert list(pq["status"]) == ["ok"] * 3 + ["failed"] + ["ok"] * 2
+    err = pq.loc[3, "error"]
+    assert "t3.csv" in err and "DataError" in err                 # which file, what went wrong
+    assert pq.loc[3, "origin"].endswith("manifest.csv line 5")
+    ok = pq[pq["status"] == "ok"]
+    for p in PARAMS:
+        for stat in ("mean", "sd", "median", "hdi90_lo", "hdi90_hi", "ess_bulk", "ess_tail", "r_hat",
+                     "tau", "gn", "gn_sd"):
+            assert ok[f"{p}_{stat}"].notna().all(), f"{p}_{stat}"
+    assert (abs(ok["E_mean"] - 2854.0) < 5 * ok["E_sd"]).all()
+    assert {"iso527_1", "astm_d638", "warnings", "n_warnings", "converged", "r_hat_max", "ess_min",
+            "in:data.file", "in:sampler.seed"} <= set(pq.columns)
+    assert pq["E_mean"].dtype == np.float64 and pq["steps"].notna().sum() == 5
+    np.testing.assert_allclose(csv["E_mean"].to_numpy(), pq["E_mean"].to_numpy(), rtol=1e-12)
+    assert (ok["worker"].str.split(":").str[-1].astype(int) != os.getpid()).all()   # worker processes
+    page = (out / "batch.html").read_text()
+    assert "1 failed" in page and "t3.csv" in page and "E across the tests" in page
+    assert "data:image/png;base64," in page and (out / "figures" / "batch_E.png").is_file()
+    assert not (out / "runs" / "t3" / "chains.h5").exists()
+
+    # fixing the file and running again: only t3 runs
+    bad.write_bytes((tmp_path / "data" / "t0.csv").read_bytes())
+    before = {i: (out / "runs" / f"t{i}" / "summary.json").stat().st_mtime_ns for i in (0, 1, 2, 4, 5)}
+    assert _batch(template, manifest, out, "--jobs", "2", "--no-report") == 0
+    pq = pd.read_parquet(out / "results.parquet")
+    assert list(pq["status"]) == ["ok"] * 6
+    assert list(pq["reused"]) == [True] * 3 + [False] + [True] * 2
+    assert {i: (out / "runs" / f"t{i}" / "summary.json").stat().st_mtime_ns for i in before} == before
+
+
+def _worker_pids(client) -> set[int]:
+    return set(client.run(os.getpid).values())
+
+
+@pytest.mark.slow      # a local batch, then a Dask cluster of two worker processes: 17 s of CPU
+def test_dask_cluster_gives_the_chains_of_the_local_run(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    template, manifest = tiny_campaign(tmp_path, 4)
+    local, remote = tmp_path / "local", tmp_path / "dask"
+    assert _batch(template, manifest, local, "--jobs", "2", "--no-report") == 0
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None, host="127.0.0.1") as cluster, \
+            distributed.Client(cluster) as client:
+        pids = _worker_pids(client)
+        assert os.getpid() not in pids and len(pids) == 2
+        assert _batch(template, manifest, remote, "--scheduler", cluster.scheduler_address,
+                      "--no-report") == 0
+    a = pd.read_parquet(local / "results.parquet")
+    b = pd.read_parquet(remote / "results.parquet")
+    assert {int(w.split(":")[-1]) for w in b["worker"]} <= pids        # ran on the cluster's workers
+    for col in [c for c in a.columns if c.split("_")[-1] in ("mean", "sd", "lo", "hi", "hat", "tau")]:
+        np.testing.assert_array_equal(a[col].to_numpy(), b[col].to_numpy(), err_msg=col)
+    for i in range(4):
+        ra, rb = (read_run(d / "runs" / f"t{i}" / "chains.h5") for d in (local, remote))
+        assert ra.steps == rb.steps > 0
+        np.testing.assert_array_equal(ra.chain, rb.chain)
+        np.testing.assert_array_equal(ra.log_prob, rb.log_prob)
+
+
+def test_unreachable_scheduler_is_a_clear_error(tmp_path, capsys):
+    dask = pytest.importorskip("dask")
+    pytest.importorskip("distributed")
+    template, manifest = tiny_campaign(tmp_path, 1)
+    with dask.config.set({"distributed.comm.timeouts.connect": "2s"}):
+        code = _batch(template, manifest, tmp_path / "out", "--scheduler", "tcp://127.0.0.1:9")
+    assert code == 2
+    assert "cannot reach the Dask scheduler" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()                # nothing written
+
+
+def _run_files(run: Path) -> dict[str, int]:
+    names = ("fit.json", "chains.h5", "posterior.nc", "summary.json", "report.html")
+    return {n: (run / n).stat().st_mtime_ns for n in names}
+
+
+def test_killed_batch_resumes_and_recomputes_nothing_finished(tmp_path):
+    template, manifest = tiny_campaign(tmp_path, 4, long={3})
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "bayes_dnlr", "batch", str(template), "--manifest", str(manifest),
+           "--out", str(out), "--jobs", "2", "--quiet"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)       # its own process group, workers included
+    chains = out / "runs" / "t3" / "chains.h5"
+    t0 = time.monotonic()
+    while True:
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() - t0 < 300, "the batch did not get far enough in time"
+        finished = sorted(p.stem for p in (out / "rows").glob("*.json")) if (out / "rows").is_dir() else []
+        steps = 0
+        if chains.exists():
+            try:
+                steps = read_run(chains).steps
+            except OSError:
+                steps = 0
+        if finished and steps >= 100:
+            break
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.communicate(timeout=60)
+    finished = sorted(p.stem for p in (out / "rows").glob("*.json"))   # rows written before the kill
+    assert "t3" not in finished and finished
+    cut = read_run(chains)
+    assert 100 <= cut.steps < 1500 and not cut.finished
+    done = {n: _run_files(out / "runs" / n) for n in finished}
+
+    # the resume in this process: what is reused and what resumes does not depend on the workers
+    result = run_campaign([str(template)], manifest=manifest, out=out, n_jobs=1, progress=False)
+    rows = {r["name"]: r for r in result.rows}
+    assert [r["status"] for r in result.rows] == ["ok"] * 4
+    for n in finished:
+        assert rows[n]["reused"] is True
+        assert _run_files(out / "runs" / n) == done[n]           # nothing finished was recomputed
+    assert rows["t3"]["reused"] is False
+    run = read_run(chains)
+    assert run.finished and run.steps == 1500
+    np.testing.assert_array_equal(run.chain[: cut.steps], cut.chain)   # resumed, not restarted
+    table = pd.read_parquet(out / "results.parquet")
+    assert list(table["status"]) == ["ok"] * 4 and table["E_mean"].notna().all()
+    assert all((out / "runs" / f"t{i}" / "report.html").is_file() for i in range(4))
+    row3 = json.loads((out / "rows" / "t3.json").read_text())
+    assert row3["steps"] == 1500 and row3["converged"] is False
+
+
+def test_restart_redoes_only_the_tests_whose_chain_is_stale(tmp_path, capsys):
+    """A test sampled from other data fails with a pointer to `batch --restart`; with it, that test
+    starts again and the current ones are reused untouched."""
+    template, manifest = tiny_campaign(tmp_path, 3)
+    out = tmp_path / "out"
+    assert _batch(template, manifest, out, "--jobs", "1", "--no-report", "--no-population") == 0
+    other = (tmp_path / "data" / "t0.csv").read_bytes()
+    (tmp_path / "data" / "t1.csv").write_bytes(other)                  # t1's data changed
+    before = {i: (out / "runs" / f"t{i}" / "summary.json").stat().st_mtime_ns for i in (0, 2)}
+    assert _batch(template, manifest, out, "--jobs", "1", "--no-report", "--no-population") == 1
+    pq = pd.read_parquet(out / "results.parquet")
+    assert list(pq["status"]) == ["ok", "failed", "ok"]
+    assert "StaleRunError" in pq.loc[1, "error"] and "batch --restart" in pq.loc[1, "error"]
+    capsys.readouterr()
+    assert _batch(template, manifest, out, "--jobs", "1", "--no-report", "--no-population",
+                  "--restart") == 0
+    pq = pd.read_parquet(out / "results.parquet")
+    assert list(pq["status"]) == ["ok"] * 3 and list(pq["reused"]) == [True, False, True]
+    assert {i: (out / "runs" / f"t{i}" / "summary.json").stat().st_mtime_ns for i in before} == before
+    assert read_run(out / "runs" / "t1" / "chains.h5").finished
