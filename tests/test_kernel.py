@@ -27,13 +27,13 @@ def jittered(n: int, jitter: float, seed: int = 3, hold: float = 0.0, n_hold: in
 
 def paths(model: DNLR) -> dict[str, int]:
     """How many steps of the model take each decay path."""
-    _, ig, _, _, imeta, _ = model.kernel_args
-    fg = model.kernel_args[0]
+    g = model.kernel_args
+    ig = g.level
     exact = np.zeros(ig.size, dtype=bool)
-    exact[: imeta[0]] = imeta[3] != 0
-    exact[imeta[0]:] = imeta[4] != 0
+    exact[: g.n_tensile] = g.exact_t
+    exact[g.n_tensile:] = g.exact_r
     return {"exact": int(exact.sum()), "level": int(((ig >= 0) & ~exact).sum()),
-            "full exp": int((ig < 0).sum()), "rho != 0": int((fg[:, 5] != 0).sum())}
+            "full exp": int((ig < 0).sum()), "rho != 0": int((g.steps[:, kernel.RHO] != 0).sum())}
 
 
 def force_path(monkeypatch, path: str) -> None:
@@ -101,8 +101,8 @@ def test_prepared_grid_is_linear_in_q():
     for q in (1000, 16000):
         t, e = jittered(q, 0.15)
         m = DNLR(t, e)
-        sizes[q] = sum(a.nbytes for a in m.kernel_args)
-        levels = m.kernel_args[2].size
+        sizes[q] = sum(a.nbytes for a in m.kernel_args if isinstance(a, np.ndarray))
+        levels = m.kernel_args.levels.size
         assert levels < 80
     per_point = (sizes[16000] - sizes[1000]) / 15000
     assert per_point <= 7 * 8 + 1          # 6 floats and one index per step

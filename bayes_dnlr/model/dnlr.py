@@ -102,8 +102,8 @@ class DNLR:
                                                self.p, self.shape)
 
     @property
-    def kernel_args(self) -> tuple[np.ndarray, ...]:
-        """The prepared grid, a tuple of six arrays, for ``kernel.stress_into`` and
+    def kernel_args(self) -> kernel.Grid:
+        """The prepared grid, a ``kernel.Grid`` (a named tuple), for ``kernel.stress_into`` and
         ``kernel.stress_batch_into`` (their docstrings give the calling convention). Pass it
         unchanged; it is read-only data owned by this model. Example in another njit function::
 
