@@ -25,10 +25,12 @@ from pydantic import (
 
 from bayes_dnlr.errors import BayesDnlrError
 
-PARAMETER_NAMES = ("E", "G", "tau_max", "sigma_inf", "tau_max_R")
+PARAMETER_NAMES = ("E", "G", "tau_max", "sigma_inf", "tau_max_R", "alpha")
 TENSILE_PARAMETERS = ("E", "G", "tau_max")
 RELAXATION_PARAMETERS = ("sigma_inf", "tau_max_R")
-UNITS = {"E": "MPa", "G": "MPa", "tau_max": "s", "sigma_inf": "MPa", "tau_max_R": "s", "sigma0": "MPa",
+SPECTRUM_PARAMETERS = ("alpha",)     # the spectrum's exponent, p_j ∝ tau_j^alpha (eq. 12: ½)
+UNITS = {"E": "MPa", "G": "MPa", "tau_max": "s", "sigma_inf": "MPa", "tau_max_R": "s", "alpha": "-",
+         "sigma0": "MPa",
          "disc_amplitude": "MPa", "disc_length": "s"}
 DISCREPANCY_PARAMETERS = ("disc_amplitude", "disc_length")
 
@@ -307,6 +309,9 @@ DEFAULT_PRIORS: dict[str, dict[str, Any]] = {
     "tau_max": {"prior": "log-uniform", "low": 0.01, "high": 1.0e4},
     "sigma_inf": {"prior": "uniform", "low": 0.0, "high": 500.0},
     "tau_max_R": {"prior": "log-uniform", "low": 0.01, "high": 1.0e5},
+    # the shape of the spectrum is an assumption (eq. 12): marginalised around Cunat's ½;
+    # {value: 0.5} is the paper's model exactly (docs/theory.md, "The spectrum's exponent")
+    "alpha": {"prior": "normal", "mean": 0.5, "sd": 0.15, "low": 0.0, "high": 1.0},
 }
 
 
@@ -664,6 +669,7 @@ class Config(_Strict):
                          else "data.relaxation_start")
                 raise ValueError(f"parameters {extra} need a relaxation hold: set {where} "
                                  "(auto or a time)")
+        wanted += list(SPECTRUM_PARAMETERS)
         filled = {k: self.parameters.get(k) or ParameterSpec(**DEFAULT_PRIORS[k]) for k in wanted}
         self.parameters = filled
         if not self.free_parameters:

@@ -178,7 +178,7 @@ def scaling(sizes: tuple[int, ...], rounds: int = 3) -> dict[tuple[int, str], fl
     for _ in range(rounds):
         for q, name, new, old, _ in cases:
             out = np.empty(q)
-            args = (PARAMS["E"], PARAMS["G"], 0.0, PARAMS["tau_max"], PARAMS["tau_max"],
+            args = (PARAMS["E"], PARAMS["G"], 0.0, PARAMS["tau_max"], PARAMS["tau_max"], 0.5,
                     new.kernel_args, out)
             times = (cpu_best(lambda a=args: kernel.stress_into(*a), burst=0.002, repeats=15),
                      cpu_best(lambda m=new: m.stress(PARAMS), burst=0.002, repeats=15),
@@ -384,7 +384,7 @@ def basis_and_overhead() -> None:
             g = cpu_best(lambda m=new: m.basis(5.79, grad=True))
             go = cpu_best(lambda m=old: m.basis(5.79, grad=True))
             out = np.empty(q)
-            args = (PARAMS["E"], PARAMS["G"], 0.0, 5.79, 5.79, new.kernel_args, out)
+            args = (PARAMS["E"], PARAMS["G"], 0.0, 5.79, 5.79, 0.5, new.kernel_args, out)
             s_py = cpu_best(lambda m=new: m.stress(PARAMS))
             s_nb = cpu_best(lambda a=args: kernel.stress_into(*a))
             print(f"   {q:>7} {name:8}{b * 1e6:>9.1f}{bo * 1e6:>9.1f}{bo / b:>7.1f}{g * 1e6:>9.1f}"

@@ -193,11 +193,11 @@ def test_gradients_on_quantized_levels_match_finite_differences(monkeypatch):
 @njit
 def _loop_over_sets(theta, grid, out):
     # theta columns in NAMES order (E, G, tau_max, sigma_inf, tau_max_R); stress_into takes
-    # (E, G, sigma_inf, tau_max, tau_max_R)
+    # (E, G, sigma_inf, tau_max, tau_max_R, alpha)
     ok = 0
     for r in range(theta.shape[0]):
         ok += kernel.stress_into(theta[r, 0], theta[r, 1], theta[r, 3], theta[r, 2], theta[r, 4],
-                                 grid, out[r])
+                                 0.5, grid, out[r])
     return ok
 
 
@@ -223,14 +223,14 @@ def test_invalid_time_constants_give_nan_and_false_not_a_crash():
     m = DNLR(t, e, relaxation_start=200.0)
     out = np.zeros(m.n_points)
     for bad in ((-1.0, 10.0), (np.nan, 10.0), (5.0, 0.0), (5.0, np.inf)):
-        assert not kernel.stress_into(2000.0, 2.0, 50.0, bad[0], bad[1], m.kernel_args, out)
+        assert not kernel.stress_into(2000.0, 2.0, 50.0, bad[0], bad[1], 0.5, m.kernel_args, out)
         assert np.isnan(out).all()
     theta = sets(3)
     theta[1, 4] = -3.0
     with pytest.raises(ValueError, match="row 1 of theta"):
         m.stress_batch(theta, NAMES)
     tensile = DNLR(t, e)      # no relaxation: tau_max_R is ignored
-    assert kernel.stress_into(2000.0, 2.0, 0.0, 5.0, -1.0, tensile.kernel_args, out)
+    assert kernel.stress_into(2000.0, 2.0, 0.0, 5.0, -1.0, 0.5, tensile.kernel_args, out)
 
 
 # ------------------------------------------------------------------------ batch and threads

@@ -26,6 +26,7 @@ from bayes_dnlr.inference import gp
 from bayes_dnlr.inference.discrepancy import make_axis
 from bayes_dnlr.inference.sensitivity import correlation, covariance, sensitivity_matrix
 from bayes_dnlr.model import DNLR
+from bayes_dnlr.model.spectrum import UNIVERSAL_EXPONENT
 
 
 @dataclass(frozen=True)
@@ -129,7 +130,8 @@ def predict(candidate: Candidate, draws: Draws, free: Sequence[str], modes: int,
     p = len(names)
     cov_sum, rel_sum, logdet = np.zeros((p, p)), np.zeros((p, p)), []
     for theta, noise in zip(draws.params, draws.noise, strict=True):
-        basis = model.basis(theta["tau_max"], theta.get("tau_max_R") if relaxation else None, grad=True)
+        basis = model.basis(theta["tau_max"], theta.get("tau_max_R") if relaxation else None, grad=True,
+                            alpha=theta.get("alpha", UNIVERSAL_EXPONENT))
         X = sensitivity_matrix(basis, theta, names, mask)
         values = np.array([theta[k] for k in names])
         try:

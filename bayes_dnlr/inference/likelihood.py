@@ -34,6 +34,8 @@ from bayes_dnlr.inference import gp
 from bayes_dnlr.inference.discrepancy import AMPLITUDE, LENGTH, Axis, is_white, test_axis
 from bayes_dnlr.inference.priors import PriorSet, build_priors
 from bayes_dnlr.model import DNLR
+from bayes_dnlr.model.dnlr import SPECTRUM_EXPONENT
+from bayes_dnlr.model.spectrum import UNIVERSAL_EXPONENT
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
@@ -73,7 +75,8 @@ class LogPosterior:
         self.ndim = priors.ndim
         model_names = model.parameter_names()
         noise_names = ("sigma0", *DISCREPANCY_PARAMETERS)
-        unknown = [k for k in self.names if k not in model_names and k not in noise_names]
+        unknown = [k for k in self.names
+                   if k not in model_names and k not in noise_names and k != SPECTRUM_EXPONENT]
         if unknown:
             raise ValueError(f"parameters {unknown} are not parameters of this model {model_names}")
         missing = [k for k in model_names if k not in self.names and k not in fixed]
@@ -91,9 +94,11 @@ class LogPosterior:
                 raise ValueError(f"{k} is neither sampled nor fixed")
         # where each model quantity comes from: a column of theta, or a constant
         self._source = {}
-        for k in (*model_names, "sigma0", *disc_names):
+        for k in (*model_names, SPECTRUM_EXPONENT, "sigma0", *disc_names):
             if k in self.names:
                 self._source[k] = self.names.index(k)
+            elif k == SPECTRUM_EXPONENT:       # optional: eq. 12's ½ unless fixed otherwise
+                self._source[k] = float(fixed.get(k, UNIVERSAL_EXPONENT))
             elif k == "sigma0":
                 self._source[k] = float(sigma0)  # type: ignore[arg-type]
             elif k in disc_names:
@@ -130,8 +135,8 @@ class LogPosterior:
         """Model stress on the window, (k, n), for physical parameters theta (k, ndim)."""
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         out = np.empty((theta.shape[0], self.n))
-        for i, (e, g, t, s, tr) in enumerate(zip(*self._linear_and_times(theta), strict=True)):
-            out[i] = self._stress(e, g, t, s, tr)
+        for i, (e, g, t, s, tr, a) in enumerate(zip(*self._linear_and_times(theta), strict=True)):
+            out[i] = self._stress(e, g, t, s, tr, a)
         return out
 
     def _linear_and_times(self, theta: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -140,10 +145,10 @@ class LogPosterior:
             s, tr = self._col(theta, "sigma_inf"), self._col(theta, "tau_max_R")
         else:
             s = tr = np.zeros(theta.shape[0])
-        return e, g, t, s, tr
+        return e, g, t, s, tr, self._col(theta, SPECTRUM_EXPONENT)
 
-    def _stress(self, e: float, g: float, t: float, s: float, tr: float) -> np.ndarray:
-        b = self.model.basis(t, tr if self.has_relaxation else None).values[self.rows]
+    def _stress(self, e: float, g: float, t: float, s: float, tr: float, a: float) -> np.ndarray:
+        b = self.model.basis(t, tr if self.has_relaxation else None, alpha=a).values[self.rows]
         if self.has_relaxation:
             return b @ np.array([e, g, s])
         return b[:, :2] @ np.array([e, g])
@@ -168,10 +173,11 @@ class LogPosterior:
             return self.log_likelihood_reference(theta)
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         k = theta.shape[0]
-        e, g, t, s, tr = self._linear_and_times(theta)
-        sets = np.empty((k, 5))
+        e, g, t, s, tr, a = self._linear_and_times(theta)
+        sets = np.empty((k, 6))
         sets[:, 0], sets[:, 1], sets[:, 2], sets[:, 3] = e, g, s, t
         sets[:, 4] = tr if self.has_relaxation else t
+        sets[:, 5] = a
         sig = np.ascontiguousarray(self._col(theta, "sigma0"), dtype=float)
         if self.discrepancy is not None:
             amp = np.ascontiguousarray(self._col(theta, AMPLITUDE), dtype=float)

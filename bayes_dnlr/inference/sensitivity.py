@@ -3,7 +3,8 @@
 X (eq. 22) is the Jacobian of the model stress with respect to the parameters, one column per
 parameter. Its columns are exact: the model is linear in E, G and sigma_inf, so their columns are the
 unit responses of ``DNLR.basis``; the time-constant columns come from the forward-mode derivatives
-the integrator carries (d/d ln tau, divided by tau).
+the integrator carries (d/d ln tau, divided by tau), the spectrum exponent's (alpha) from the
+derivative of the weights (model/kernel.py).
 
 From X and the noise level sigma0: Δ = sigma0² (XᵀX)⁻¹ (eq. 32), Err(β_j) = sqrt(Δ_jj)/β_j (eq. 33),
 ρ_rs = Δ_rs / sqrt(Δ_rr Δ_ss) (eq. 34), and Δ̃ with Err on the diagonal and ρ off it (eq. 35).
@@ -22,6 +23,8 @@ from bayes_dnlr.model import Basis
 
 LINEAR_COLUMN = {"E": 0, "G": 1, "sigma_inf": 2}
 TIME_CONSTANTS = ("tau_max", "tau_max_R")
+SHAPE_PARAMETERS = ("alpha",)    # enters the weights p_j (eq. 12); not log-scaled
+NONLINEAR = TIME_CONSTANTS + SHAPE_PARAMETERS
 
 # identifiability thresholds (warnings, never errors)
 RHO_WARN = 0.99
@@ -33,15 +36,14 @@ NEGLIGIBLE_ERR = 0.1     # ... and only for a parameter whose Err is above 10 %:
 ZERO_VALUE = 1.0e-12     # |β_j|·|X_j| below this fraction of the largest: β_j counts as zero
 
 
-def log_sensitivity(basis: Basis, params: Mapping[str, float], name: str) -> np.ndarray:
-    """∂y/∂ln(β) for one parameter (eq. 22 times β), on the model's full grid."""
-    v = basis.values
-    if name in LINEAR_COLUMN:
-        return params[name] * v[:, LINEAR_COLUMN[name]]
+def _nonlinear_derivative(basis: Basis, params: Mapping[str, float], name: str) -> np.ndarray:
+    """∂y/∂ln(tau) for a time constant, ∂y/∂alpha for the spectrum exponent."""
     if name == "tau_max":
         g = basis.grad_tau_max
     elif name == "tau_max_R":
         g = basis.grad_tau_max_R
+    elif name == "alpha":
+        g = basis.grad_alpha
     else:
         raise ValueError(f"unknown parameter {name!r}")
     if g is None:
@@ -53,15 +55,29 @@ def log_sensitivity(basis: Basis, params: Mapping[str, float], name: str) -> np.
     return s
 
 
+def log_sensitivity(basis: Basis, params: Mapping[str, float], name: str) -> np.ndarray:
+    """∂y/∂ln(β) for one parameter (eq. 22 times β), on the model's full grid."""
+    v = basis.values
+    if name in LINEAR_COLUMN:
+        return params[name] * v[:, LINEAR_COLUMN[name]]
+    s = _nonlinear_derivative(basis, params, name)
+    return params[name] * s if name in SHAPE_PARAMETERS else s
+
+
+def derivative(basis: Basis, params: Mapping[str, float], name: str) -> np.ndarray:
+    """∂y/∂β for one parameter (eq. 22), on the model's full grid."""
+    if name in LINEAR_COLUMN:
+        return basis.values[:, LINEAR_COLUMN[name]]
+    s = _nonlinear_derivative(basis, params, name)
+    return s if name in SHAPE_PARAMETERS else s / params[name]
+
+
 def sensitivity_matrix(basis: Basis, params: Mapping[str, float], names: Sequence[str],
                        mask: np.ndarray | None = None) -> np.ndarray:
     """X (eq. 22): X[i, j] = ∂y(t_i)/∂β_j for the parameters ``names``, rows where ``mask`` is True."""
     cols = []
     for k in names:
-        if k in LINEAR_COLUMN:
-            c = basis.values[:, LINEAR_COLUMN[k]]
-        else:
-            c = log_sensitivity(basis, params, k) / params[k]
+        c = derivative(basis, params, k)
         cols.append(c if mask is None else c[mask])
     return np.column_stack(cols)
 

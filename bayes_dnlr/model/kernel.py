@@ -39,7 +39,9 @@ Grid data (``DNLR.kernel_args``, a ``Grid`` named tuple built by ``grid_arrays``
                                  Δ, 1/Δ, Δε, Δh, h_{i+1}, ρ
     level      int64   (q-1,)    the step's level within its phase, -1 for a full exp
     levels     float64 (n_t+n_r,) the level step lengths Δ_L, tensile levels first
-    p, shape   float64 (N,)      the weights p_j and the spectrum shape tau_j/tau_max (eq. 12-14)
+    p, shape   float64 (N,)      the weights p_j at the exponent alpha0 = ½ and the spectrum shape
+    log_shape                    tau_j/tau_max and its ln (eq. 12-14); other exponents alpha
+    alpha0                       (p_j ∝ tau_j^alpha) are computed per call (``_weights``)
     n_tensile, n_levels_t, n_levels_r, exact_t, exact_r, h0, d_min_t, d_min_r: the tensile step
                                  count, level counts and kinds per phase, h_0 and the shortest
                                  step of each phase
@@ -172,8 +174,10 @@ class Grid(NamedTuple):
     steps: np.ndarray       # (q-1, 6): DT, IDT, DE, DH, H1, RHO
     level: np.ndarray       # (q-1,) int64: the step's level in its phase, -1 for a full exp
     levels: np.ndarray      # (n_levels_t + n_levels_r,): Δ_L, tensile levels first
-    p: np.ndarray           # (N,): the weights p_j (eq. 12)
+    p: np.ndarray           # (N,): the weights p_j at the exponent alpha0 (eq. 12)
     shape: np.ndarray       # (N,): tau_j / tau_max (eq. 14)
+    log_shape: np.ndarray   # (N,): ln(tau_j / tau_max), for the weights at another exponent
+    alpha0: float           # the exponent of p: ½, Cunat's universal spectrum
     n_tensile: int          # steps of the tensile phase (the first ones)
     n_levels_t: int
     n_levels_r: int
@@ -189,6 +193,7 @@ class PhaseTables(NamedTuple):
     ones have 1/tau_k and p_k tau_k; sums over the relaxed ones; the level tables."""
 
     j0: int
+    tau_max: float
     itau: np.ndarray
     ptau: np.ndarray
     spt: float              # Σ p_j tau_j over the relaxed modes
@@ -196,6 +201,27 @@ class PhaseTables(NamedTuple):
     t1: np.ndarray
     t2: np.ndarray
     t3: np.ndarray
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _weights(grid, alpha):
+    """p_j = (tau_j/tau_max)^alpha / Σ_k (tau_k/tau_max)^alpha (eq. 12 with the exponent alpha):
+    the grid's own p at its exponent alpha0 (so that results at ½ are the paper's bit for bit),
+    else computed, the largest term scaled to 1 (no overflow for any alpha)."""
+    if alpha == grid.alpha0:
+        return grid.p
+    ls = grid.log_shape
+    top = alpha * ls[0]
+    for j in range(ls.size):
+        top = max(top, alpha * ls[j])
+    w = np.empty(ls.size)
+    total = 0.0
+    for j in range(ls.size):
+        w[j] = math.exp(alpha * ls[j] - top)
+        total += w[j]
+    for j in range(ls.size):
+        w[j] /= total
+    return w
 
 
 @njit(cache=True, fastmath=_FASTMATH)
@@ -230,7 +256,7 @@ def _phase_tables(grid, p, tau_max, relaxation, for_stress):
         exact = grid.exact_r if relaxation else grid.exact_t
         kind = _TAB_EXACT if exact else _TAB_QUANT
     t1, t2, t3 = _level_tables(grid.levels[first:first + nl], itau, ptau, kind)
-    return PhaseTables(j0, itau, ptau, spt, sp, t1, t2, t3)
+    return PhaseTables(j0, tau_max, itau, ptau, spt, sp, t1, t2, t3)
 
 
 _BLOCK = 32     # steps whose decays integrate computes in one call
@@ -358,29 +384,32 @@ def _stress_phase(grid, i0, i1, exact, tabs, e_mod, g_h, s_base, D, out):
 
 
 @njit(cache=True, fastmath=_FASTMATH)
-def stress_into(E, G, sigma_inf, tau_max, tau_max_R, grid, out):
+def stress_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, grid, out):
     """True stress of one parameter set at every sample, written into ``out`` (q,). Returns True,
     or False (``out`` filled with NaN) when tau_max, or tau_max_R with a relaxation phase, is not
-    a finite positive number. Callable from Python and from other njit code, also inside prange.
+    a finite positive number, or alpha is not finite. Callable from Python and from other njit
+    code, also inside prange.
 
-    Calling convention: ``stress_into(E, G, sigma_inf, tau_max, tau_max_R, grid, out)`` with
-    five floats (MPa, MPa, MPa, s, s), ``grid = DNLR.kernel_args`` (the ``Grid`` described in the
-    module docstring; pass it through unchanged) and ``out`` a float64 C-contiguous array of
-    length q = DNLR.n_points. Without a relaxation phase sigma_inf and tau_max_R are ignored
-    (pass any float). Work memory is O(N·levels), independent of q; no reduction crosses calls,
-    so the result of one set never depends on others or on the thread count.
+    Calling convention: ``stress_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, grid, out)``
+    with six floats (MPa, MPa, MPa, s, s, and the spectrum exponent: p_j ∝ tau_j^alpha, ½ in
+    eq. 12), ``grid = DNLR.kernel_args`` (the ``Grid`` described in the module docstring; pass it
+    through unchanged) and ``out`` a float64 C-contiguous array of length q = DNLR.n_points.
+    Without a relaxation phase sigma_inf and tau_max_R are ignored (pass any float). Work memory
+    is O(N·levels), independent of q; no reduction crosses calls, so the result of one set never
+    depends on others or on the thread count.
     """
     fg = grid.steps
-    p = grid.p
     shape = grid.shape
-    n = p.size
+    n = shape.size
     n_steps = fg.shape[0]
     nt = grid.n_tensile
     relax = nt < n_steps
     if not (tau_max > 0.0 and tau_max < np.inf) or (
-            relax and not (tau_max_R > 0.0 and tau_max_R < np.inf)):
+            relax and not (tau_max_R > 0.0 and tau_max_R < np.inf)) or not (
+            alpha > -np.inf and alpha < np.inf):
         out[:] = np.nan
         return False
+    p = _weights(grid, alpha)
     out[0] = G * grid.h0
     D = np.zeros(n)
     j0t = 0
@@ -408,14 +437,14 @@ def stress_into(E, G, sigma_inf, tau_max, tau_max_R, grid, out):
 
 @njit(cache=True, fastmath=_FASTMATH, parallel=True)
 def stress_batch_into(theta, grid, out):
-    """``stress_into`` for every row of theta (k, 5) = (E, G, sigma_inf, tau_max, tau_max_R),
+    """``stress_into`` for every row of theta (k, 6) = (E, G, sigma_inf, tau_max, tau_max_R, alpha),
     rows of ``out`` (k, q), in parallel over rows (numba threads). Returns the number of rows
     whose time constants were invalid (those rows hold NaN). Each row is computed on its own by
     the same compiled code: the result is bit-identical whatever the thread count."""
     bad = np.zeros(theta.shape[0], dtype=np.int64)
     for r in prange(theta.shape[0]):
         ok = stress_into(theta[r, 0], theta[r, 1], theta[r, 2], theta[r, 3], theta[r, 4],
-                         grid, out[r])
+                         theta[r, 5], grid, out[r])
         bad[r] = 0 if ok else 1
     return bad.sum()
 
@@ -423,8 +452,8 @@ def stress_batch_into(theta, grid, out):
 # ------------------------------------------------ unit responses and their derivatives (basis)
 
 @njit(cache=True, fastmath=_FASTMATH)
-def _integrate_phase(grid, tabs, relaxation, i0, i1, p, states, want_grad, out, g_own, g_other,
-                     av, omv):
+def _integrate_phase(grid, tabs, relaxation, i0, i1, p, cw, states, want_grad, out, g_own,
+                     g_other, g_alpha, av, omv):
     """Advance the unit-response states of the active modes over steps i0..i1-1 of one phase and
     write the sums per sample (module docstring: the updates of A, B, C).
 
@@ -432,8 +461,10 @@ def _integrate_phase(grid, tabs, relaxation, i0, i1, p, states, want_grad, out, 
     respect to the ln of this phase's time constant (forward mode: d a/d ln tau = x a,
     d(p φ)/d ln tau = p φ - p a), fA, fB those with respect to the other phase's, which only decay
     (the relaxation phase carries the tensile derivatives). Tensile: σ^r = G h drives B, C = 0;
-    relaxation: σ^r = σ_inf drives C, B decays. Rows i+1 of out, g_own (this phase's derivative)
-    and g_other (the other one's) are written; the derivatives only when ``want_grad``.
+    relaxation: σ^r = σ_inf drives C, B decays. Rows i+1 of out, g_own (this phase's derivative),
+    g_other (the other one's) and g_alpha (d/d alpha) are written; the derivatives only when
+    ``want_grad``. Every state is proportional to its p_j and dp_j/dα = c_j p_j with
+    c_j = ln(tau_j/tau_max) - Σ_k p_k ln(tau_k/tau_max) (``cw``), so d/dα of a sum is Σ c_j X_j.
     """
     fg = grid.steps
     A, B, C, dA, dB, dC, fA, fB = states
@@ -442,7 +473,13 @@ def _integrate_phase(grid, tabs, relaxation, i0, i1, p, states, want_grad, out, 
     spt = tabs.spt
     sp = tabs.sp
     pk = p[tabs.j0:]
+    ck = cw[tabs.j0:]
     nk = itau.size
+    cspt = 0.0          # Σ c_j p_j tau_j and Σ c_j p_j over the relaxed modes
+    csp = 0.0
+    for j in range(tabs.j0):
+        cspt += cw[j] * p[j] * tabs.tau_max * grid.shape[j]
+        csp += cw[j] * p[j]
     for i in range(i0, i1):
         d = fg[i, DT]
         idt = fg[i, IDT]
@@ -511,18 +548,36 @@ def _integrate_phase(grid, tabs, relaxation, i0, i1, p, states, want_grad, out, 
         out[i + 1, 0] = sa
         out[i + 1, 1] = sb
         out[i + 1, 2] = sc
+        if want_grad:
+            ca = cspt * de * idt
+            if relaxation:
+                cb = 0.0
+                cc = csp
+                for k in range(nk):
+                    ca += ck[k] * A[k]
+                    cb += ck[k] * B[k]
+                    cc += ck[k] * C[k]
+            else:
+                cb = csp * h1 - cspt * dh * idt
+                cc = 0.0
+                for k in range(nk):
+                    ca += ck[k] * A[k]
+                    cb += ck[k] * B[k]
+            g_alpha[i + 1, 0] = ca
+            g_alpha[i + 1, 1] = cb
+            g_alpha[i + 1, 2] = cc
 
 
 @njit(cache=True, fastmath=_FASTMATH)
-def integrate(tau_max, tau_max_R, grid, want_grad, out, grad_t, grad_r):
+def integrate(tau_max, tau_max_R, alpha, grid, want_grad, out, grad_t, grad_r, grad_a):
     """Integrate all modes over the whole record; write ΣA, ΣB, ΣC per sample into ``out`` (q, 3).
 
-    grad_t, grad_r (q, 3): d/d ln tau_max and d/d ln tau_max_R of the same sums, written only when
-    ``want_grad``. Without a relaxation phase tau_max_R is ignored. Time constants must be finite
-    and positive (checked by the caller).
+    grad_t, grad_r, grad_a (q, 3): d/d ln tau_max, d/d ln tau_max_R and d/d alpha of the same
+    sums, written only when ``want_grad``. Without a relaxation phase tau_max_R is ignored. Time
+    constants must be finite and positive, alpha finite (checked by the caller).
     """
     fg = grid.steps
-    p = grid.p
+    p = _weights(grid, alpha)
     shape = grid.shape
     n = p.size
     n_steps = fg.shape[0]
@@ -538,6 +593,10 @@ def integrate(tau_max, tau_max_R, grid, want_grad, out, grad_t, grad_r):
     rC = np.zeros(n)
     av = np.empty((_BLOCK, n))      # decays of a block of steps (active modes)
     omv = np.empty((_BLOCK, n))
+    mean_log = 0.0
+    for j in range(n):
+        mean_log += p[j] * grid.log_shape[j]
+    cw = grid.log_shape - mean_log  # dp_j/dα = cw_j p_j
     out[0, 0] = 0.0
     out[0, 1] = grid.h0
     out[0, 2] = 0.0
@@ -545,6 +604,7 @@ def integrate(tau_max, tau_max_R, grid, want_grad, out, grad_t, grad_r):
         for c in range(3):
             grad_t[0, c] = 0.0
             grad_r[0, c] = 0.0
+            grad_a[0, c] = 0.0      # Σ c_j p_j h_0 = 0
 
     # ---- tensile phase (eq. 18)
     j0_t = 0
@@ -553,8 +613,8 @@ def integrate(tau_max, tau_max_R, grid, want_grad, out, grad_t, grad_r):
         j0_t = tabs.j0
         states = (A[j0_t:], B[j0_t:], C[j0_t:], gA[j0_t:], gB[j0_t:], gC[j0_t:], rA[j0_t:],
                   rB[j0_t:])
-        _integrate_phase(grid, tabs, False, 0, n_tensile, p, states, want_grad, out, grad_t,
-                         grad_r, av, omv)
+        _integrate_phase(grid, tabs, False, 0, n_tensile, p, cw, states, want_grad, out, grad_t,
+                         grad_r, grad_a, av, omv)
 
     if n_tensile >= n_steps:
         return
@@ -577,8 +637,8 @@ def integrate(tau_max, tau_max_R, grid, want_grad, out, grad_t, grad_r):
     tabs = _phase_tables(grid, p, tau_max_R, True, False)
     j0 = tabs.j0
     states = (A[j0:], B[j0:], C[j0:], rA[j0:], rB[j0:], rC[j0:], gA[j0:], gB[j0:])
-    _integrate_phase(grid, tabs, True, n_tensile, n_steps, p, states, want_grad, out, grad_r,
-                     grad_t, av, omv)
+    _integrate_phase(grid, tabs, True, n_tensile, n_steps, p, cw, states, want_grad, out, grad_r,
+                     grad_t, grad_a, av, omv)
 
 
 # ------------------------------------------------------------- grid preparation (plain numpy)
@@ -611,8 +671,9 @@ def step_levels(steps: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
 
 
 def grid_arrays(time: np.ndarray, strain: np.ndarray, h: np.ndarray, n_tensile: int,
-                p: np.ndarray, shape: np.ndarray) -> Grid:
-    """The parameter-free ``Grid`` of ``stress_into`` and ``integrate`` (module docstring)."""
+                p: np.ndarray, shape: np.ndarray, alpha0: float = 0.5) -> Grid:
+    """The parameter-free ``Grid`` of ``stress_into`` and ``integrate`` (module docstring); p are
+    the weights at the exponent alpha0 (eq. 12: ½)."""
     dt = np.diff(time)
     n_steps = dt.size
     fg = np.empty((n_steps, 6))
@@ -627,7 +688,9 @@ def grid_arrays(time: np.ndarray, strain: np.ndarray, h: np.ndarray, n_tensile: 
     return Grid(
         steps=fg, level=np.concatenate([idx_t, idx_r]).astype(np.int64),
         levels=np.concatenate([lev_t, lev_r]), p=np.ascontiguousarray(p, dtype=float),
-        shape=np.ascontiguousarray(shape, dtype=float), n_tensile=int(n_tensile),
+        shape=np.ascontiguousarray(shape, dtype=float),
+        log_shape=np.log(np.ascontiguousarray(shape, dtype=float)), alpha0=float(alpha0),
+        n_tensile=int(n_tensile),
         n_levels_t=int(lev_t.size), n_levels_r=int(lev_r.size), exact_t=bool(exact_t),
         exact_r=bool(exact_r), h0=float(h[0]),
         d_min_t=float(dt[:n_tensile].min()) if n_tensile > 0 else 1.0,

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -197,7 +197,7 @@ def joint_target(cfg: Config, tests: dict[str, Any], fit: dict[str, Any], stored
     for g in layout.names:
         t = test_of(g) or next(t for t in layout.tests if base_name(g) in local_names[t])
         p = local_priors[t].priors[local_priors[t].names.index(base_name(g))]
-        joint_priors.append(type(p)(g, p.kind, p.low, p.high, p.loc, p.scale, p.log_space, p._log_norm))
+        joint_priors.append(replace(p, name=g))
     priors = PriorSet(tuple(joint_priors))
     post = JointPosterior(local_posts, layout, priors)
     # start: the joint model estimate and covariance, each test's noise start

@@ -39,7 +39,7 @@ from bayes_dnlr.report.html import CSS
 PAGE = "batch.html"
 FIGURE = "batch_E.png"
 FOREST_MAX = 80          # tests shown one by one in the forest plot
-PARAMS = ("E", "G", "tau_max", "sigma_inf", "tau_max_R")
+PARAMS = ("E", "G", "tau_max", "sigma_inf", "tau_max_R", "alpha")
 
 
 def _warm_up_the_end() -> None:

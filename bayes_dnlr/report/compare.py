@@ -27,8 +27,8 @@ from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pm
 from bayes_dnlr.report.tables import RunResults, Table, deborah, load_run
 
 P_CONSISTENT = 0.05
-PARAMS = ("E", "G", "tau_max", "sigma_inf", "tau_max_R")
-UNIT = {"E": "MPa", "G": "MPa", "tau_max": "s", "sigma_inf": "MPa", "tau_max_R": "s"}
+PARAMS = ("E", "G", "tau_max", "sigma_inf", "tau_max_R", "alpha")
+UNIT = {"E": "MPa", "G": "MPa", "tau_max": "s", "sigma_inf": "MPa", "tau_max_R": "s", "alpha": "-"}
 
 
 @dataclass

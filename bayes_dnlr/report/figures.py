@@ -26,10 +26,12 @@ import numpy as np
 DPI = 110
 LABELS = {"E": r"$E$ (MPa)", "G": r"$G$ (MPa)", "tau_max": r"$\tau_{max}$ (s)",
           "sigma_inf": r"$\sigma_\infty$ (MPa)", "tau_max_R": r"$\tau^R_{max}$ (s)",
+          "alpha": r"$\alpha$ (spectrum exponent)",
           "sigma0": r"$\sigma_0$ (MPa)", "disc_amplitude": r"$\delta$ amplitude (MPa)",
           "disc_length": r"$\delta$ length"}
 SYMBOLS = {"E": r"$E$", "G": r"$G$", "tau_max": r"$\tau_{max}$", "sigma_inf": r"$\sigma_\infty$",
-           "tau_max_R": r"$\tau^R_{max}$", "sigma0": r"$\sigma_0$", "disc_amplitude": r"$a_\delta$",
+           "tau_max_R": r"$\tau^R_{max}$", "alpha": r"$\alpha$", "sigma0": r"$\sigma_0$",
+           "disc_amplitude": r"$a_\delta$",
            "disc_length": r"$\ell_\delta$"}
 C_DATA, C_MODEL, C_GN, C_TRUTH = "0.35", "#c0392b", "#1f5fa8", "#2e8b57"
 

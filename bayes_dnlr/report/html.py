@@ -18,6 +18,7 @@ import numpy as np
 
 from bayes_dnlr import __version__
 from bayes_dnlr.inference.plausibility import plausibility_warnings
+from bayes_dnlr.model.spectrum import UNIVERSAL_EXPONENT
 from bayes_dnlr.numbers import fmt, interval, pm
 from bayes_dnlr.report import figures as figs
 from bayes_dnlr.report import noise as rn
@@ -60,9 +61,20 @@ def _stress(basis_values: np.ndarray, p: dict[str, float]) -> np.ndarray:
     return s
 
 
+def _basis(model, p: dict[str, float], grad: bool = False):
+    """The model's basis at the time constants and spectrum exponent of ``p``."""
+    return model.basis(p["tau_max"], p.get("tau_max_R"), grad=grad,
+                       alpha=p.get("alpha", UNIVERSAL_EXPONENT))
+
+
+def _model_names(model) -> list[str]:
+    """The model's parameters, the optional spectrum exponent included."""
+    return [*model.parameter_names(), "alpha"]
+
+
 def sensitivities(model, params: dict[str, float], names: list[str]) -> dict[str, np.ndarray]:
     """Normalised sensitivities X̃_j = β_j ∂σ/∂β_j (eq. 37), MPa, on the model grid."""
-    b = model.basis(params["tau_max"], params.get("tau_max_R"), grad=True)
+    b = _basis(model, params, grad=True)
     out = {}
     for n in names:
         if n in ("E", "G", "sigma_inf"):
@@ -71,6 +83,8 @@ def sensitivities(model, params: dict[str, float], names: list[str]) -> dict[str
             g = b.grad_tau_max if n == "tau_max" else b.grad_tau_max_R
             if g is not None:
                 out[n] = _stress(g, params)   # ∂σ/∂ln tau = tau ∂σ/∂tau
+        elif n == "alpha":
+            out[n] = params[n] * _stress(b.grad_alpha, params)
     return out
 
 
@@ -82,7 +96,7 @@ def run_white_curve(run: RunResults, curves: Curves) -> np.ndarray:
     model, _ = _model(run)
     p = dict(run.cfg.fixed_values)
     p.update(gn["estimate"])
-    return _stress(model.basis(p["tau_max"], p.get("tau_max_R")).values, p)
+    return _stress(_basis(model, p).values, p)
 
 
 def model_curves(run: RunResults, n_draws: int = N_DRAWS, seed: int = 0) -> Curves:
@@ -98,8 +112,8 @@ def model_curves(run: RunResults, n_draws: int = N_DRAWS, seed: int = 0) -> Curv
     point = run.point()
     if all(k in point for k in model.parameter_names()):
         if run.gn() is not None:
-            c.gn_curve = _stress(model.basis(point["tau_max"], point.get("tau_max_R")).values, point)
-        c.sensitivities = sensitivities(model, point, [k for k in model.parameter_names()
+            c.gn_curve = _stress(_basis(model, point).values, point)
+        c.sensitivities = sensitivities(model, point, [k for k in _model_names(model)
                                                        if k in run.model_names])
     if run.draws is not None and all(k in run.draws or k in fixed for k in model.parameter_names()):
         rng = np.random.default_rng(seed)
@@ -111,8 +125,8 @@ def model_curves(run: RunResults, n_draws: int = N_DRAWS, seed: int = 0) -> Curv
         curves = np.empty((pick.size, n))
         for i in range(pick.size):
             p = dict(fixed)
-            p.update({k: float(flat[k][i]) for k in model.parameter_names() if k in flat})
-            curves[i] = _stress(model.basis(p["tau_max"], p.get("tau_max_R")).values, p)
+            p.update({k: float(flat[k][i]) for k in _model_names(model) if k in flat})
+            curves[i] = _stress(_basis(model, p).values, p)
         c.median = np.median(curves, axis=0)
         lo, hi = np.quantile(curves, [0.05, 0.95], axis=0)
         c.band = (lo, hi)

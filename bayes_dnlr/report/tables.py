@@ -25,10 +25,11 @@ from bayes_dnlr.rundir import find_config
 SD_TOLERANCE = 0.15      # posterior sd vs linearized sd, relative
 RHO_TOLERANCE = 0.05     # posterior ρ vs linearized ρ, absolute
 NAMES_HTML = {"E": "E", "G": "G", "tau_max": "τ<sub>max</sub>", "sigma_inf": "σ<sub>∞</sub>",
-              "tau_max_R": "τ<sup>R</sup><sub>max</sub>", "sigma0": "σ<sub>0</sub>",
+              "tau_max_R": "τ<sup>R</sup><sub>max</sub>", "alpha": "α", "sigma0": "σ<sub>0</sub>",
               "disc_amplitude": "δ amplitude", "disc_length": "δ length"}
 NAMES_TEXT = {"E": "E", "G": "G", "tau_max": "tau_max", "sigma_inf": "sigma_inf",
-              "tau_max_R": "tau_max_R", "sigma0": "sigma0", "disc_amplitude": "disc_amplitude",
+              "tau_max_R": "tau_max_R", "alpha": "alpha", "sigma0": "sigma0",
+              "disc_amplitude": "disc_amplitude",
               "disc_length": "disc_length"}
 NOISE_NAMES = ("sigma0", "disc_amplitude", "disc_length")
 
