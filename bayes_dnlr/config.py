@@ -309,10 +309,11 @@ DEFAULT_PRIORS: dict[str, dict[str, Any]] = {
     "tau_max": {"prior": "log-uniform", "low": 0.01, "high": 1.0e4},
     "sigma_inf": {"prior": "uniform", "low": 0.0, "high": 500.0},
     "tau_max_R": {"prior": "log-uniform", "low": 0.01, "high": 1.0e5},
-    # the shape of the spectrum is an assumption (eq. 12): marginalised around Cunat's ½;
-    # {value: 0.5} is the paper's model exactly (docs/theory.md, "The spectrum's exponent")
-    "alpha": {"prior": "normal", "mean": 0.5, "sd": 0.15, "low": 0.0, "high": 1.0},
 }
+# The spectrum's exponent (p_j ∝ tau_j^alpha) is ½, Cunat's universal spectrum (eq. 12), unless
+# parameters.alpha is given; this is the prior the docs propose to marginalise it
+# (docs/theory.md, "The spectrum's exponent": what it costs and buys, measured).
+ALPHA_PRIOR: dict[str, Any] = {"prior": "normal", "mean": 0.5, "sd": 0.05, "low": 0.0, "high": 1.0}
 
 
 class BaselineNoise(_Strict):
@@ -669,7 +670,7 @@ class Config(_Strict):
                          else "data.relaxation_start")
                 raise ValueError(f"parameters {extra} need a relaxation hold: set {where} "
                                  "(auto or a time)")
-        wanted += list(SPECTRUM_PARAMETERS)
+        wanted += [k for k in SPECTRUM_PARAMETERS if self.parameters.get(k) is not None]
         filled = {k: self.parameters.get(k) or ParameterSpec(**DEFAULT_PRIORS[k]) for k in wanted}
         self.parameters = filled
         if not self.free_parameters:

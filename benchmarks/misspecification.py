@@ -159,9 +159,39 @@ def _draws(run_dir: Path, names: list[str]) -> dict[str, np.ndarray]:
         return {k: np.asarray(g[k][...]).ravel() for k in names if k in g.variables}
 
 
+def _scores(fit: dict[str, Any]) -> dict[str, float | None]:
+    """The score test of the spectrum's exponent held at ½ (fit.json), white and under the
+    discrepancy (z in sd; None when alpha is sampled)."""
+    white = ((fit.get("spectrum_exponent") or {}).get("score") or {}).get("z")
+    gls = ((fit.get("discrepancy") or {}).get("alpha_score") or {}).get("z")
+    return {"score_white_z": white, "score_gls_z": gls}
+
+
+def fit_replicate(cfg, out: dict[str, Any]) -> dict[str, Any]:
+    """``--fit-only``: the linearized 90 % interval of E (the GLS one when the fit finds evidence
+    of model error, as ``sample`` would use the discrepancy; else the white one)."""
+    from bayes_dnlr.pipeline.fit import fit
+
+    r = fit(cfg).to_dict()
+    d = r.get("discrepancy")
+    evident = bool(d and d.get("evidence") and d.get("estimate"))   # else sample is white
+    src = d if evident else r
+    e, sd = src["estimate"]["E"], src["sd"]["E"]
+    truth_e = cfg.truth.params["E"]
+    z = (e - truth_e) / sd
+    return out | {"mean": e, "sd": sd, "lo": e - 1.645 * sd, "hi": e + 1.645 * sd,
+                  "covered": bool(abs(z) <= 1.645), "z": z, "trust": None, "fired": [],
+                  "flagged": False, "steps": 0, "converged": True, "sampling_s": 0.0,
+                  "kernel": d.get("kernel") if evident else None,
+                  "fit_bound_warnings": sum("bound" in w for w in r.get("warnings", [])),
+                  "posterior": {k: {"mean": src["estimate"][k], "sd": src["sd"][k]}
+                                for k in src["sd"]},
+                  "spectrum_exponent": r.get("spectrum_exponent"), **_scores(r)}
+
+
 def replicate(args: tuple) -> dict[str, Any]:
     """Simulate, fit and sample one replicate; what the tables need from its outputs."""
-    folder, kind, strength, likelihood, rep, overrides, target_ess = args
+    folder, kind, strength, likelihood, rep, overrides, target_ess, fit_only = args
     from bayes_dnlr.config import load_config
     from bayes_dnlr.pipeline.sample import sample
     from bayes_dnlr.synthetic import simulate_test
@@ -172,6 +202,8 @@ def replicate(args: tuple) -> dict[str, Any]:
     t0 = time.perf_counter()
     out: dict[str, Any] = {"kind": kind, "strength": strength, "likelihood": likelihood, "rep": rep,
                            "truth": cfg.truth.params}
+    if fit_only:
+        return fit_replicate(cfg, out) | {"wall_s": time.perf_counter() - t0}
     try:
         s = sample(cfg, progress=False).summary
     except Exception as err:     # a failed run is a result too: counted, not covered
@@ -192,11 +224,13 @@ def replicate(args: tuple) -> dict[str, Any]:
         "kernel": noise.get("kernel") if noise.get("model") == "discrepancy" else None,
         "fit_bound_warnings": sum("bound" in w for w in fit.get("warnings", [])),
         "posterior": {k: {"mean": v["mean"], "sd": v["sd"]} for k, v in post.items()},
+        **_scores(fit),
     }
     if "alpha" in post:
         d = _draws(cfg.run_dir, ["E", "alpha"])
         out["corr_E_alpha"] = float(np.corrcoef(d["E"], d["alpha"])[0, 1])
         out["truth_alpha"] = cfg.truth.params.get("alpha")
+    out["spectrum_exponent"] = s.get("spectrum_exponent")
     return out
 
 
@@ -228,6 +262,11 @@ def table(results: list[dict[str, Any]]) -> str:
         notes = ", ".join(f"{k} {v}" for k, v in sorted(kernels.items()))
         if fired:
             notes += "; " + ", ".join(f"{k} {v}/{n}" for k, v in sorted(fired.items()))
+        for key, label in (("score_white_z", "white"), ("score_gls_z", "GLS")):
+            zs = [abs(r[key]) for r in ok if r.get(key) is not None]
+            if zs:
+                notes += (f"; alpha score |z| > 2 ({label}) {sum(x > 2 for x in zs)}/{len(zs)}, "
+                          f"median |z| {np.median(zs):.1f}")
         if n - len(ok):
             notes += f"; {n - len(ok)} failed"
         lines.append(
@@ -240,8 +279,11 @@ def table(results: list[dict[str, Any]]) -> str:
             am = np.mean([r["posterior"]["alpha"]["mean"] for r in alpha])
             asd = np.mean([r["posterior"]["alpha"]["sd"] for r in alpha])
             rho = np.mean([r["corr_E_alpha"] for r in alpha])
+            shift = [abs(r["spectrum_exponent"]["shift_in_prior_sd"]) for r in alpha
+                     if (r.get("spectrum_exponent") or {}).get("shift_in_prior_sd") is not None]
+            far = f", |shift| > 2 prior sd in {sum(x > 2 for x in shift)}/{len(shift)}" if shift else ""
             lines.append(f"{'':<40}alpha: posterior mean {am:.3f} (avg), sd {asd:.3f}, "
-                         f"corr(E, alpha) {rho:+.3f}")
+                         f"corr(E, alpha) {rho:+.3f}{far}")
     return "\n".join(lines)
 
 
@@ -255,6 +297,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--set", action="append", default=[], metavar="KEY=YAML",
                     help="a config key for every run, e.g. 'parameters.alpha={value: 0.5}'")
     ap.add_argument("--target-ess", type=float, default=1000.0)
+    ap.add_argument("--fit-only", action="store_true",
+                    help="least squares only: linearized intervals (the GLS ones under the "
+                         "discrepancy) and the score test of alpha; fast")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--first", type=int, default=0, help="first replicate number (to extend a run)")
     ap.add_argument("--out", type=Path, default=None, help="write every replicate's record (JSON)")
@@ -275,8 +320,8 @@ def main(argv: list[str] | None = None) -> int:
           f"parameters × exp({VARY_SD} z); overrides {args.set or 'none'}; jobs {args.jobs}")
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
-        work = [(tmp, k, args.strength, lik, args.first + r, overrides, args.target_ess)
-                for k in kinds for lik in args.likelihoods for r in range(reps)]
+        work = [(tmp, k, args.strength, lik, args.first + r, overrides, args.target_ess,
+                 args.fit_only) for k in kinds for lik in args.likelihoods for r in range(reps)]
         if args.jobs <= 1:
             results = [replicate(w) for w in work]
         else:

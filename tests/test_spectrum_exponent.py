@@ -9,11 +9,14 @@ import pytest
 from test_kernel import jittered
 from test_model import RELAX, TABLE3_5E3, ramp
 
-from bayes_dnlr.config import parse_config
+from bayes_dnlr.config import ALPHA_PRIOR, parse_config
 from bayes_dnlr.inference.priors import Prior, build_priors
 from bayes_dnlr.inference.problem import LsqProblem
 from bayes_dnlr.model import DNLR, relaxation_times, weights
 from bayes_dnlr.truth_forms import generate
+
+RAW = {"name": "t", "data": {"file": "x.csv", "columns": {"time": "t", "strain": "e", "stress": "s"},
+                             "observable": "stress"}}
 
 
 def grids():
@@ -90,9 +93,7 @@ def test_least_squares_jacobian_has_the_alpha_column():
 
 def test_the_spectral_coordinate_carries_the_prior_exactly():
     """z = -10^(-alpha): the density of z, mapped back, is the configured prior of alpha."""
-    cfg = parse_config({"name": "t", "data": {"file": "x.csv", "columns": {"time": "t", "strain": "e",
-                                                                           "stress": "s"},
-                                              "observable": "stress"}})
+    cfg = parse_config({**RAW, "parameters": {"alpha": ALPHA_PRIOR}})
     priors = build_priors(cfg)
     assert priors.names[-1] == "alpha"
     pa = priors.priors[-1]
@@ -111,13 +112,13 @@ def test_the_spectral_coordinate_carries_the_prior_exactly():
                                  rel=1e-6)
 
 
-def test_alpha_fixed_leaves_every_coordinate_as_before():
-    spec = {"name": "t", "data": {"file": "x.csv", "columns": {"time": "t", "strain": "e",
-                                                               "stress": "s"},
-                                  "observable": "stress"},
-            "parameters": {"alpha": {"value": 0.5}}}
-    cfg = parse_config(spec)
-    priors = build_priors(cfg)
-    assert priors.names == ["E", "G", "tau_max"]
-    assert not any(p.spectral or p.log_space for p in priors.priors if p.name in ("E", "G"))
-    assert Prior.from_spec("E", cfg.parameters["E"]) == priors.priors[0]
+def test_by_default_and_fixed_alpha_is_eq_12_and_every_coordinate_as_before():
+    default = parse_config(RAW)
+    assert "alpha" not in default.parameters and default.free_parameters == ["E", "G", "tau_max"]
+    fixed = parse_config({**RAW, "parameters": {"alpha": {"value": 0.5}}})
+    assert fixed.fixed_values == {"alpha": 0.5}
+    for cfg in (default, fixed):
+        priors = build_priors(cfg)
+        assert priors.names == ["E", "G", "tau_max"]
+        assert not any(p.spectral or p.log_space for p in priors.priors if p.name in ("E", "G"))
+        assert Prior.from_spec("E", cfg.parameters["E"]) == priors.priors[0]

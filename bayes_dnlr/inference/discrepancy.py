@@ -239,14 +239,19 @@ def maximum_likelihood(problem: LsqProblem, beta0: np.ndarray, axis: Axis, kind:
                      length=val.get(LENGTH, fixed.get(LENGTH, lengths[0])))
 
     base = np.asarray(beta0, dtype=float).copy()
+    u_base = problem.to_u(base)      # ln of the time constants, alpha as it is
     evals = 0
+
+    def model_beta(v: np.ndarray) -> np.ndarray:
+        u = u_base.copy()
+        u[nl] = v[: len(nl)]
+        return problem.to_beta(u)
 
     def objective(v: np.ndarray) -> float:
         nonlocal evals
         evals += 1
         h = hyper(v)
-        beta = base.copy()
-        beta[nl] = np.exp(v[: len(nl)])
+        beta = model_beta(v)
         problem.whiten = w = whitener(axis, h, kind)
         params = problem.project(problem.params(beta))
         rw = problem.residuals(params)
@@ -260,7 +265,7 @@ def maximum_likelihood(problem: LsqProblem, beta0: np.ndarray, axis: Axis, kind:
     best = None
     for length0 in lengths:
         start = {"sigma0": s0_start, AMPLITUDE: a_start, LENGTH: length0}
-        v0 = np.concatenate([np.log(base[nl]), [math.log(start[k]) for k in names]])
+        v0 = np.concatenate([u_base[nl], [math.log(start[k]) for k in names]])
         v0 = np.clip(v0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
         res = minimize(objective, v0, method="Nelder-Mead", bounds=list(zip(lo, hi, strict=True)),
                        options={"xatol": 1e-5, "fatol": 1e-7, "maxfev": 400 * (len(v0) + 1),
@@ -268,8 +273,7 @@ def maximum_likelihood(problem: LsqProblem, beta0: np.ndarray, axis: Axis, kind:
         if best is None or res.fun < best.fun:
             best = res
     h = hyper(best.x)
-    beta = base.copy()
-    beta[nl] = np.exp(best.x[: len(nl)])
+    beta = model_beta(best.x)
     problem.whiten = whitener(axis, h, kind)
     beta = problem.vector(problem.project(problem.params(beta)))
     cov = _log_covariance(objective, best.x, len(nl), len(names))

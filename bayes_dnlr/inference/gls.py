@@ -33,7 +33,7 @@ from bayes_dnlr.inference.discrepancy import (
 )
 from bayes_dnlr.inference.noise import resolve_sigma0
 from bayes_dnlr.inference.problem import LsqProblem
-from bayes_dnlr.inference.sensitivity import StochasticAnalysis, analyse
+from bayes_dnlr.inference.sensitivity import StochasticAnalysis, alpha_score, analyse, derivative
 from bayes_dnlr.numbers import fmt
 
 CANDIDATES = ("exp", "matern32")     # rough first: the fallback when the smooth one is not identified
@@ -126,6 +126,10 @@ def analysis_with(kernel: str, cfg: Config, test, problem: LsqProblem, beta_whit
         params = problem.params(opt.beta)
         Xw = problem.jacobian(params)
         white_res = problem.residuals(params)
+        score = None
+        if "alpha" not in names and "E" in names:       # the spectrum exponent held fixed
+            x_alpha = derivative(problem.basis(params), params, "alpha")[problem.mask]
+            score = alpha_score(Xw, problem.whiten(x_alpha), white_res, 1.0)
     finally:
         problem.whiten = None
     values = problem.vector(params)
@@ -182,6 +186,7 @@ def analysis_with(kernel: str, cfg: Config, test, problem: LsqProblem, beta_whit
         "shift_in_sd": shift,
         "criterion": float(opt.criterion), "converged": bool(opt.converged), "message": opt.message,
         "whitened_residuals": whitened,
+        "alpha_score": score,
         "warnings": warnings,
     }
 

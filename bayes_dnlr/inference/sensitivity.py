@@ -228,6 +228,43 @@ def analyse_holding(X: np.ndarray, names: Sequence[str], values: Sequence[float]
         condition_number=sub.condition_number, max_normalised=np.max(np.abs(Xn), axis=0))
 
 
+def alpha_dependence(X: np.ndarray, names: Sequence[str], values: Sequence[float],
+                     x_alpha: np.ndarray, alpha: float, sampled: bool) -> dict[str, object]:
+    """How the least-squares estimate depends on the spectrum's exponent alpha (eq. 12 has ½):
+    dβ̂/dα = -(XᵀX)⁻¹Xᵀ x_α, X the columns of the other free parameters ``names`` (eq. 22) and
+    x_α = ∂y/∂α: the shift of their estimate when alpha is held at another value. With alpha
+    sampled, the same number is the slope Σ_βα/Σ_αα of the linearized posterior. ``per_tenth`` is
+    the shift for Δα = +0.1, ``relative_per_tenth`` that shift as a fraction of the estimate."""
+    scale = np.linalg.norm(X, axis=0)
+    scale[scale == 0] = 1.0
+    slope = np.linalg.lstsq(X / scale, -x_alpha, rcond=None)[0] / scale
+    vals = np.asarray(values, dtype=float)
+    return {"alpha": float(alpha), "sampled": bool(sampled),
+            "derivative": {k: float(d) for k, d in zip(names, slope, strict=True)},
+            "per_tenth": {k: float(0.1 * d) for k, d in zip(names, slope, strict=True)},
+            "relative_per_tenth": {k: (float(0.1 * d / v) if v != 0 else None)
+                                   for k, d, v in zip(names, slope, vals, strict=True)}}
+
+
+def alpha_score(X: np.ndarray, x_alpha: np.ndarray, residuals: np.ndarray,
+                sigma0: float) -> dict[str, float]:
+    """The score (Lagrange-multiplier) test of a fixed spectrum exponent: how far the data pull
+    alpha from the value it is held at. One Gauss-Newton step for alpha from the optimum with
+    alpha fixed, the other free parameters re-optimised with it: step = x̃ᵀr / x̃ᵀx̃, x̃ = x_α minus
+    its projection on the columns of X (eq. 22), r = y - f; its sd σ0/|x̃|; z = step/sd. Whitened
+    X, x_α and r (with σ0 = 1) give the same test under the model discrepancy."""
+    norms = np.linalg.norm(X, axis=0)
+    norms[norms == 0] = 1.0
+    q, _ = np.linalg.qr(X / norms)
+    xt = x_alpha - q @ (q.T @ x_alpha)
+    nx = float(np.linalg.norm(xt))
+    if not nx > 0:
+        return {"step": math.nan, "sd": math.inf, "z": 0.0}
+    step = float(xt @ residuals) / nx**2
+    sd = sigma0 / nx
+    return {"step": step, "sd": sd, "z": step / sd}
+
+
 def bound_side(value: float, low: float, high: float) -> str | None:
     """"lower" or "upper" when ``value`` sits on that bound of its prior (within 1e-6 of the prior's
     width, or of the bound's magnitude for a half-open prior), else None."""

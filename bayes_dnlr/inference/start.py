@@ -11,7 +11,8 @@ Physics start:
   intercept giving the asymptote used above.
 - sigma_inf from the end of the hold, tau_max_R from the time the relaxation takes to cover 1 - 1/e
   of its drop (divided by m, as for tau_max).
-- alpha, the spectrum's exponent, at Cunat's ½ (eq. 12), the value the guesses above assume.
+- alpha, the spectrum's exponent (when it is free), starts at Cunat's ½ (eq. 12), the value the
+  guesses above assume (``SPECTRUM_START``).
 
 Multi-start: starts spread over the prior box (stratified, Latin-hypercube pairing), log-spaced
 for log-uniform / log-normal priors and for time constants whose box spans more than a decade.
@@ -26,6 +27,8 @@ import numpy as np
 from bayes_dnlr.config import ParameterSpec
 from bayes_dnlr.model import haward_thackray, tau_scale, weights
 from bayes_dnlr.model.spectrum import UNIVERSAL_EXPONENT
+
+SPECTRUM_START = {"alpha": (UNIVERSAL_EXPONENT, "Cunat's universal spectrum (eq. 12)")}
 
 TIME_CONSTANTS = ("tau_max", "tau_max_R")
 SD_SPAN = 3.0  # normal / log-normal priors without truncation: starts within ±3 sd
@@ -68,8 +71,8 @@ def physics_start(time: np.ndarray, strain: np.ndarray, stress: np.ndarray,
     m = spectrum_mean(modes, decades)
     tensile = np.ones(time.size, dtype=bool) if relaxation_start is None else time <= relaxation_start
     et, st = strain[tensile], stress[tensile]
-    guess: dict[str, float] = {"alpha": UNIVERSAL_EXPONENT}
-    note: dict[str, str] = {"alpha": "Cunat's universal spectrum (eq. 12)"}
+    guess: dict[str, float] = {}
+    note: dict[str, str] = {}
     if et.size < 3:
         return guess, note
 
