@@ -10,7 +10,7 @@ from numba import njit
 from test_model import RELAX, TABLE3_5E3, ramp, reference, rel_err
 
 import bayes_dnlr as bd
-from bayes_dnlr.model import DNLR, cached_model, default_threads, get_threads, kernel, set_threads
+from bayes_dnlr.model import DNLR, cached_model, default_threads, get_threads, grid, kernel, set_threads
 from bayes_dnlr.model import threads as threads_module
 
 NAMES = ["E", "G", "tau_max", "sigma_inf", "tau_max_R"]
@@ -39,9 +39,9 @@ def paths(model: DNLR) -> dict[str, int]:
 def force_path(monkeypatch, path: str) -> None:
     """Make step_levels choose one path for jittered grids."""
     if path == "level":
-        monkeypatch.setattr(kernel, "MIN_LEVEL_COUNT", 1)
+        monkeypatch.setattr(grid, "MIN_LEVEL_COUNT", 1)
     elif path == "full exp":
-        monkeypatch.setattr(kernel, "MIN_LEVEL_COUNT", 10**9)
+        monkeypatch.setattr(grid, "MIN_LEVEL_COUNT", 10**9)
 
 
 # ------------------------------------------------------------------------- the decay routines
@@ -75,7 +75,7 @@ def test_level_correction_matches_expm1():
 
 def test_step_levels_exact_for_few_distinct_steps():
     steps = np.tile([0.1, 0.2, 0.15], 100)
-    levels, index, rho, exact = kernel.step_levels(steps)
+    levels, index, rho, exact = grid.step_levels(steps)
     assert exact and levels.tolist() == [0.1, 0.15, 0.2]
     np.testing.assert_array_equal(levels[index], steps)
     assert not rho.any()
@@ -83,17 +83,17 @@ def test_step_levels_exact_for_few_distinct_steps():
 
 def test_step_levels_quantize_jitter_within_spacing():
     steps = 0.19 * (1 + np.random.default_rng(0).uniform(-0.15, 0.15, 5000))
-    levels, index, rho, exact = kernel.step_levels(steps)
+    levels, index, rho, exact = grid.step_levels(steps)
     assert not exact
     assert 50 <= levels.size <= 70                        # ln(1.35)/0.005 = 60 levels
     ok = index >= 0
     np.testing.assert_allclose(levels[index[ok]] + rho[ok], steps[ok], rtol=1e-15)
-    assert np.max(np.abs(rho[ok]) / levels[index[ok]]) <= np.expm1(kernel.LEVEL_SPACING / 2) * (1 + 1e-9)
+    assert np.max(np.abs(rho[ok]) / levels[index[ok]]) <= np.expm1(grid.LEVEL_SPACING / 2) * (1 + 1e-9)
     counts = np.bincount(index[ok])
-    assert counts.min() >= kernel.MIN_LEVEL_COUNT
+    assert counts.min() >= grid.MIN_LEVEL_COUNT
     # the level count does not grow with the number of steps: work memory is O(N·levels)
     more = 0.19 * (1 + np.random.default_rng(1).uniform(-0.15, 0.15, 200_000))
-    assert kernel.step_levels(more)[0].size <= levels.size + 2
+    assert grid.step_levels(more)[0].size <= levels.size + 2
 
 
 def test_prepared_grid_is_linear_in_q():
@@ -174,7 +174,7 @@ def test_stress_into_equals_basis_combination(case, tau):
 
 
 def test_gradients_on_quantized_levels_match_finite_differences(monkeypatch):
-    monkeypatch.setattr(kernel, "MIN_LEVEL_COUNT", 1)
+    monkeypatch.setattr(grid, "MIN_LEVEL_COUNT", 1)
     t, e = jittered(400, 0.15, hold=200.0, n_hold=100)
     m = DNLR(t, e, relaxation_start=380.0)
     assert paths(m)["level"] > 0.9 * (t.size - 1)     # the rest: steps > 2x the shortest
@@ -191,13 +191,13 @@ def test_gradients_on_quantized_levels_match_finite_differences(monkeypatch):
 # ----------------------------------------------------------------- the calling convention
 
 @njit
-def _loop_over_sets(theta, grid, out):
+def _loop_over_sets(theta, prepared, out):
     # theta columns in NAMES order (E, G, tau_max, sigma_inf, tau_max_R); stress_into takes
     # (E, G, sigma_inf, tau_max, tau_max_R, alpha)
     ok = 0
     for r in range(theta.shape[0]):
         ok += kernel.stress_into(theta[r, 0], theta[r, 1], theta[r, 3], theta[r, 2], theta[r, 4],
-                                 0.5, grid, out[r])
+                                 0.5, prepared, out[r])
     return ok
 
 

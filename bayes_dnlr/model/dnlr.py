@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bayes_dnlr.model import kernel, threads
+from bayes_dnlr.model.grid import Grid, grid_arrays
 from bayes_dnlr.model.spectrum import UNIVERSAL_EXPONENT, tau_scale, weights
 
 LINEAR_PARAMETERS = ("E", "G", "sigma_inf")
@@ -103,12 +104,12 @@ class DNLR:
         if h.shape != self.time.shape:
             raise ValueError(f"h must have the shape of time {self.time.shape}, got {h.shape}")
         self._h = h
-        self._kernel_args = kernel.grid_arrays(self.time, self.strain, h, self.n_tensile,
+        self._kernel_args = grid_arrays(self.time, self.strain, h, self.n_tensile,
                                                self.p, self.shape)
 
     @property
-    def kernel_args(self) -> kernel.Grid:
-        """The prepared grid, a ``kernel.Grid`` (a named tuple), for ``kernel.stress_into`` and
+    def kernel_args(self) -> Grid:
+        """The prepared grid, a ``grid.Grid`` (a named tuple), for ``kernel.stress_into`` and
         ``kernel.stress_batch_into`` (their docstrings give the calling convention). Pass it
         unchanged; it is read-only data owned by this model. Example in another njit function::
 
