@@ -12,9 +12,17 @@ from dataclasses import dataclass
 import numpy as np
 
 # The model parameters in the canonical (config) order: tensile, then relaxation (paper eq. 17-18).
-PARAMETER_NAMES = ("E", "G", "tau_max", "sigma_inf", "tau_max_R")
+PARAMETER_NAMES = ("E", "G", "tau_max", "sigma_inf", "tau_max_R", "alpha")
 TENSILE_PARAMETERS = ("E", "G", "tau_max")
 RELAXATION_PARAMETERS = ("sigma_inf", "tau_max_R")
+# The spectrum's exponent, p_j ∝ tau_j^alpha (model/spectrum.py): ½ (eq. 12) unless a config gives
+# it; a model-form parameter, not one of the paper's.
+SPECTRUM_EXPONENT = "alpha"
+UNIVERSAL_EXPONENT = 0.5
+SPECTRUM_PARAMETERS = (SPECTRUM_EXPONENT,)
+# The parameters the model is nonlinear in: the time constants (fitted in log space) and the
+# spectrum's exponent (as it is).
+NONLINEAR = ("tau_max", "tau_max_R", SPECTRUM_EXPONENT)
 # The model is linear in E, G and sigma_inf: each is the weight of one column of the basis
 # (model.Basis); the time constants set the spectrum and are fitted in log space.
 LINEAR_COLUMN = {"E": 0, "G": 1, "sigma_inf": 2}
@@ -41,6 +49,7 @@ QUANTITIES = {
     "tau_max": Quantity("s", "τ<sub>max</sub>", r"$\tau_{max}$"),
     "sigma_inf": Quantity("MPa", "σ<sub>∞</sub>", r"$\sigma_\infty$"),
     "tau_max_R": Quantity("s", "τ<sup>R</sup><sub>max</sub>", r"$\tau^R_{max}$"),
+    "alpha": Quantity("-", "α", r"$\alpha$"),
     "sigma0": Quantity("MPa", "σ<sub>0</sub>", r"$\sigma_0$"),
     "disc_amplitude": Quantity("MPa", "δ amplitude", r"$a_\delta$"),
     "disc_length": Quantity("s", "δ length", r"$\ell_\delta$"),
@@ -58,15 +67,17 @@ def unit(name: str) -> str:
     return UNITS.get(base_name(name), "")
 
 
-# The compiled model takes each parameter set as one row of five numbers in this order
-# (model/kernel.py); a test without a relaxation phase repeats tau_max in the last column.
-KERNEL_ORDER = ("E", "G", "sigma_inf", "tau_max", "tau_max_R")
+# The compiled model takes each parameter set as one row of six numbers in this order
+# (model/kernel.py); a test without a relaxation phase repeats tau_max in the fifth column, and
+# alpha is ½ unless given.
+KERNEL_ORDER = ("E", "G", "sigma_inf", "tau_max", "tau_max_R", SPECTRUM_EXPONENT)
 
 
 def pack_theta(column: Callable[[str], np.ndarray | None], k: int, has_relaxation: bool) -> np.ndarray:
-    """The (k, 5) rows the compiled model takes, in ``KERNEL_ORDER``; ``column(name)`` gives the
-    k values of a parameter, or None for a parameter the model does not use (then 0)."""
+    """The (k, 6) rows the compiled model takes, in ``KERNEL_ORDER``; ``column(name)`` gives the
+    k values of a parameter, or None for a parameter the model does not use (then 0; alpha ½)."""
     sets = np.zeros((k, len(KERNEL_ORDER)))
+    sets[:, 5] = UNIVERSAL_EXPONENT
     for c, name in enumerate(KERNEL_ORDER):
         values = column(name)
         if values is not None:

@@ -24,13 +24,15 @@ def test_names_and_units_of_joint_names() -> None:
 
 def test_pack_theta_puts_each_parameter_in_the_kernels_column() -> None:
     values = {"E": np.array([1.0, 2.0]), "G": np.array([3.0, 4.0]), "tau_max": np.array([5.0, 6.0]),
-              "sigma_inf": np.array([7.0, 8.0]), "tau_max_R": np.array([9.0, 10.0])}
+              "sigma_inf": np.array([7.0, 8.0]), "tau_max_R": np.array([9.0, 10.0]),
+              "alpha": np.array([0.4, 0.6])}
     sets = pack_theta(values.get, 2, has_relaxation=True)
     for c, name in enumerate(KERNEL_ORDER):
         np.testing.assert_array_equal(sets[:, c], values[name])
     tensile = pack_theta({k: values[k] for k in ("E", "G", "tau_max")}.get, 2, has_relaxation=False)
     np.testing.assert_array_equal(tensile[:, KERNEL_ORDER.index("sigma_inf")], 0.0)     # unused: 0
     np.testing.assert_array_equal(tensile[:, 4], tensile[:, 3])      # no relaxation: tau_max twice
+    np.testing.assert_array_equal(tensile[:, KERNEL_ORDER.index("alpha")], 0.5)  # eq. 12 unless given
 
 
 def test_z90_is_the_two_sided_90_percent_quantile() -> None:

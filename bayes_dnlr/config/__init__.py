@@ -25,7 +25,7 @@ from bayes_dnlr.config.noise_section import (
     NoiseConfig,
     SampledNoise,
 )
-from bayes_dnlr.config.parameter_section import DEFAULT_PRIORS, ModelConfig, ParameterSpec
+from bayes_dnlr.config.parameter_section import ALPHA_PRIOR, DEFAULT_PRIORS, ModelConfig, ParameterSpec
 from bayes_dnlr.config.run_sections import (
     CrossCheckConfig,
     FitConfig,
@@ -36,7 +36,8 @@ from bayes_dnlr.config.run_sections import (
 from bayes_dnlr.config.schema import NAME_PATTERN, Config, TestSpec
 
 __all__ = [
-    "DEFAULT_PRIORS", "DISCREPANCY_AXES", "KERNELS", "NAME_PATTERN", "UNIT_ROLES", "BaselineNoise",
+    "ALPHA_PRIOR", "DEFAULT_PRIORS", "DISCREPANCY_AXES", "KERNELS", "NAME_PATTERN", "UNIT_ROLES",
+    "BaselineNoise",
     "Columns", "Config", "ConfigError", "CrossCheckConfig", "DataConfig", "DiscrepancyConfig",
     "FitConfig", "ModelConfig", "NoiseConfig", "OutputConfig", "ParameterSpec", "Rows",
     "SampledNoise", "SamplerConfig", "TestSpec", "ToeBand", "TruthConfig", "Window", "format_errors",

@@ -9,6 +9,8 @@ no measurement of a polymer):
 - moduli and stresses (E, G, sigma_inf, sigma0, the discrepancy amplitude): |x| <= 1e7 MPa
   (10 TPa, ten times diamond's modulus);
 - times (tau_max, tau_max_R, a correlation length): <= 1e12 s (about 32 000 years);
+- the spectrum's exponent alpha: |x| <= 10 (p_j ∝ tau_j^10 over 6 decades already puts all the
+  weight on the slowest modes);
 - tau_max and tau_max_R (eq. 12-14 take their logarithm): a fixed value > 0 and a prior that does
   not reach below 0 (``low >= 0``; the posterior is -inf at 0), E a fixed value > 0;
 - the chain (walkers x max_steps x sampled parameters, float64, held in memory while sampling and
@@ -30,7 +32,8 @@ if TYPE_CHECKING:
 
 MAX_STRESS = 1.0e7      # MPa
 MAX_TIME = 1.0e12       # s
-LIMITS = {"MPa": MAX_STRESS, "s": MAX_TIME}
+MAX_EXPONENT = 10.0                 # the spectrum's exponent alpha (dimensionless)
+LIMITS = {"MPa": MAX_STRESS, "s": MAX_TIME, "-": MAX_EXPONENT}
 POSITIVE = ("tau_max", "tau_max_R")          # the spectrum's logarithm (eq. 12)
 POSITIVE_FIXED = ("E", "tau_max", "tau_max_R")
 SPEC_NUMBERS = ("value", "low", "high", "mean", "sd", "median", "scale")
@@ -44,8 +47,9 @@ def _magnitude(spec, key: str, unit: str) -> str | None:
     for k in SPEC_NUMBERS:
         v = getattr(spec, k, None)
         if v is not None and abs(v) > limit:
+            shown = "" if unit == "-" else f" {unit}"
             return (f"{key}.{k}: {v:g} is beyond what the model can compute with; expected "
-                    f"|{k}| <= {limit:g} {unit}")
+                    f"|{k}| <= {limit:g}{shown}")
     return None
 
 

@@ -91,3 +91,7 @@ DEFAULT_PRIORS: dict[str, dict[str, Any]] = {
     "sigma_inf": {"prior": "uniform", "low": 0.0, "high": 500.0},
     "tau_max_R": {"prior": "log-uniform", "low": 0.01, "high": 1.0e5},
 }
+# The spectrum's exponent (p_j ∝ tau_j^alpha) is ½, Cunat's universal spectrum (eq. 12), unless
+# parameters.alpha is given; this is the prior the docs propose to marginalise it
+# (docs/model-form.md: what it costs and buys, measured).
+ALPHA_PRIOR: dict[str, Any] = {"prior": "normal", "mean": 0.5, "sd": 0.05, "low": 0.0, "high": 1.0}

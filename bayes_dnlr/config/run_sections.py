@@ -43,6 +43,16 @@ class TruthCorrelated(Strict):
     length: float = Field(gt=0, description="s, the correlation length")
 
 
+class TruthModelForm(Strict):
+    """A richer generating model than the fitted one (workflows/truth_forms.py): another spectrum
+    shape, a stiffer hardening law, a toe or drift in the strain channel, or a second relaxation
+    process; ``strength`` is mild, strong or the kind's parameter."""
+
+    kind: Literal["spectrum-power", "spectrum-lognormal", "spectrum-two-slope", "hardening-langevin",
+                  "strain-toe", "strain-drift", "two-process"]
+    strength: Literal["mild", "strong"] | float = "mild"
+
+
 class TruthNoise(Strict):
     strain_sd: float = Field(default=1.0e-4, ge=0)
     stress_sd: float = Field(default=0.3, ge=0, description="MPa, on the observable stress")
@@ -61,6 +71,8 @@ class TruthConfig(Strict):
     sample_rate: float | None = Field(default=None, gt=0, description="Hz")
     time_jitter: float = Field(default=0.0, ge=0, lt=0.5, description="relative, uniform ±")
     noise: TruthNoise = Field(default_factory=TruthNoise)
+    model_form: TruthModelForm | None = Field(
+        default=None, description="data from a richer model than the fitted one (docs/model-form.md)")
     seed: Whole = Field(default=0, ge=0, lt=2**32)
     layout: Literal["plain", "bluehill", "zwick"] = Field(
         default="plain", description="plain CSV; bluehill: Instron-like metadata block, units row, "

@@ -21,7 +21,12 @@ from bayes_dnlr.config.run_sections import (
     SamplerConfig,
     TruthConfig,
 )
-from bayes_dnlr.vocabulary import PARAMETER_NAMES, RELAXATION_PARAMETERS, TENSILE_PARAMETERS
+from bayes_dnlr.vocabulary import (
+    PARAMETER_NAMES,
+    RELAXATION_PARAMETERS,
+    SPECTRUM_PARAMETERS,
+    TENSILE_PARAMETERS,
+)
 
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9._-]*$"
 
@@ -99,6 +104,7 @@ class Config(Strict):
                          else "data.relaxation_start")
                 raise ValueError(f"parameters {extra} need a relaxation hold: set {where} "
                                  "(auto or a time)")
+        wanted += [k for k in SPECTRUM_PARAMETERS if self.parameters.get(k) is not None]
         filled = {k: self.parameters.get(k) or ParameterSpec(**DEFAULT_PRIORS[k]) for k in wanted}
         self.parameters = filled
         if not self.free_parameters:

@@ -1,8 +1,10 @@
 """The reduced DNLR model of a tensile (then relaxation) test, driven by a measured strain history.
 
 ``DNLR(time, strain)`` precomputes what does not depend on the parameters; ``basis`` gives the
-stress responses to unit E, G and σ_inf for given time constants (the model is linear in those),
-``stress`` and ``stress_batch`` give the true stress (eq. 18; relaxation phase of section 4.1).
+stress responses to unit E, G and σ_inf for given time constants and spectrum exponent (the model
+is linear in those three), ``stress`` and ``stress_batch`` give the true stress (eq. 18;
+relaxation phase of section 4.1). The spectrum exponent ``alpha`` (p_j ∝ tau_j^alpha,
+model/spectrum.py) is optional everywhere and ½ (eq. 12) when left out.
 """
 
 from __future__ import annotations
@@ -15,20 +17,29 @@ import numpy as np
 
 from bayes_dnlr.data.conversions import haward_thackray_strain
 from bayes_dnlr.model import kernel, threads
+from bayes_dnlr.model.grid import Grid, grid_arrays
 from bayes_dnlr.model.spectrum import tau_scale, weights
-from bayes_dnlr.vocabulary import RELAXATION_PARAMETERS, TENSILE_PARAMETERS, pack_theta
+from bayes_dnlr.vocabulary import (
+    RELAXATION_PARAMETERS,
+    SPECTRUM_EXPONENT,
+    TENSILE_PARAMETERS,
+    UNIVERSAL_EXPONENT,
+    pack_theta,
+)
 
 
 @dataclass(frozen=True)
 class Basis:
     """Unit responses: stress = E·values[:, 0] + G·values[:, 1] + sigma_inf·values[:, 2].
 
-    grad_tau_max / grad_tau_max_R hold d(values)/d ln(tau_max) and d/d ln(tau_max_R) when asked.
+    grad_tau_max / grad_tau_max_R / grad_alpha hold d(values)/d ln(tau_max), d/d ln(tau_max_R)
+    and d/d alpha when asked.
     """
 
     values: np.ndarray
     grad_tau_max: np.ndarray | None = None
     grad_tau_max_R: np.ndarray | None = None
+    grad_alpha: np.ndarray | None = None
 
 
 def _as_grid(time: np.ndarray, strain: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -92,21 +103,21 @@ class DNLR:
         if h.shape != self.time.shape:
             raise ValueError(f"h must have the shape of time {self.time.shape}, got {h.shape}")
         self._h = h
-        self._kernel_args = kernel.grid_arrays(self.time, self.strain, h, self.n_tensile,
+        self._kernel_args = grid_arrays(self.time, self.strain, h, self.n_tensile,
                                                self.p, self.shape)
 
     @property
-    def kernel_args(self) -> tuple[np.ndarray, ...]:
-        """The prepared grid, a tuple of six arrays, for ``kernel.stress_into`` and
+    def kernel_args(self) -> Grid:
+        """The prepared grid, a ``grid.Grid`` (a named tuple), for ``kernel.stress_into`` and
         ``kernel.stress_batch_into`` (their docstrings give the calling convention). Pass it
         unchanged; it is read-only data owned by this model. Example in another njit function::
 
             grid = model.kernel_args                      # once, in Python
             @njit(parallel=True)
-            def many(theta, grid, out):                   # theta (k, 5): E, G, σ_inf, τ, τ_R
+            def many(theta, grid, out):                   # theta (k, 6): E, G, σ_inf, τ, τ_R, α
                 for r in prange(theta.shape[0]):
                     stress_into(theta[r, 0], theta[r, 1], theta[r, 2], theta[r, 3],
-                                theta[r, 4], grid, out[r])
+                                theta[r, 4], theta[r, 5], grid, out[r])
         """
         return self._kernel_args
 
@@ -127,17 +138,19 @@ class DNLR:
             raise ValueError(f"tau_max_R must be a positive number, got {tau_max_R}")
         return float(tau_max_R)
 
-    def basis(self, tau_max: float, tau_max_R: float | None = None, grad: bool = False) -> Basis:
-        """Unit responses to E, G and σ_inf for these time constants (and their derivatives)."""
+    def basis(self, tau_max: float, tau_max_R: float | None = None, grad: bool = False,
+              alpha: float = UNIVERSAL_EXPONENT) -> Basis:
+        """Unit responses to E, G and σ_inf for these time constants and spectrum exponent (and
+        their derivatives)."""
         tau_max_R = self._check_times(tau_max, tau_max_R)
+        alpha = _check_alpha(alpha)
         q = self.n_points
         out = np.empty((q, 3))
-        gt = np.empty((q, 3)) if grad else np.empty((1, 3))
-        gr = np.empty((q, 3)) if grad else np.empty((1, 3))
-        kernel.integrate(float(tau_max), tau_max_R, self._kernel_args, grad, out, gt, gr)
+        gt, gr, ga = (np.empty((q if grad else 1, 3)) for _ in range(3))
+        kernel.integrate(float(tau_max), tau_max_R, alpha, self._kernel_args, grad, out, gt, gr, ga)
         if not grad:
             return Basis(out)
-        return Basis(out, gt, gr if self.has_relaxation else None)
+        return Basis(out, gt, gr if self.has_relaxation else None, ga)
 
     def parameter_names(self) -> list[str]:
         return list(TENSILE_PARAMETERS) + (list(RELAXATION_PARAMETERS) if self.has_relaxation else [])
@@ -153,13 +166,15 @@ class DNLR:
         self._check_params(params)
         tau_r = self._check_times(params["tau_max"], params.get("tau_max_R"))
         s_inf = float(params["sigma_inf"]) if self.has_relaxation else 0.0
+        alpha = _check_alpha(params.get(SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT))
         out = np.empty(self.n_points)
         kernel.stress_into(float(params["E"]), float(params["G"]), s_inf,
-                           float(params["tau_max"]), tau_r, self._kernel_args, out)
+                           float(params["tau_max"]), tau_r, alpha, self._kernel_args, out)
         return out
 
     def stress_batch(self, theta: np.ndarray, names: Sequence[str]) -> np.ndarray:
-        """Stress for many parameter sets: theta (k, p) in the order ``names`` -> (k, q).
+        """Stress for many parameter sets: theta (k, p) in the order ``names`` -> (k, q); alpha
+        (the spectrum exponent) is ½ unless it is one of the names.
 
         Compiled and parallel over the sets (``bayes_dnlr.model.set_threads``); each set is
         computed on its own, so the result does not depend on the thread count.
@@ -171,15 +186,25 @@ class DNLR:
         self._check_params(dict.fromkeys(names, 0.0))
         sets = pack_theta(lambda k: theta[:, names.index(k)] if k in names else None,
                           theta.shape[0], self.has_relaxation)
-        bad = ~(np.isfinite(sets[:, 3:]).all(axis=1) & (sets[:, 3:] > 0).all(axis=1))
+        bad = ~(np.isfinite(sets[:, 3:5]).all(axis=1) & (sets[:, 3:5] > 0).all(axis=1))
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
             raise ValueError(f"row {k} of theta: tau_max and tau_max_R must be positive numbers, "
                              f"got {sets[k, 3]} and {sets[k, 4]}")
+        bad = ~np.isfinite(sets[:, 5])
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"row {k} of theta: alpha must be a finite number, got {sets[k, 5]}")
         out = np.empty((theta.shape[0], self.n_points))
         threads.ensure_configured()
         kernel.stress_batch_into(sets, self._kernel_args, out)
         return out
+
+
+def _check_alpha(alpha: float) -> float:
+    if not np.isfinite(alpha):
+        raise ValueError(f"alpha (the spectrum exponent) must be a finite number, got {alpha}")
+    return float(alpha)
 
 
 _CACHE: OrderedDict[tuple, tuple[np.ndarray, np.ndarray, DNLR]] = OrderedDict()
@@ -217,7 +242,8 @@ def simulate(time: np.ndarray, strain: np.ndarray, params: Mapping[str, float],
              relaxation_start: float | None = None) -> np.ndarray:
     """True stress (MPa) of the DNLR model driven by ``strain`` (Hencky) on the grid ``time`` (s).
 
-    params: E, G, tau_max; with ``relaxation_start`` (s) also sigma_inf and tau_max_R.
+    params: E, G, tau_max; with ``relaxation_start`` (s) also sigma_inf and tau_max_R; optionally
+    alpha, the spectrum exponent (½, eq. 12, when left out).
     The strain is used exactly as given (linear between samples); no smoothing happens here.
     Repeated calls with the same time and strain values reuse the prepared model
     (``cached_model``); for many parameter sets, ``DNLR(...).stress_batch`` is faster still.

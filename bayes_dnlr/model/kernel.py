@@ -19,28 +19,17 @@ Modes with x > X_RELAXED in every step of a phase have forgotten their past (a <
 D_j is the quasi-static p_j tau_j w/Δ, summed in O(1) per step. Only the "active" modes iterate.
 
 Decays without a table over all steps (O(N) memory, cost linear in q): the steps of each phase
-are grouped once per grid (``step_levels``, parameter-free) into *levels*:
-
-- exact levels: few distinct step lengths (uniform grids, timestamps on a clock tick): a level is
-  a distinct step, its decays are computed once per call, each step only reads them;
-- quantized levels (jittered grids): geometric levels Δ_L with spacing LEVEL_SPACING; a step
-  Δ = Δ_L + ρ has a = a_L·exp(-ρ/tau) with |ρ/tau| <= 0.1, a short polynomial, and
-  1 - a = (1 - a_L) + a_L (1 - exp(-ρ/tau)) without cancellation;
-- steps in sparse regions (levels with fewer than MIN_LEVEL_COUNT steps) take a full exp.
+are grouped once per grid into *levels* (model/grid.py): exact levels share their decays, computed
+once per call; a step on a quantized level Δ_L + ρ takes a = a_L·exp(-ρ/tau) by a short
+polynomial; the few others a full exp.
 
 exp is computed by ``_decay``, an inlined polynomial (Cody-Waite reduction, degree-12 Estrin,
-2 ulp) that the compiler vectorises over modes: llvmlite has no SVML, and a libm exp in the loop
-costs 10-15 ns. The same routines serve ``integrate`` and ``stress_into``, so both agree to
-rounding.
+2 ulp) that the compiler vectorises over modes (llvmlite has no SVML: a libm exp costs 10-15 ns).
+The same routines serve ``integrate`` and ``stress_into``, so both agree to rounding.
 
-Grid data (``DNLR.kernel_args``, a tuple, built by ``grid_arrays``):
-
-    fg     float64 (q-1, 6)  per step i (t_i -> t_i+1): Δ, 1/Δ, Δε, Δh, h_{i+1}, ρ
-    ig     int64   (q-1,)    the step's level within its phase, -1 for a full exp
-    lev    float64 (n_t+n_r,) the level step lengths Δ_L, tensile levels first
-    spec   float64 (2, N)    the weights p_j and the spectrum shape tau_j/tau_max (eq. 12-14)
-    imeta  int64   (5,)      n_tensile steps, n_t levels, n_r levels, exact_t, exact_r
-    fmeta  float64 (3,)      h_0, shortest tensile step, shortest relaxation step
+The grid (``DNLR.kernel_args``) is a ``grid.Grid`` named tuple; its step table's columns are DT,
+IDT, DE, DH, H1, RHO below. Its weights p_j are those of eq. 12 (alpha0 = ½); other exponents
+alpha (p_j ∝ tau_j^alpha) are computed per call (``_weights``).
 
 The derivatives with respect to ln(tau_max) and ln(tau_max_R) are carried forward-mode in
 ``integrate`` (exact): d a/d ln tau = x a, d φ/d ln tau = φ - a.
@@ -52,6 +41,7 @@ helper imported from another module (see NOTES-apis.md).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -64,11 +54,7 @@ except ImportError as err:  # pragma: no cover - exercised only without numba
 
 X_RELAXED = 40.0        # exp(-40) = 4e-18: a mode this fast has no memory of the previous step
 TINY = 1.0e-200         # states below this are flushed to zero (denormals are slow)
-LEVEL_SPACING = 0.005   # ln(Δ_L+1/Δ_L) of quantized levels: |ρ|/Δ_L <= 0.0025, |ρ/tau| <= 0.0025 x
-LEVEL_RANGE = 2.0       # only steps up to 2x the shortest of their phase get a level: active modes
-                        # then have x_L <= 80 and |ρ/tau| <= 0.2 (longer steps take a full exp)
-MIN_LEVEL_COUNT = 4     # a quantized level must serve this many steps, else they take a full exp
-EXACT_LEVELS_MAX = 256  # at most this many exact levels (and at most 1/8 of the steps, or 16)
+DT, IDT, DE, DH, H1, RHO = 0, 1, 2, 3, 4, 5    # the columns of Grid.steps (model/grid.py)
 
 _FASTMATH = {"reassoc", "contract", "nsz"}
 
@@ -134,32 +120,6 @@ def _flush(v):
 
 
 @njit(cache=True, fastmath=_FASTMATH)
-def _n_relaxed(shape, tau_max, d_min):
-    """Number of modes with d_min/tau_j > X_RELAXED (always relaxed in the phase)."""
-    j0 = 0
-    for j in range(shape.size):
-        if d_min > X_RELAXED * tau_max * shape[j]:
-            j0 = j + 1
-    return j0
-
-
-@njit(cache=True, fastmath=_FASTMATH)
-def _active_spectrum(p, shape, tau_max, j0):
-    """1/tau_k and p_k tau_k of the active modes, and Σ p_j tau_j over the relaxed ones."""
-    nk = p.size - j0
-    itau = np.empty(nk)
-    ptau = np.empty(nk)
-    for k in range(nk):
-        tau = tau_max * shape[j0 + k]
-        itau[k] = 1.0 / tau
-        ptau[k] = p[j0 + k] * tau
-    spt = 0.0
-    for j in range(j0):
-        spt += p[j] * tau_max * shape[j]
-    return itau, ptau, spt
-
-
-@njit(cache=True, fastmath=_FASTMATH)
 def _level_tables(lev, itau, ptau, kind):
     """Decays of every level for the active modes, x = min(Δ_L/tau_k, X_RELAXED): three (levels,
     modes) tables whose content depends on ``kind`` (_TAB_DECAY, _TAB_EXACT, _TAB_QUANT)."""
@@ -185,29 +145,102 @@ def _level_tables(lev, itau, ptau, kind):
     return t1, t2, t3
 
 
+class PhaseTables(NamedTuple):
+    """What one phase needs for one time constant: modes 0..j0-1 are always relaxed; the active
+    ones have 1/tau_k and p_k tau_k; sums over the relaxed ones; the level tables."""
+
+    j0: int
+    tau_max: float
+    itau: np.ndarray
+    ptau: np.ndarray
+    spt: float              # Σ p_j tau_j over the relaxed modes
+    sp: float               # Σ p_j over the relaxed modes
+    t1: np.ndarray
+    t2: np.ndarray
+    t3: np.ndarray
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _weights(grid, alpha):
+    """p_j = (tau_j/tau_max)^alpha / Σ_k (tau_k/tau_max)^alpha (eq. 12 with the exponent alpha):
+    the grid's own p at its exponent alpha0 (so that results at ½ are the paper's bit for bit),
+    else computed, the largest term scaled to 1 (no overflow for any alpha)."""
+    if alpha == grid.alpha0:
+        return grid.p
+    ls = grid.log_shape
+    top = alpha * ls[0]
+    for j in range(ls.size):
+        top = max(top, alpha * ls[j])
+    w = np.empty(ls.size)
+    total = 0.0
+    for j in range(ls.size):
+        w[j] = math.exp(alpha * ls[j] - top)
+        total += w[j]
+    for j in range(ls.size):
+        w[j] /= total
+    return w
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _phase_tables(grid, p, tau_max, relaxation, for_stress):
+    """Relaxed-mode count, active spectrum and level tables of one phase (relaxation: False
+    tensile, True relaxation; for_stress: False gives the _TAB_DECAY tables of integrate, True
+    those of the stress). p: the weights of the modes.
+
+    Modes with d_min/tau_j > X_RELAXED are relaxed in every step of the phase."""
+    shape = grid.shape
+    d_min = grid.d_min_r if relaxation else grid.d_min_t
+    j0 = 0
+    for j in range(shape.size):
+        if d_min > X_RELAXED * tau_max * shape[j]:
+            j0 = j + 1
+    nk = p.size - j0
+    itau = np.empty(nk)
+    ptau = np.empty(nk)
+    for k in range(nk):
+        tau = tau_max * shape[j0 + k]
+        itau[k] = 1.0 / tau
+        ptau[k] = p[j0 + k] * tau
+    spt = 0.0
+    sp = 0.0
+    for j in range(j0):
+        spt += p[j] * tau_max * shape[j]
+        sp += p[j]
+    first = grid.n_levels_t if relaxation else 0
+    nl = grid.n_levels_r if relaxation else grid.n_levels_t
+    kind = _TAB_DECAY
+    if for_stress:
+        exact = grid.exact_r if relaxation else grid.exact_t
+        kind = _TAB_EXACT if exact else _TAB_QUANT
+    t1, t2, t3 = _level_tables(grid.levels[first:first + nl], itau, ptau, kind)
+    return PhaseTables(j0, tau_max, itau, ptau, spt, sp, t1, t2, t3)
+
+
 _BLOCK = 32     # steps whose decays integrate computes in one call
 
 
 @njit(cache=True, fastmath=_FASTMATH)
-def _block_decays(i0, i1, fg, ig, itau, ta, tom, a_out, om_out):
+def _block_decays(i0, i1, grid, itau, ta, tom, a_out, om_out):
     """(a, 1 - a) of steps i0..i1-1 (rows 0.. of a_out, om_out) for the active modes: from the
     step's level m (tables a_L, 1 - a_L, with the ρ correction) or by a full exp (m < 0)."""
+    fg = grid.steps
+    ig = grid.level
     for i in range(i0, i1):
         b = i - i0
         m = ig[i]
-        if m >= 0 and fg[i, 5] == 0.0:
+        if m >= 0 and fg[i, RHO] == 0.0:
             for k in range(itau.size):
                 a_out[b, k] = ta[m, k]
                 om_out[b, k] = tom[m, k]
         elif m >= 0:
-            c1, c2, c3, c4, c5, c6 = _rho_powers(fg[i, 5])
+            c1, c2, c3, c4, c5, c6 = _rho_powers(fg[i, RHO])
             for k in range(itau.size):
                 u = _one_minus_exp_small(itau[k], c1, c2, c3, c4, c5, c6)
                 a_l = ta[m, k]
                 a_out[b, k] = a_l - a_l * u
                 om_out[b, k] = tom[m, k] + a_l * u
         else:
-            d = fg[i, 0]
+            d = fg[i, DT]
             for k in range(itau.size):
                 a, om = _decay(min(d * itau[k], X_RELAXED))
                 a_out[b, k] = a
@@ -217,29 +250,36 @@ def _block_decays(i0, i1, fg, ig, itau, ta, tom, a_out, om_out):
 # ---------------------------------------------------------------- one parameter set: the stress
 
 @njit(cache=True, fastmath=_FASTMATH)
-def _stress_phase(i0, i1, fg, ig, exact, ta, tb, tc, itau, ptau, spt, e_mod, g_h, s_base, D,
-                  out):
+def _stress_phase(grid, i0, i1, exact, tabs, e_mod, g_h, s_base, D, out):
     """Advance the active states D over steps i0..i1-1 and write out[i+1]:
     w = E Δε - g_h Δh, σ = g_h h1 + s_base + spt w/Δ + Σ D, with D <- a D + b w per mode.
 
-    Exact levels (ta = a_L, tb = p tau (1 - a_L)/Δ_L): blocks of four steps with D in a register
+    Exact levels (t1 = a_L, t2 = p tau (1 - a_L)/Δ_L): blocks of four steps with D in a register
     (the update is two flops per mode: its latency matters, not its arithmetic). Quantized levels
-    (ta = a_L, tb = p tau (1 - a_L), tc = p tau a_L): u = 1 - exp(-ρ/tau), a = a_L (1 - u),
-    p tau (1 - a) = tb + tc u. Steps without a level: a full exp per mode. States below TINY
+    (t1 = a_L, t2 = p tau (1 - a_L), t3 = p tau a_L): u = 1 - exp(-ρ/tau), a = a_L (1 - u),
+    p tau (1 - a) = t2 + t3 u. Steps without a level: a full exp per mode. States below TINY
     are flushed to zero, once per block of four steps (four steps shrink a state by at most
     e^-160: nothing becomes denormal in between).
 
     The loops are written out here, not in helpers taking arrays: a helper inlined per step would
     add reference counting on every call.
     """
+    fg = grid.steps
+    ig = grid.level
+    ta = tabs.t1
+    tb = tabs.t2
+    tc = tabs.t3
+    itau = tabs.itau
+    ptau = tabs.ptau
+    spt = tabs.spt
     nk = D.size
     i = i0
     if exact:
         while i + 4 <= i1:
-            w0 = e_mod * fg[i, 2] - g_h * fg[i, 3]
-            w1 = e_mod * fg[i + 1, 2] - g_h * fg[i + 1, 3]
-            w2 = e_mod * fg[i + 2, 2] - g_h * fg[i + 2, 3]
-            w3 = e_mod * fg[i + 3, 2] - g_h * fg[i + 3, 3]
+            w0 = e_mod * fg[i, DE] - g_h * fg[i, DH]
+            w1 = e_mod * fg[i + 1, DE] - g_h * fg[i + 1, DH]
+            w2 = e_mod * fg[i + 2, DE] - g_h * fg[i + 2, DH]
+            w3 = e_mod * fg[i + 3, DE] - g_h * fg[i + 3, DH]
             m0 = ig[i]
             m1 = ig[i + 1]
             m2 = ig[i + 2]
@@ -258,14 +298,14 @@ def _stress_phase(i0, i1, fg, ig, exact, ta, tb, tc, itau, ptau, spt, e_mod, g_h
                 v = ta[m3, k] * v + tb[m3, k] * w3
                 s3 += v
                 D[k] = _flush(v)
-            out[i + 1] = g_h * fg[i, 4] + s_base + spt * w0 * fg[i, 1] + s0
-            out[i + 2] = g_h * fg[i + 1, 4] + s_base + spt * w1 * fg[i + 1, 1] + s1
-            out[i + 3] = g_h * fg[i + 2, 4] + s_base + spt * w2 * fg[i + 2, 1] + s2
-            out[i + 4] = g_h * fg[i + 3, 4] + s_base + spt * w3 * fg[i + 3, 1] + s3
+            out[i + 1] = g_h * fg[i, H1] + s_base + spt * w0 * fg[i, IDT] + s0
+            out[i + 2] = g_h * fg[i + 1, H1] + s_base + spt * w1 * fg[i + 1, IDT] + s1
+            out[i + 3] = g_h * fg[i + 2, H1] + s_base + spt * w2 * fg[i + 2, IDT] + s2
+            out[i + 4] = g_h * fg[i + 3, H1] + s_base + spt * w3 * fg[i + 3, IDT] + s3
             i += 4
     for j in range(i, i1):
-        w = e_mod * fg[j, 2] - g_h * fg[j, 3]
-        wi = w * fg[j, 1]
+        w = e_mod * fg[j, DE] - g_h * fg[j, DH]
+        wi = w * fg[j, IDT]
         m = ig[j]
         s = 0.0
         flush = (j & 3) == 0
@@ -275,7 +315,7 @@ def _stress_phase(i0, i1, fg, ig, exact, ta, tb, tc, itau, ptau, spt, e_mod, g_h
                 D[k] = v
                 s += v
         elif m >= 0:
-            c1, c2, c3, c4, c5, c6 = _rho_powers(fg[j, 5])
+            c1, c2, c3, c4, c5, c6 = _rho_powers(fg[j, RHO])
             if flush:
                 for k in range(nk):
                     u = _one_minus_exp_small(itau[k], c1, c2, c3, c4, c5, c6)
@@ -291,97 +331,77 @@ def _stress_phase(i0, i1, fg, ig, exact, ta, tb, tc, itau, ptau, spt, e_mod, g_h
                     D[k] = v
                     s += v
         else:
-            d = fg[j, 0]
+            d = fg[j, DT]
             for k in range(nk):
                 a, om = _decay(min(d * itau[k], X_RELAXED))
                 v = _flush(a * D[k] + ptau[k] * om * wi)
                 D[k] = v
                 s += v
-        out[j + 1] = g_h * fg[j, 4] + s_base + spt * wi + s
+        out[j + 1] = g_h * fg[j, H1] + s_base + spt * wi + s
 
 
 @njit(cache=True, fastmath=_FASTMATH)
-def _phase_tables(grid, tau_max, relaxation, for_stress):
-    """Relaxed-mode count, active spectrum and level tables of one phase (relaxation: 0 tensile,
-    1 relaxation; for_stress: 0 gives the _TAB_DECAY tables of integrate, 1 those of the stress).
-
-    Callers pass int64 values made at run time (np.int64(...)): a literal constant would make
-    numba compile one more specialisation per value.
-    """
-    fg, ig, lev, spec, imeta, fmeta = grid
-    p = spec[0]
-    shape = spec[1]
-    j0 = _n_relaxed(shape, tau_max, fmeta[1 + relaxation])
-    itau, ptau, spt = _active_spectrum(p, shape, tau_max, j0)
-    first = imeta[1] * relaxation
-    nl = imeta[1 + relaxation]
-    kind = _TAB_DECAY
-    if for_stress != 0:
-        kind = _TAB_EXACT if imeta[3 + relaxation] != 0 else _TAB_QUANT
-    t1, t2, t3 = _level_tables(lev[first:first + nl], itau, ptau, kind)
-    return j0, itau, ptau, spt, t1, t2, t3
-
-
-@njit(cache=True, fastmath=_FASTMATH)
-def stress_into(E, G, sigma_inf, tau_max, tau_max_R, grid, out):
+def stress_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, grid, out):
     """True stress of one parameter set at every sample, written into ``out`` (q,). Returns True,
     or False (``out`` filled with NaN) when tau_max, or tau_max_R with a relaxation phase, is not
-    a finite positive number. Callable from Python and from other njit code, also inside prange.
+    a finite positive number, or alpha is not finite. Callable from Python and from other njit
+    code, also inside prange.
 
-    Calling convention: ``stress_into(E, G, sigma_inf, tau_max, tau_max_R, grid, out)`` with
-    five floats (MPa, MPa, MPa, s, s), ``grid = DNLR.kernel_args`` (the tuple described in the
-    module docstring; pass it through unchanged) and ``out`` a float64 C-contiguous array of
-    length q = DNLR.n_points. Without a relaxation phase sigma_inf and tau_max_R are ignored
-    (pass any float). Work memory is O(N·levels), independent of q; no reduction crosses calls,
-    so the result of one set never depends on others or on the thread count.
+    Calling convention: ``stress_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, grid, out)``
+    with six floats (MPa, MPa, MPa, s, s, and the spectrum exponent: p_j ∝ tau_j^alpha, ½ in
+    eq. 12), ``grid = DNLR.kernel_args`` (the ``Grid`` described in the module docstring; pass it
+    through unchanged) and ``out`` a float64 C-contiguous array of length q = DNLR.n_points.
+    Without a relaxation phase sigma_inf and tau_max_R are ignored (pass any float). Work memory
+    is O(N·levels), independent of q; no reduction crosses calls, so the result of one set never
+    depends on others or on the thread count.
     """
-    fg, ig, lev, spec, imeta, fmeta = grid
-    p = spec[0]
-    shape = spec[1]
-    n = p.size
+    fg = grid.steps
+    shape = grid.shape
+    n = shape.size
     n_steps = fg.shape[0]
-    nt = imeta[0]
+    nt = grid.n_tensile
     relax = nt < n_steps
     if not (tau_max > 0.0 and tau_max < np.inf) or (
-            relax and not (tau_max_R > 0.0 and tau_max_R < np.inf)):
+            relax and not (tau_max_R > 0.0 and tau_max_R < np.inf)) or not (
+            alpha > -np.inf and alpha < np.inf):
         out[:] = np.nan
         return False
-    out[0] = G * fmeta[0]
+    p = _weights(grid, alpha)
+    out[0] = G * grid.h0
     D = np.zeros(n)
     j0t = 0
     if nt > 0:
-        j0t, itau, ptau, spt, t1, t2, t3 = _phase_tables(grid, tau_max, np.int64(0), np.int64(1))
-        _stress_phase(np.int64(0), nt, fg, ig, imeta[3] != 0, t1, t2, t3, itau, ptau, spt,
-                      E, G, 0.0, D[j0t:], out)
+        tabs = _phase_tables(grid, p, tau_max, False, True)
+        j0t = tabs.j0
+        _stress_phase(grid, 0, nt, grid.exact_t, tabs, E, G, 0.0, D[j0t:], out)
     if not relax:
         return True
     # the switch (section 4.1): D_j = σ_j - p_j σ_inf; the always-relaxed tensile modes leave
     # their quasi-static states p_j tau_j w/Δ of the last tensile step
     if nt > 0:
-        h_sw = fg[nt - 1, 4]
-        w_last = (E * fg[nt - 1, 2] - G * fg[nt - 1, 3]) * fg[nt - 1, 1]
+        h_sw = fg[nt - 1, H1]
+        w_last = (E * fg[nt - 1, DE] - G * fg[nt - 1, DH]) * fg[nt - 1, IDT]
         for j in range(j0t):
             D[j] = p[j] * tau_max * shape[j] * w_last
     else:
-        h_sw = fmeta[0]
+        h_sw = grid.h0
     for j in range(n):
         D[j] += p[j] * (G * h_sw - sigma_inf)
-    j0r, itau, ptau, spt, t1, t2, t3 = _phase_tables(grid, tau_max_R, np.int64(1), np.int64(1))
-    _stress_phase(nt, n_steps, fg, ig, imeta[4] != 0, t1, t2, t3, itau, ptau, spt,
-                  E, 0.0, sigma_inf, D[j0r:], out)
+    tabs = _phase_tables(grid, p, tau_max_R, True, True)
+    _stress_phase(grid, nt, n_steps, grid.exact_r, tabs, E, 0.0, sigma_inf, D[tabs.j0:], out)
     return True
 
 
 @njit(cache=True, fastmath=_FASTMATH, parallel=True)
 def stress_batch_into(theta, grid, out):
-    """``stress_into`` for every row of theta (k, 5) = (E, G, sigma_inf, tau_max, tau_max_R),
+    """``stress_into`` for every row of theta (k, 6) = (E, G, sigma_inf, tau_max, tau_max_R, alpha),
     rows of ``out`` (k, q), in parallel over rows (numba threads). Returns the number of rows
     whose time constants were invalid (those rows hold NaN). Each row is computed on its own by
     the same compiled code: the result is bit-identical whatever the thread count."""
     bad = np.zeros(theta.shape[0], dtype=np.int64)
     for r in prange(theta.shape[0]):
         ok = stress_into(theta[r, 0], theta[r, 1], theta[r, 2], theta[r, 3], theta[r, 4],
-                         grid, out[r])
+                         theta[r, 5], grid, out[r])
         bad[r] = 0 if ok else 1
     return bad.sum()
 
@@ -389,91 +409,169 @@ def stress_batch_into(theta, grid, out):
 # ------------------------------------------------ unit responses and their derivatives (basis)
 
 @njit(cache=True, fastmath=_FASTMATH)
-def integrate(tau_max, tau_max_R, grid, want_grad, out, grad_t, grad_r):
+def _integrate_phase(grid, tabs, relaxation, i0, i1, p, cw, states, want_grad, out, g_own,
+                     g_other, g_alpha, av, omv):
+    """Advance the unit-response states of the active modes over steps i0..i1-1 of one phase and
+    write the sums per sample (module docstring: the updates of A, B, C).
+
+    states = (A, B, C, dA, dB, dC, fA, fB), active slices: dA, dB, dC the derivatives with
+    respect to the ln of this phase's time constant (forward mode: d a/d ln tau = x a,
+    d(p φ)/d ln tau = p φ - p a), fA, fB those with respect to the other phase's, which only decay
+    (the relaxation phase carries the tensile derivatives). Tensile: σ^r = G h drives B, C = 0;
+    relaxation: σ^r = σ_inf drives C, B decays. Rows i+1 of out, g_own (this phase's derivative),
+    g_other (the other one's) and g_alpha (d/d alpha) are written; the derivatives only when
+    ``want_grad``. Every state is proportional to its p_j and dp_j/dα = c_j p_j with
+    c_j = ln(tau_j/tau_max) - Σ_k p_k ln(tau_k/tau_max) (``cw``), so d/dα of a sum is Σ c_j X_j.
+    """
+    fg = grid.steps
+    A, B, C, dA, dB, dC, fA, fB = states
+    itau = tabs.itau
+    ptau = tabs.ptau
+    spt = tabs.spt
+    sp = tabs.sp
+    pk = p[tabs.j0:]
+    ck = cw[tabs.j0:]
+    nk = itau.size
+    cspt = 0.0          # Σ c_j p_j tau_j and Σ c_j p_j over the relaxed modes
+    csp = 0.0
+    for j in range(tabs.j0):
+        cspt += cw[j] * p[j] * tabs.tau_max * grid.shape[j]
+        csp += cw[j] * p[j]
+    for i in range(i0, i1):
+        d = fg[i, DT]
+        idt = fg[i, IDT]
+        de = fg[i, DE]
+        dh = fg[i, DH]
+        h1 = fg[i, H1]
+        h0 = h1 - dh
+        b = (i - i0) % _BLOCK
+        if b == 0:
+            _block_decays(i, min(i + _BLOCK, i1), grid, itau, tabs.t1, tabs.t2, av, omv)
+        # the always-relaxed modes sit at their quasi-static states
+        sa = spt * de * idt
+        if relaxation:
+            sb = 0.0
+            sc = sp
+        else:
+            sb = sp * h1 - spt * dh * idt
+            sc = 0.0
+        if want_grad:
+            ga = sa
+            gb = 0.0 if relaxation else -spt * dh * idt
+            gc = 0.0
+            oa = 0.0
+            ob = 0.0
+            for k in range(nk):
+                a = av[b, k]
+                x_a = d * itau[k] * a
+                pdphi = ptau[k] * omv[b, k] * idt - pk[k] * a
+                dA[k] = _flush(a * dA[k] + x_a * A[k] + pdphi * de)
+                ga += dA[k]
+                if relaxation:
+                    dB[k] = _flush(a * dB[k] + x_a * B[k])
+                    dC[k] = _flush(a * dC[k] + x_a * (C[k] - pk[k]))
+                    fA[k] = _flush(a * fA[k])
+                    fB[k] = _flush(a * fB[k])
+                    gc += dC[k]
+                    oa += fA[k]
+                    ob += fB[k]
+                else:
+                    dB[k] = _flush(a * dB[k] + x_a * (B[k] - pk[k] * h0) - pdphi * dh)
+                gb += dB[k]
+            g_own[i + 1, 0] = ga
+            g_own[i + 1, 1] = gb
+            g_own[i + 1, 2] = gc
+            g_other[i + 1, 0] = oa
+            g_other[i + 1, 1] = ob
+            g_other[i + 1, 2] = 0.0
+        if relaxation:
+            for k in range(nk):
+                a = av[b, k]
+                oma = omv[b, k]
+                A[k] = _flush(a * A[k] + ptau[k] * oma * idt * de)
+                B[k] = _flush(a * B[k])
+                C[k] = _flush(a * C[k] + pk[k] * oma)
+                sa += A[k]
+                sb += B[k]
+                sc += C[k]
+        else:
+            for k in range(nk):
+                a = av[b, k]
+                c = ptau[k] * omv[b, k] * idt
+                A[k] = _flush(a * A[k] + c * de)
+                B[k] = _flush(a * B[k] + pk[k] * (h1 - a * h0) - c * dh)
+                sa += A[k]
+                sb += B[k]
+        out[i + 1, 0] = sa
+        out[i + 1, 1] = sb
+        out[i + 1, 2] = sc
+        if want_grad:
+            ca = cspt * de * idt
+            if relaxation:
+                cb = 0.0
+                cc = csp
+                for k in range(nk):
+                    ca += ck[k] * A[k]
+                    cb += ck[k] * B[k]
+                    cc += ck[k] * C[k]
+            else:
+                cb = csp * h1 - cspt * dh * idt
+                cc = 0.0
+                for k in range(nk):
+                    ca += ck[k] * A[k]
+                    cb += ck[k] * B[k]
+            g_alpha[i + 1, 0] = ca
+            g_alpha[i + 1, 1] = cb
+            g_alpha[i + 1, 2] = cc
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def integrate(tau_max, tau_max_R, alpha, grid, want_grad, out, grad_t, grad_r, grad_a):
     """Integrate all modes over the whole record; write ΣA, ΣB, ΣC per sample into ``out`` (q, 3).
 
-    grad_t, grad_r (q, 3): d/d ln tau_max and d/d ln tau_max_R of the same sums, written only when
-    ``want_grad``. Without a relaxation phase tau_max_R is ignored. Time constants must be finite
-    and positive (checked by the caller).
+    grad_t, grad_r, grad_a (q, 3): d/d ln tau_max, d/d ln tau_max_R and d/d alpha of the same
+    sums, written only when ``want_grad``. Without a relaxation phase tau_max_R is ignored. Time
+    constants must be finite and positive, alpha finite (checked by the caller).
     """
-    fg, ig, lev, spec, imeta, fmeta = grid
-    p = spec[0]
-    shape = spec[1]
+    fg = grid.steps
+    p = _weights(grid, alpha)
+    shape = grid.shape
     n = p.size
     n_steps = fg.shape[0]
-    q = n_steps + 1
-    n_tensile = imeta[0]
-    h_first = fmeta[0]
+    n_tensile = grid.n_tensile
     A = np.zeros(n)
-    B = p * h_first
+    B = p * grid.h0
     C = np.zeros(n)
     gA = np.zeros(n)      # d/d ln tau_max (tensile spectrum)
     gB = np.zeros(n)
+    gC = np.zeros(n)
     rA = np.zeros(n)      # d/d ln tau_max_R (relaxation spectrum)
     rB = np.zeros(n)
     rC = np.zeros(n)
     av = np.empty((_BLOCK, n))      # decays of a block of steps (active modes)
     omv = np.empty((_BLOCK, n))
+    mean_log = 0.0
+    for j in range(n):
+        mean_log += p[j] * grid.log_shape[j]
+    cw = grid.log_shape - mean_log  # dp_j/dα = cw_j p_j
     out[0, 0] = 0.0
-    out[0, 1] = h_first
+    out[0, 1] = grid.h0
     out[0, 2] = 0.0
     if want_grad:
         for c in range(3):
             grad_t[0, c] = 0.0
             grad_r[0, c] = 0.0
+            grad_a[0, c] = 0.0      # Σ c_j p_j h_0 = 0
 
     # ---- tensile phase (eq. 18)
     j0_t = 0
     if n_tensile > 0:
-        j0_t, itau, ptau, spt_t, ta, tom, _ = _phase_tables(grid, tau_max, np.int64(0), np.int64(0))
-        sp_t = 0.0
-        for j in range(j0_t):
-            sp_t += p[j]
-        nk = n - j0_t
-        pt = p[j0_t:]
-        At = A[j0_t:]
-        Bt = B[j0_t:]
-        gAt = gA[j0_t:]
-        gBt = gB[j0_t:]
-        for i in range(n_tensile):
-            d = fg[i, 0]
-            idt = fg[i, 1]
-            de = fg[i, 2]
-            dh = fg[i, 3]
-            h1 = fg[i, 4]
-            h0 = h1 - dh
-            b = i % _BLOCK
-            if b == 0:
-                _block_decays(i, min(i + _BLOCK, n_tensile), fg, ig, itau, ta, tom, av, omv)
-            sa = spt_t * de * idt
-            sb = sp_t * h1 - spt_t * dh * idt
-            if want_grad:
-                ga = sa
-                gb = -spt_t * dh * idt
-                for k in range(nk):
-                    a = av[b, k]
-                    x_a = d * itau[k] * a
-                    pdphi = ptau[k] * omv[b, k] * idt - pt[k] * a
-                    gAt[k] = _flush(a * gAt[k] + x_a * At[k] + pdphi * de)
-                    gBt[k] = _flush(a * gBt[k] + x_a * (Bt[k] - pt[k] * h0) - pdphi * dh)
-                    ga += gAt[k]
-                    gb += gBt[k]
-                grad_t[i + 1, 0] = ga
-                grad_t[i + 1, 1] = gb
-                grad_t[i + 1, 2] = 0.0
-                grad_r[i + 1, 0] = 0.0
-                grad_r[i + 1, 1] = 0.0
-                grad_r[i + 1, 2] = 0.0
-            for k in range(nk):
-                a = av[b, k]
-                c = ptau[k] * omv[b, k] * idt
-                At[k] = _flush(a * At[k] + c * de)
-                Bt[k] = _flush(a * Bt[k] + pt[k] * (h1 - a * h0) - c * dh)
-                sa += At[k]
-                sb += Bt[k]
-            out[i + 1, 0] = sa
-            out[i + 1, 1] = sb
-            out[i + 1, 2] = 0.0
+        tabs = _phase_tables(grid, p, tau_max, False, False)
+        j0_t = tabs.j0
+        states = (A[j0_t:], B[j0_t:], C[j0_t:], gA[j0_t:], gB[j0_t:], gC[j0_t:], rA[j0_t:],
+                  rB[j0_t:])
+        _integrate_phase(grid, tabs, False, 0, n_tensile, p, cw, states, want_grad, out, grad_t,
+                         grad_r, grad_a, av, omv)
 
     if n_tensile >= n_steps:
         return
@@ -481,10 +579,10 @@ def integrate(tau_max, tau_max_R, grid, want_grad, out, grad_t, grad_r):
     # ---- switch to relaxation: the always-relaxed tensile modes take their quasi-static states
     if n_tensile > 0:
         i = n_tensile - 1
-        idt = fg[i, 1]
-        rate_e = fg[i, 2] * idt
-        rate_h = fg[i, 3] * idt
-        h1 = fg[i, 4]
+        idt = fg[i, IDT]
+        rate_e = fg[i, DE] * idt
+        rate_h = fg[i, DH] * idt
+        h1 = fg[i, H1]
         for j in range(j0_t):
             tau = tau_max * shape[j]
             A[j] = p[j] * tau * rate_e
@@ -493,117 +591,8 @@ def integrate(tau_max, tau_max_R, grid, want_grad, out, grad_t, grad_r):
             gB[j] = -p[j] * tau * rate_h
 
     # ---- relaxation phase (section 4.1): same E and weights, spectrum tau_max_R, σ^r = σ_inf
-    j0_r, itau, ptau, spt_r, ta, tom, _ = _phase_tables(grid, tau_max_R, np.int64(1), np.int64(0))
-    sp_r = 0.0
-    for j in range(j0_r):
-        sp_r += p[j]
-    nk = n - j0_r
-    pr = p[j0_r:]
-    Ar = A[j0_r:]
-    Br = B[j0_r:]
-    Cr = C[j0_r:]
-    gAr = gA[j0_r:]
-    gBr = gB[j0_r:]
-    rAr = rA[j0_r:]
-    rBr = rB[j0_r:]
-    rCr = rC[j0_r:]
-    for i in range(n_tensile, q - 1):
-        d = fg[i, 0]
-        idt = fg[i, 1]
-        de = fg[i, 2]
-        b = (i - n_tensile) % _BLOCK
-        if b == 0:
-            _block_decays(i, min(i + _BLOCK, q - 1), fg, ig, itau, ta, tom, av, omv)
-        sa = spt_r * de * idt
-        sb = 0.0
-        sc = sp_r
-        if want_grad:
-            ga = 0.0
-            gb = 0.0
-            ra = sa
-            rb = 0.0
-            rc = 0.0
-            for k in range(nk):
-                a = av[b, k]
-                x_a = d * itau[k] * a
-                pdphi = ptau[k] * omv[b, k] * idt - pr[k] * a
-                gAr[k] = _flush(a * gAr[k])
-                gBr[k] = _flush(a * gBr[k])
-                rAr[k] = _flush(a * rAr[k] + x_a * Ar[k] + pdphi * de)
-                rBr[k] = _flush(a * rBr[k] + x_a * Br[k])
-                rCr[k] = _flush(a * rCr[k] + x_a * (Cr[k] - pr[k]))
-                ga += gAr[k]
-                gb += gBr[k]
-                ra += rAr[k]
-                rb += rBr[k]
-                rc += rCr[k]
-            grad_t[i + 1, 0] = ga
-            grad_t[i + 1, 1] = gb
-            grad_t[i + 1, 2] = 0.0
-            grad_r[i + 1, 0] = ra
-            grad_r[i + 1, 1] = rb
-            grad_r[i + 1, 2] = rc
-        for k in range(nk):
-            a = av[b, k]
-            oma = omv[b, k]
-            Ar[k] = _flush(a * Ar[k] + ptau[k] * oma * idt * de)
-            Br[k] = _flush(a * Br[k])
-            Cr[k] = _flush(a * Cr[k] + pr[k] * oma)
-            sa += Ar[k]
-            sb += Br[k]
-            sc += Cr[k]
-        out[i + 1, 0] = sa
-        out[i + 1, 1] = sb
-        out[i + 1, 2] = sc
-
-
-# ------------------------------------------------------------- grid preparation (plain numpy)
-
-def step_levels(steps: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
-    """Group the step lengths of one phase into levels (see the module docstring).
-
-    Returns (levels, index of each step's level or -1, ρ = step - level, exact). Exact levels when
-    the distinct lengths are few: at most EXACT_LEVELS_MAX and at most max(16, steps/8).
-    """
-    steps = np.asarray(steps, dtype=float)
-    if steps.size == 0:
-        return np.empty(0), np.empty(0, dtype=np.int64), np.empty(0), True
-    distinct, inverse = np.unique(steps, return_inverse=True)
-    if distinct.size <= min(EXACT_LEVELS_MAX, max(16, steps.size // 8)):
-        return distinct, inverse.astype(np.int64), np.zeros(steps.size), True
-    bins = np.rint(np.log(steps / distinct[0]) / LEVEL_SPACING).astype(np.int64)
-    bins[steps > LEVEL_RANGE * distinct[0]] = -1          # long steps: a full exp
-    used, which, counts = np.unique(bins, return_inverse=True, return_counts=True)
-    keep = (counts >= MIN_LEVEL_COUNT) & (used >= 0)
-    new_index = np.cumsum(keep) - 1
-    levels = distinct[0] * np.exp(used[keep] * LEVEL_SPACING)
-    index = np.where(keep[which], new_index[which], -1).astype(np.int64)
-    rho = np.zeros(steps.size)
-    on_level = index >= 0
-    rho[on_level] = steps[on_level] - levels[index[on_level]]
-    return levels, index, rho, False
-
-
-def grid_arrays(time: np.ndarray, strain: np.ndarray, h: np.ndarray, n_tensile: int,
-                p: np.ndarray, shape: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The parameter-free grid tuple of ``stress_into`` and ``integrate`` (module docstring)."""
-    dt = np.diff(time)
-    n_steps = dt.size
-    fg = np.empty((n_steps, 6))
-    fg[:, 0] = dt
-    fg[:, 1] = 1.0 / dt
-    fg[:, 2] = np.diff(strain)
-    fg[:, 3] = np.diff(h)
-    fg[:, 4] = h[1:]
-    lev_t, idx_t, rho_t, exact_t = step_levels(dt[:n_tensile])
-    lev_r, idx_r, rho_r, exact_r = step_levels(dt[n_tensile:])
-    fg[:, 5] = np.concatenate([rho_t, rho_r])
-    ig = np.concatenate([idx_t, idx_r]).astype(np.int64)
-    lev = np.concatenate([lev_t, lev_r])
-    spec = np.ascontiguousarray(np.vstack([p, shape]))
-    imeta = np.array([n_tensile, lev_t.size, lev_r.size, int(exact_t), int(exact_r)],
-                     dtype=np.int64)
-    d_min_t = float(dt[:n_tensile].min()) if n_tensile > 0 else 1.0
-    d_min_r = float(dt[n_tensile:].min()) if n_tensile < n_steps else 1.0
-    fmeta = np.array([h[0], d_min_t, d_min_r])
-    return fg, ig, lev, spec, imeta, fmeta
+    tabs = _phase_tables(grid, p, tau_max_R, True, False)
+    j0 = tabs.j0
+    states = (A[j0:], B[j0:], C[j0:], rA[j0:], rB[j0:], rC[j0:], gA[j0:], gB[j0:])
+    _integrate_phase(grid, tabs, True, n_tensile, n_steps, p, cw, states, want_grad, out, grad_r,
+                     grad_t, grad_a, av, omv)

@@ -30,7 +30,8 @@ from bayes_dnlr.vocabulary import QUANTITIES
 DPI = 110
 SYMBOLS = {k: q.symbol for k, q in QUANTITIES.items()}
 # axis labels: the symbol and its unit (the discrepancy's length is in s or in strain, by its axis)
-LABELS = {k: q.symbol if k == "disc_length" else f"{q.symbol} ({q.unit})" for k, q in QUANTITIES.items()}
+LABELS = {k: q.symbol if k == "disc_length" else f"{q.symbol} (spectrum exponent)" if q.unit == "-"
+          else f"{q.symbol} ({q.unit})" for k, q in QUANTITIES.items()}
 C_DATA, C_MODEL, C_GN, C_TRUTH = "0.35", "#c0392b", "#1f5fa8", "#2e8b57"
 
 

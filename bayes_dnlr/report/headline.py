@@ -96,7 +96,18 @@ def headline(run: RunResults, standards: dict[str, dict | None] | None = None, r
         te = true[0]
         parts.append(f"Synthetic test{'s' if len(run.tests) > 1 else ''}: true E = {fmt(te)} MPa "
                      f"({(e - te) / e_sd if e_sd else float('nan'):+.1f} sd away).")
-    return '<div class="box">' + " ".join(parts) + "</div>"
+    return '<div class="box">' + " ".join(parts) + "</div>" + checks_box(run)
+
+
+def checks_box(run: RunResults) -> str:
+    """The verdict of the run's checks (summary.json ``checks``), under the headline: green when E's
+    interval can be used as it is, amber otherwise (the verdict's first sentence says which)."""
+    checks = (run.summary or {}).get("checks")
+    if not checks or not checks.get("verdict"):
+        return ""
+    css = "ok" if checks.get("trust_interval") else "warn"
+    return (f'<div class="box {css}"><b>Checks</b> (docs/sampling.md, "checks"): '
+            f"{html.escape(str(checks['verdict']))}</div>")
 
 
 def warnings(run: RunResults) -> list[str]:

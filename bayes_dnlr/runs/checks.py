@@ -10,6 +10,11 @@
   (inference/checks/power_scaling.py);
 - ``plausibility``: σ∞ against a falling hold, the time constants against the test's duration, E
   against the standards' chord (inference/checks/physical.py);
+- ``model_form``: the score test of the spectrum's exponent held at ½ (eq. 12; fit.json
+  ``discrepancy.alpha_score`` under model error, else ``spectrum_exponent.score``): how far the data
+  pull it, in sd, with E's shift per +0.1 of it. Most errors of the model's form that a change of
+  the parameters absorbs (a strain toe, a second process, a peaked spectrum) pull it
+  (docs/model-form.md);
 - ``adequate``: the model with its noise model describes the test (coverage and plausibility pass);
   ``trust_interval``: E's interval can be used as it is (adequate, and neither a bound nor the
   prior decides E); ``verdict``: the words, each sentence from one check, a failed one with what
@@ -37,6 +42,7 @@ COVERAGE_HIGH = 0.97        # above this: wider than the scatter (said, not a fa
 SEGMENT_LOW = 0.50          # a segment (with enough points) below this: the model fails there
 SEGMENT_MIN_POINTS = 20
 SHIFT_SD = 1.0              # widening a bound moves E by more than this many posterior sd
+SCORE_Z = 2.5               # the data pull alpha from ½ by more than this many sd: a model-form error
 
 
 def _column(draws: np.ndarray, names: list[str], name: str) -> np.ndarray | None:
@@ -114,6 +120,40 @@ def plausibility_check(cfg: Config, tests: TestSet, layout: Layout, draws: np.nd
         if e is not None and chord:
             checks["E_chord"] = physical.chord_check(e, float(chord))
         out[t] = checks
+    return out
+
+
+def _score_of(fit: dict[str, Any]) -> tuple[dict | None, str]:
+    """The score test of alpha in one test's fit.json block, and under which likelihood."""
+    disc = fit.get("discrepancy") or {}
+    if disc.get("alpha_score") is not None:
+        return disc["alpha_score"], "under the discrepancy"
+    score = (fit.get("spectrum_exponent") or {}).get("score")
+    return score, "white"
+
+
+def model_form_check(fit: dict[str, Any], layout: Layout, post_sd: dict[str, float]) -> dict[str, dict]:
+    """Each test's score test of the spectrum's exponent held at ½, with E's shift per +0.1 of it
+    and the shift of E, in posterior sd, at the exponent the data prefer (one Gauss-Newton step);
+    empty for a test whose fit holds none (alpha sampled, or E fixed). It fails when the data pull
+    the exponent by more than SCORE_Z sd and that pull moves E by more than SHIFT_SD posterior sd."""
+    per_test = {t: fit for t in layout.tests} if layout.plain else {
+        t: (fit.get("single_fits") or {}).get(t) or {} for t in layout.tests}
+    out = {}
+    for t, f in per_test.items():
+        score, how = _score_of(f)
+        if not score or not math.isfinite(float(score.get("z", math.nan))):
+            continue
+        block = f.get("spectrum_exponent") or {}
+        rel = (block.get("relative_per_tenth") or {}).get("E")
+        slope = (block.get("derivative") or {}).get("E")
+        sd = post_sd.get(layout.name("E", t))
+        z, step = float(score["z"]), score.get("step")
+        shift = (float(step) * float(slope) / sd if None not in (step, slope, sd) and sd > 0
+                 and math.isfinite(float(step)) else None)
+        out[t] = {"z": z, "step": step, "likelihood": how, "E_relative_per_tenth": rel,
+                  "E_shift_sd": shift,
+                  "ok": abs(z) <= SCORE_Z or (shift is not None and abs(shift) <= SHIFT_SD)}
     return out
 
 
@@ -239,6 +279,21 @@ def _plausibility_words(test: str, checks: dict, several: bool) -> list[tuple[st
     return out
 
 
+def _model_form_words(test: str, c: dict, several: bool) -> tuple[bool, str | None]:
+    if c["ok"]:
+        return True, None
+    who = f"{test}: " if several else ""
+    rel = c.get("E_relative_per_tenth")
+    moves = (f"; E moves by {100 * rel:+.0f} % per +0.1 of the exponent" if rel is not None else "")
+    if c.get("E_shift_sd") is not None:
+        moves += f", {c['E_shift_sd']:+.1f} posterior sd at the exponent the data prefer"
+    return False, (f"{who}the data pull the spectrum's exponent away from Cunat's ½ by {c['z']:+.1f} sd "
+                   f"(score test, {c['likelihood']}){moves}: the model's form does not fit (a strain toe, "
+                   "a second process, another spectrum shape) and E's interval does not carry it. "
+                   "Sample the exponent (parameters.alpha, docs/model-form.md), fix the start of the "
+                   "curve, or check E against an independent measurement (crosscheck:).")
+
+
 def _bound_words(entries: list[dict]) -> tuple[bool, list[str]]:
     ok, words = True, []
     for b in entries:
@@ -274,6 +329,11 @@ def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[boo
                 adequate &= ok
             else:
                 trust &= ok
+    for t, c in (checks.get("model_form") or {}).items():
+        ok, text = _model_form_words(t, c, several)
+        trust &= ok
+        if text:
+            words.append(text)
     ok, bound_words = _bound_words(checks["bound_limited"])
     trust &= ok
     words += bound_words
@@ -309,10 +369,12 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
         "bound_limited": bound_check(cfg, tests, draws, names, priors, fit, uses_disc, post_sd),
         "prior_sensitivity": prior_sensitivity_check(draws, names, priors),
         "plausibility": plausibility_check(cfg, tests, layout, draws, names, standards),
+        "model_form": model_form_check(fit, layout, post_sd),
     }
     adequate, trust, words = verdict(checks, bool(summary.get("converged")), not layout.plain)
     if layout.plain:
         for k in ("predictive_coverage", "plausibility"):
             checks[k] = layout.collapse(checks[k])
+        checks["model_form"] = checks["model_form"].get(layout.tests[0])      # None: no score test
     checks.update(adequate=adequate, trust_interval=trust, verdict=words)
     return checks

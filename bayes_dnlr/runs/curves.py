@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bayes_dnlr.runs.results import RunResults
-from bayes_dnlr.vocabulary import Z90
+from bayes_dnlr.vocabulary import SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT, Z90
 
 N_DRAWS = 200          # posterior draws pushed through the model for the bands
 
@@ -48,9 +48,20 @@ def _stress(basis_values: np.ndarray, p: dict[str, float]) -> np.ndarray:
     return s
 
 
+def _basis(model, p: dict[str, float], grad: bool = False):
+    """The model's basis at the time constants and spectrum exponent of ``p``."""
+    return model.basis(p["tau_max"], p.get("tau_max_R"), grad=grad,
+                       alpha=p.get(SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT))
+
+
+def _model_names(model) -> list[str]:
+    """The model's parameters, the optional spectrum exponent included."""
+    return [*model.parameter_names(), SPECTRUM_EXPONENT]
+
+
 def sensitivities(model, params: dict[str, float], names: list[str]) -> dict[str, np.ndarray]:
     """Normalised sensitivities X̃_j = β_j ∂σ/∂β_j (eq. 37), MPa, on the model grid."""
-    b = model.basis(params["tau_max"], params.get("tau_max_R"), grad=True)
+    b = _basis(model, params, grad=True)
     out = {}
     for n in names:
         if n in ("E", "G", "sigma_inf"):
@@ -59,6 +70,8 @@ def sensitivities(model, params: dict[str, float], names: list[str]) -> dict[str
             g = b.grad_tau_max if n == "tau_max" else b.grad_tau_max_R
             if g is not None:
                 out[n] = _stress(g, params)   # ∂σ/∂ln tau = tau ∂σ/∂tau
+        elif n == SPECTRUM_EXPONENT:
+            out[n] = params[n] * _stress(b.grad_alpha, params)
     return out
 
 
@@ -81,12 +94,11 @@ def model_curves(run: RunResults, n_draws: int = N_DRAWS, seed: int = 0) -> Curv
     if all(k in point for k in model.parameter_names()):
         gn = run.gn()
         if gn is not None:
-            c.gn_curve = _stress(model.basis(point["tau_max"], point.get("tau_max_R")).values, point)
+            c.gn_curve = _stress(_basis(model, point).values, point)
             white = {**fixed, **gn["estimate"]}
-            c.white_curve = (c.gn_curve if all(white.get(k) == point.get(k) for k in model.parameter_names())
-                             else _stress(model.basis(white["tau_max"], white.get("tau_max_R")).values,
-                                          white))
-        c.sensitivities = sensitivities(model, point, [k for k in model.parameter_names()
+            c.white_curve = (c.gn_curve if all(white.get(k) == point.get(k) for k in _model_names(model))
+                             else _stress(_basis(model, white).values, white))
+        c.sensitivities = sensitivities(model, point, [k for k in _model_names(model)
                                                        if k in run.model_names])
     if run.draws is not None and all(k in run.draws or k in fixed for k in model.parameter_names()):
         rng = np.random.default_rng(seed)
@@ -95,7 +107,7 @@ def model_curves(run: RunResults, n_draws: int = N_DRAWS, seed: int = 0) -> Curv
         flat = {k: v.reshape(-1)[pick] for k, v in run.draws.items()}
         sig = flat.get("sigma0")
         s0 = run.sigma0()
-        names = model.parameter_names()
+        names = [k for k in _model_names(model) if k in flat or k in fixed]
         theta = np.column_stack([flat[k] if k in flat else np.full(pick.size, float(fixed[k]))
                                  for k in names])
         curves = model.stress_batch(theta, names)       # every draw at once, compiled

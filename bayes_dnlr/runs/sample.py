@@ -408,6 +408,32 @@ def _sandwich_adjustment(cfg: Config, fit: dict[str, Any], run: StoredRun,
     return new.reshape(draws.shape), info
 
 
+def _spectrum_block(cfg: Config, fit: dict[str, Any], names: list[str],
+                    draws: np.ndarray) -> dict[str, Any] | None:
+    """The fit's ``spectrum_exponent`` block (how E depends on alpha, eq. 12) and, with alpha sampled,
+    what the data said about alpha: its prior and posterior mean and sd, the shift of the mean in
+    prior sd and the ratio of the sds (1: the data do not tell alpha), the posterior correlation
+    of E and alpha and the slope of E on alpha over the draws."""
+    block = fit.get("spectrum_exponent")
+    if block is None:
+        return None
+    block = dict(block)
+    if "E" in names and "alpha" in names:
+        from bayes_dnlr.inference.posterior.priors import Prior
+
+        e = draws[:, :, names.index("E")].ravel()
+        a = draws[:, :, names.index("alpha")].ravel()
+        prior = Prior.from_spec("alpha", cfg.parameters["alpha"]).sample(
+            np.random.default_rng(0), 20000)
+        p_mean, p_sd = float(np.mean(prior)), float(np.std(prior, ddof=1))
+        a_mean, a_sd = float(np.mean(a)), float(np.std(a, ddof=1))
+        block |= {"prior": {"mean": p_mean, "sd": p_sd}, "posterior": {"mean": a_mean, "sd": a_sd},
+                  "shift_in_prior_sd": (a_mean - p_mean) / p_sd, "sd_ratio": a_sd / p_sd,
+                  "posterior_correlation_E_alpha": float(np.corrcoef(e, a)[0, 1]),
+                  "posterior_slope_E_alpha": float(np.cov(e, a)[0, 1] / np.var(a, ddof=1))}
+    return block
+
+
 def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Convergence | None,
                   reason: str | None, fp: str, test, sigma0_source: str, *, wall_time: float,
                   store_time: float, evals: int, check_time: float | None = None,
@@ -457,9 +483,10 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
     }
     attrs = {"burn_in": int(burn), "stop_reason": reason, "walkers": int(run.chain.shape[1]),
              "steps": int(run.steps), "moves": sc.moves, "seed": sc.seed, "run": cfg.name,
-             "sampling_coordinates": json.dumps({k: ("log" if ls else "linear") for k, ls in
-                                                 zip(names, run.attrs.get("log_space", []),
-                                                     strict=False)})}
+             "sampling_coordinates": json.dumps({k: ("log" if ls else "spectral" if
+                                                     k.split("[", 1)[0] == "alpha" else "linear")
+                                                 for k, ls in zip(names, run.attrs.get("log_space", []),
+                                                                  strict=False)})}
     dt = PosteriorDraws(names, draws, lp, attrs)     # posterior.nc without importing xarray
     summary = summarize(names, draws, fit=fit, tau=conv.tau, extra=extra)
     summary["noise"] = jsonable(noise_summary(cfg, fit, summary, layout, sigma0,
@@ -473,6 +500,9 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
     if summary["noise"]["model"] == "discrepancy" and fit.get("discrepancy"):
         summary["generalized_least_squares"] = gauss_newton_block(
             {"parameters": fit.get("parameters"), **fit["discrepancy"]})
+    spectrum = _spectrum_block(cfg, fit, names, draws)
+    if spectrum is not None:
+        summary["spectrum_exponent"] = jsonable(spectrum)
     summary["warnings"] = warnings + [
         f"R-hat of {k} is {summary['posterior'][k]['r_hat']:.4f} > 1.01"
         for k in names if (summary["posterior"][k]["r_hat"] or 0) > 1.01] + residual_warnings(fit)

@@ -12,6 +12,10 @@ strain noise, stress noise, force noise, transverse strain noise, then the corre
 the discrepancy likelihood sees it, docs/model-error.md): a stationary Gaussian process on the time
 axis, exp (Ornstein-Uhlenbeck, k = a² e^{-τ/ℓ}) or matern32 (k = a² (1 + √3τ/ℓ) e^{-√3τ/ℓ}),
 drawn exactly on the (possibly non-uniform) grid in O(n) from its state-space form.
+
+``truth.model_form`` makes the test with a richer model than the fitted one (truth_forms.py):
+another spectrum shape, a stiffer hardening law, a second relaxation process, or a strain channel
+that reports another strain than the specimen's (the axial column then holds that strain).
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ from bayes_dnlr.config import Config, ConfigError, TruthConfig
 from bayes_dnlr.data import DataError, nominal_from_hencky
 from bayes_dnlr.data.numbers import parse_cell
 from bayes_dnlr.units import factor
+from bayes_dnlr.workflows.truth_forms import generate
 
 FORMAT = "%.10g"
 # per layout: delimiter, decimal mark, quote every cell, thousands separator, default unit per role kind
@@ -232,12 +237,15 @@ def correlated_error(time: np.ndarray, kernel: str, amplitude: float, length: fl
 
 
 def _columns(cfg: Config, truth: TruthConfig, p: Protocol, stress: np.ndarray,
-             rng: np.random.Generator) -> list[tuple[str, str, np.ndarray]]:
+             rng: np.random.Generator, measured: np.ndarray | None = None
+             ) -> list[tuple[str, str, np.ndarray]]:
     """(role, header, values in the package's units), in the order time, axial strain, eps22,
-    force, stress."""
+    force, stress. ``measured``: the strain the axial channel reports, when it differs from the
+    specimen's (``truth.model_form``)."""
     noise, c, d = truth.noise, cfg.data.columns, cfg.data
     n = p.time.size
-    eps11 = p.strain + rng.normal(0.0, noise.strain_sd, n) if noise.strain_sd > 0 else p.strain.copy()
+    axial = p.strain if measured is None else measured
+    eps11 = axial + rng.normal(0.0, noise.strain_sd, n) if noise.strain_sd > 0 else axial.copy()
     observed = stress + rng.normal(0.0, noise.stress_sd, n) if noise.stress_sd > 0 else stress.copy()
     force_noise = rng.normal(0.0, noise.force_sd, n) if noise.force_sd > 0 else np.zeros(n)
     eps22 = -0.5 * p.strain
@@ -393,9 +401,15 @@ def simulate_test(cfg: Config, overwrite: bool = False) -> SimulationResult:
     truth = _check(cfg)
     rng = np.random.default_rng(truth.seed)
     p = protocol(truth, rng)
-    stress = simulate(p.time, p.strain, truth.params, modes=cfg.model.modes,
-                      decades=cfg.model.decades, relaxation_start=p.relaxation_start)
-    columns = _columns(cfg, truth, p, stress, rng)
+    measured = None
+    if truth.model_form is None:
+        stress = simulate(p.time, p.strain, truth.params, modes=cfg.model.modes,
+                          decades=cfg.model.decades, relaxation_start=p.relaxation_start)
+    else:
+        form = generate(p.time, p.strain, truth.params, p.relaxation_start, truth.model_form.kind,
+                        truth.model_form.strength, cfg.model.modes, cfg.model.decades)
+        stress, measured = form.stress, form.measured_strain
+    columns = _columns(cfg, truth, p, stress, rng, measured)
     source = cfg.source if cfg.source is not None else "the config"
     data = _csv_bytes(cfg, columns, truth.layout)
     delimiter = cfg.data.delimiter or LAYOUTS[truth.layout]["delimiter"]

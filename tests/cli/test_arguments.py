@@ -21,7 +21,8 @@ def test_report_takes_the_config_and_the_run_folder(finished, capsys, monkeypatc
     import bayes_dnlr.report as report
 
     seen = []
-    monkeypatch.setattr(report, "build_report", lambda d: seen.append(Path(d)) or Path(d) / "report.html")
+    monkeypatch.setattr(report, "build_report",
+                        lambda d, **kw: seen.append(Path(d)) or Path(d) / "report.html")
     assert main(["report", str(finished / "config.yaml")]) == 0
     assert main(["report", str(finished)]) == 0
     assert [p.resolve() for p in seen] == [finished.resolve()] * 2

@@ -7,41 +7,32 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from numba import njit
-from support.model import RELAX, TABLE3_5E3, ramp, reference, rel_err
+from support.model import RELAX, TABLE3_5E3, jittered, ramp, reference, rel_err
 
 import bayes_dnlr as bd
-from bayes_dnlr.model import DNLR, cached_model, default_threads, get_threads, kernel, set_threads
+from bayes_dnlr.model import DNLR, cached_model, default_threads, get_threads, grid, kernel, set_threads
 from bayes_dnlr.model import threads as threads_module
 
 NAMES = ["E", "G", "tau_max", "sigma_inf", "tau_max_R"]
 
 
-def jittered(n: int, jitter: float, seed: int = 3, hold: float = 0.0, n_hold: int = 0):
-    """A ramp (then hold) whose steps are scaled by 1 ± jitter at random."""
-    t, e = ramp(5e-3, 1.9, n, hold=hold, n_hold=n_hold)
-    rng = np.random.default_rng(seed)
-    dt = np.diff(t) * (1 + rng.uniform(-jitter, jitter, t.size - 1))
-    t = np.concatenate([[0.0], np.cumsum(dt)])
-    return t, np.minimum(5e-3 * t, 1.9)
-
-
 def paths(model: DNLR) -> dict[str, int]:
     """How many steps of the model take each decay path."""
-    _, ig, _, _, imeta, _ = model.kernel_args
-    fg = model.kernel_args[0]
+    g = model.kernel_args
+    ig = g.level
     exact = np.zeros(ig.size, dtype=bool)
-    exact[: imeta[0]] = imeta[3] != 0
-    exact[imeta[0]:] = imeta[4] != 0
+    exact[: g.n_tensile] = g.exact_t
+    exact[g.n_tensile:] = g.exact_r
     return {"exact": int(exact.sum()), "level": int(((ig >= 0) & ~exact).sum()),
-            "full exp": int((ig < 0).sum()), "rho != 0": int((fg[:, 5] != 0).sum())}
+            "full exp": int((ig < 0).sum()), "rho != 0": int((g.steps[:, kernel.RHO] != 0).sum())}
 
 
 def force_path(monkeypatch, path: str) -> None:
     """Make step_levels choose one path for jittered grids."""
     if path == "level":
-        monkeypatch.setattr(kernel, "MIN_LEVEL_COUNT", 1)
+        monkeypatch.setattr(grid, "MIN_LEVEL_COUNT", 1)
     elif path == "full exp":
-        monkeypatch.setattr(kernel, "MIN_LEVEL_COUNT", 10**9)
+        monkeypatch.setattr(grid, "MIN_LEVEL_COUNT", 10**9)
 
 
 # ------------------------------------------------------------------------- the decay routines
@@ -75,7 +66,7 @@ def test_level_correction_matches_expm1():
 
 def test_step_levels_exact_for_few_distinct_steps():
     steps = np.tile([0.1, 0.2, 0.15], 100)
-    levels, index, rho, exact = kernel.step_levels(steps)
+    levels, index, rho, exact = grid.step_levels(steps)
     assert exact and levels.tolist() == [0.1, 0.15, 0.2]
     np.testing.assert_array_equal(levels[index], steps)
     assert not rho.any()
@@ -83,17 +74,17 @@ def test_step_levels_exact_for_few_distinct_steps():
 
 def test_step_levels_quantize_jitter_within_spacing():
     steps = 0.19 * (1 + np.random.default_rng(0).uniform(-0.15, 0.15, 5000))
-    levels, index, rho, exact = kernel.step_levels(steps)
+    levels, index, rho, exact = grid.step_levels(steps)
     assert not exact
     assert 50 <= levels.size <= 70                        # ln(1.35)/0.005 = 60 levels
     ok = index >= 0
     np.testing.assert_allclose(levels[index[ok]] + rho[ok], steps[ok], rtol=1e-15)
-    assert np.max(np.abs(rho[ok]) / levels[index[ok]]) <= np.expm1(kernel.LEVEL_SPACING / 2) * (1 + 1e-9)
+    assert np.max(np.abs(rho[ok]) / levels[index[ok]]) <= np.expm1(grid.LEVEL_SPACING / 2) * (1 + 1e-9)
     counts = np.bincount(index[ok])
-    assert counts.min() >= kernel.MIN_LEVEL_COUNT
+    assert counts.min() >= grid.MIN_LEVEL_COUNT
     # the level count does not grow with the number of steps: work memory is O(N·levels)
     more = 0.19 * (1 + np.random.default_rng(1).uniform(-0.15, 0.15, 200_000))
-    assert kernel.step_levels(more)[0].size <= levels.size + 2
+    assert grid.step_levels(more)[0].size <= levels.size + 2
 
 
 def test_prepared_grid_is_linear_in_q():
@@ -101,8 +92,8 @@ def test_prepared_grid_is_linear_in_q():
     for q in (1000, 16000):
         t, e = jittered(q, 0.15)
         m = DNLR(t, e)
-        sizes[q] = sum(a.nbytes for a in m.kernel_args)
-        levels = m.kernel_args[2].size
+        sizes[q] = sum(a.nbytes for a in m.kernel_args if isinstance(a, np.ndarray))
+        levels = m.kernel_args.levels.size
         assert levels < 80
     per_point = (sizes[16000] - sizes[1000]) / 15000
     assert per_point <= 7 * 8 + 1          # 6 floats and one index per step
@@ -184,7 +175,7 @@ def test_stress_into_equals_basis_combination(case, tau):
 
 
 def test_gradients_on_quantized_levels_match_finite_differences(monkeypatch):
-    monkeypatch.setattr(kernel, "MIN_LEVEL_COUNT", 1)
+    monkeypatch.setattr(grid, "MIN_LEVEL_COUNT", 1)
     t, e = jittered(400, 0.15, hold=200.0, n_hold=100)
     m = DNLR(t, e, relaxation_start=380.0)
     assert paths(m)["level"] > 0.9 * (t.size - 1)     # the rest: steps > 2x the shortest
@@ -201,13 +192,13 @@ def test_gradients_on_quantized_levels_match_finite_differences(monkeypatch):
 # ----------------------------------------------------------------- the calling convention
 
 @njit
-def _loop_over_sets(theta, grid, out):
+def _loop_over_sets(theta, prepared, out):
     # theta columns in NAMES order (E, G, tau_max, sigma_inf, tau_max_R); stress_into takes
-    # (E, G, sigma_inf, tau_max, tau_max_R)
+    # (E, G, sigma_inf, tau_max, tau_max_R, alpha)
     ok = 0
     for r in range(theta.shape[0]):
         ok += kernel.stress_into(theta[r, 0], theta[r, 1], theta[r, 3], theta[r, 2], theta[r, 4],
-                                 grid, out[r])
+                                 0.5, prepared, out[r])
     return ok
 
 
@@ -233,14 +224,14 @@ def test_invalid_time_constants_give_nan_and_false_not_a_crash():
     m = DNLR(t, e, relaxation_start=200.0)
     out = np.zeros(m.n_points)
     for bad in ((-1.0, 10.0), (np.nan, 10.0), (5.0, 0.0), (5.0, np.inf)):
-        assert not kernel.stress_into(2000.0, 2.0, 50.0, bad[0], bad[1], m.kernel_args, out)
+        assert not kernel.stress_into(2000.0, 2.0, 50.0, bad[0], bad[1], 0.5, m.kernel_args, out)
         assert np.isnan(out).all()
     theta = sets(3)
     theta[1, 4] = -3.0
     with pytest.raises(ValueError, match="row 1 of theta"):
         m.stress_batch(theta, NAMES)
     tensile = DNLR(t, e)      # no relaxation: tau_max_R is ignored
-    assert kernel.stress_into(2000.0, 2.0, 0.0, 5.0, -1.0, tensile.kernel_args, out)
+    assert kernel.stress_into(2000.0, 2.0, 0.0, 5.0, -1.0, 0.5, tensile.kernel_args, out)
 
 
 # ------------------------------------------------------------------------ batch and threads

@@ -53,3 +53,18 @@ def test_every_tests_warnings_are_on_the_page_of_a_joint_run(tmp_path):
     assert out.count("r5e-3: " + HINT) == 1                 # the run's copy of it is not repeated
     assert "strongly correlated pairs (|ρ| > 0.99): E–tau_max[r5e-3]" in out
     assert KERNEL not in out and BOUND not in out           # never without its test's name
+
+
+def test_the_checks_verdict_sits_under_the_headline(tmp_path):
+    """A sampled run's checks decide the colour of the box under the headline and give its words."""
+    import json
+
+    from support.finished_run import make_finished_run
+
+    run = make_finished_run(tmp_path)
+    summary = json.loads((run / "summary.json").read_text())
+    page = build_report(run).read_text()
+    box = re.search(r'<div class="box (ok|warn)"><b>Checks</b>(.*?)</div>', page, re.S)
+    assert box is not None
+    assert box.group(1) == ("ok" if summary["checks"]["trust_interval"] else "warn")
+    assert html.unescape(box.group(2)).strip().endswith(summary["checks"]["verdict"])

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from bayes_dnlr.inference.checks import bounds, physical, power_scaling, predictive
-from bayes_dnlr.runs.checks import verdict
+from bayes_dnlr.inference.layout import Layout
+from bayes_dnlr.runs.checks import model_form_check, verdict
 
 
 def test_power_scaling_equals_arviz_stats_psense() -> None:
@@ -114,9 +115,40 @@ def test_the_verdict_follows_from_the_checks() -> None:
     assert not trust and "not converged" in words
 
 
+def _fit_with_score(z: float, step: float, slope: float = -3300.0) -> dict:
+    return {"spectrum_exponent": {"derivative": {"E": slope}, "relative_per_tenth": {"E": -0.1},
+                                  "score": {"z": 99.0, "step": 1.0, "sd": 0.01}},
+            "discrepancy": {"alpha_score": {"z": z, "step": step, "sd": step / z if z else 1.0}}}
+
+
+def test_the_model_form_check_reads_the_score_under_the_discrepancy_and_weighs_the_move_of_e() -> None:
+    layout = Layout.build({"t": ["E", "G", "tau_max"]}, (), plain=True)
+    c = model_form_check(_fit_with_score(1.0, 0.01), layout, {"E": 30.0})["t"]
+    assert c["likelihood"] == "under the discrepancy" and c["z"] == 1.0 and c["ok"]
+    c = model_form_check(_fit_with_score(6.0, 0.1), layout, {"E": 30.0})["t"]
+    assert c["E_shift_sd"] == pytest.approx(-11.0) and not c["ok"]
+    # a pull the data are sure of that hardly moves E: E's interval stands
+    c = model_form_check(_fit_with_score(6.0, 0.001), layout, {"E": 30.0})["t"]
+    assert abs(c["E_shift_sd"]) < 1.0 and c["ok"]
+    # the white score when there is no discrepancy block; none when alpha is sampled
+    white = _fit_with_score(1.0, 0.01)
+    del white["discrepancy"]
+    assert model_form_check(white, layout, {"E": 30.0})["t"]["likelihood"] == "white"
+    assert model_form_check({"spectrum_exponent": None}, layout, {"E": 30.0}) == {}
+
+
+def test_a_model_form_error_withdraws_trust_and_says_what_to_do() -> None:
+    checks = _checks()
+    checks["model_form"] = {"t": {"z": 6.0, "step": 0.1, "likelihood": "under the discrepancy",
+                                  "E_relative_per_tenth": -0.1, "E_shift_sd": -11.0, "ok": False}}
+    adequate, trust, words = verdict(checks, True, False)
+    assert adequate and not trust
+    assert "by +6.0 sd" in words and "-10 % per +0.1" in words and "parameters.alpha" in words
+
+
 def test_a_sampled_run_records_its_checks(tmp_path) -> None:
     """summary.json's checks block: a clean synthetic test is trusted; its coverage is about 90 %."""
-    from tests.finished_run import make_finished_run
+    from support.finished_run import make_finished_run
 
     run = make_finished_run(tmp_path)
     checks = json.loads((run / "summary.json").read_text())["checks"]
@@ -133,7 +165,7 @@ def test_a_sampled_run_records_its_checks(tmp_path) -> None:
 def test_a_prior_bound_that_decides_e_is_named_with_the_move_of_e(tmp_path) -> None:
     """G bounded below its true value: G piles against the bound, and widening it moves E."""
     import yaml
-    from tests.finished_run import make_finished_run
+    from support.finished_run import make_finished_run
 
     from bayes_dnlr.config import load_config
     from bayes_dnlr.runs.sample import sample

@@ -55,3 +55,12 @@ def reference(time, eps, params, modes=50, decades=6.0, relaxation_start=None, s
 
 def rel_err(a, b):
     return np.max(np.abs(a - b) / np.maximum(np.abs(b), 1e-3))
+
+
+def jittered(n: int, jitter: float, seed: int = 3, hold: float = 0.0, n_hold: int = 0):
+    """A ramp (then hold) whose steps are scaled by 1 ± jitter at random."""
+    t, e = ramp(5e-3, 1.9, n, hold=hold, n_hold=n_hold)
+    rng = np.random.default_rng(seed)
+    dt = np.diff(t) * (1 + rng.uniform(-jitter, jitter, t.size - 1))
+    t = np.concatenate([[0.0], np.cumsum(dt)])
+    return t, np.minimum(5e-3 * t, 1.9)

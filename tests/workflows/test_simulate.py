@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import yaml
 from support import REPO
+from support.simulate import TENSILE, truth
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.config import ConfigError, load_config, parse_config
@@ -15,13 +16,7 @@ from bayes_dnlr.workflows.simulate import simulate_test
 
 RUNS = REPO / "runs"
 EXAMPLES = ["hdpe-a-2.5e-3", "hdpe-a-5e-3", "hdpe-a-1e-2", "hdpe-b-relax-5e-3"]
-TENSILE = {"E": 2854.0, "G": 2.32, "tau_max": 5.79}
 RELAX = {"E": 2270.0, "G": 2.30, "tau_max": 7.16, "sigma_inf": 100.0, "tau_max_R": 150.0}
-
-
-def truth(**kw):
-    base = {"params": TENSILE, "strain_rate": 5e-3, "strain_max": 1.9, "n_points": 2000, "seed": 1}
-    return {**base, **kw}
 
 
 def relax_truth(**kw):

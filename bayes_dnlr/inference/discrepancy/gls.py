@@ -46,10 +46,17 @@ from bayes_dnlr.inference.discrepancy.hyper import (
 )
 from bayes_dnlr.inference.lsq import optimize
 from bayes_dnlr.inference.lsq.problem import LsqProblem
-from bayes_dnlr.inference.lsq.sensitivity import correlation, relative_errors, standard_deviations
+from bayes_dnlr.inference.lsq.sensitivity import (
+    alpha_score,
+    correlation,
+    derivative,
+    relative_errors,
+    standard_deviations,
+)
 from bayes_dnlr.inference.lsq.sigma0 import high_frequency_sd, resolve_sigma0
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.numbers import fmt
+from bayes_dnlr.vocabulary import SPECTRUM_EXPONENT
 
 CANDIDATES = ("exp", "matern32")
 WORKING = "exp"         # the kernel of the generalized target's metric (and of the sampled posterior)
@@ -240,8 +247,13 @@ def discrepancy_analysis(cfg: Config, test, problem: LsqProblem, beta_white: np.
             warnings.append(f"{k} = {params[k]:.6g} (the estimate under model error) sits on a bound of "
                             f"its prior [{lo:g}, {hi:g}]")
     hs = core["sampled_kernel"]
-    whitened = residual_diagnostics(whitener(axis, Hyper(h.sigma0, max(h.amplitude, 0.0), h.length), hs)(
-        core["r_window"]), 1.0, "whitened")
+    whiten = whitener(axis, Hyper(h.sigma0, max(h.amplitude, 0.0), h.length), hs)
+    whitened = residual_diagnostics(whiten(core["r_window"]), 1.0, "whitened")
+    score = None
+    if SPECTRUM_EXPONENT not in names and "E" in names:      # the spectrum exponent held at ½
+        x_alpha = derivative(problem.basis(params), params, SPECTRUM_EXPONENT)[problem.mask]
+        score = alpha_score(whiten(problem.jacobian(params)), whiten(x_alpha), whiten(core["r_window"]),
+                            1.0)
     gain = (per["matern32"]["log_posterior"] - per["exp"]["log_posterior"]) if len(per) == 2 else None
     record = {
         "rule": "kernels weighed by their likelihood of the hyperparameters with the amplitude's prior; "
@@ -285,6 +297,7 @@ def discrepancy_analysis(cfg: Config, test, problem: LsqProblem, beta_white: np.
                         for j, k in enumerate(names) if sd[j] > 0},
         "criterion": float(core["r_window"] @ core["r_window"]), "converged": True, "message": core["how"],
         "whitened_residuals": whitened,
+        "alpha_score": score,
         "kernel_choice": record,
         "projection": projection,
         "warnings": warnings + _whiteness_warning(whitened, zero_amplitude, hs),

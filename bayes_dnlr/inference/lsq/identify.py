@@ -33,17 +33,26 @@ from bayes_dnlr.inference.lsq.plausibility import plausibility_warnings, singula
 from bayes_dnlr.inference.lsq.problem import LsqProblem
 from bayes_dnlr.inference.lsq.sensitivity import (
     StochasticAnalysis,
+    alpha_dependence,
+    alpha_score,
     analyse,
     analyse_holding,
     bound_side,
     bound_warning,
+    derivative,
     identifiability_warnings,
 )
 from bayes_dnlr.inference.lsq.sigma0 import resolve_sigma0
-from bayes_dnlr.inference.lsq.start import clip_to, fallback, physics_start, spread_starts
+from bayes_dnlr.inference.lsq.start import (
+    SPECTRUM_START,
+    clip_to,
+    fallback,
+    physics_start,
+    spread_starts,
+)
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd
-from bayes_dnlr.vocabulary import UNITS
+from bayes_dnlr.vocabulary import UNITS, UNIVERSAL_EXPONENT
 
 SAME_OPTIMUM_SD = 0.01      # multi-start end points within this many sd of the best: same optimum
 SAME_OPTIMUM_REL = 1.0e-6   # ... or within this relative distance (noise-free data: sd -> 0)
@@ -92,6 +101,7 @@ class FitResult:
     wall_time_s: float = 0.0
     data_notes: list[str] = field(default_factory=list)   # from the data layer (e.g. a detected hold)
     discrepancy: dict[str, Any] | None = None   # the model-discrepancy (GLS) analysis, or None (white)
+    spectrum_exponent: dict[str, Any] | None = None   # how the estimate depends on alpha (eq. 12)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able content of fit.json."""
@@ -136,6 +146,7 @@ class FitResult:
             "version": __version__,
             "wall_time_s": self.wall_time_s,
             "discrepancy": self.discrepancy,
+            "spectrum_exponent": self.spectrum_exponent,
         }
         return jsonable(d)
 
@@ -183,10 +194,29 @@ class FitResult:
             lines.append(f"multi-start: {ms['converged']}/{ms['starts']} converged, {same}")
         if self.deborah_max is not None:
             lines.append(f"De_max = tau_max · rate = {self.deborah_max:.4g} (eq. 45)")
+        if self.spectrum_exponent is not None:
+            lines.append(spectrum_line(self.spectrum_exponent, self.estimate))
         if self.warnings:
             lines.append("warnings:")
             lines.extend(f"  - {m}" for m in self.warnings)
         return "\n".join(lines)
+
+
+def spectrum_line(dep: dict[str, Any], estimate: dict[str, float]) -> str:
+    """One line: how far E moves per 0.1 of the spectrum's exponent (eq. 12 assumes ½)."""
+    a = dep["alpha"]
+    dE = dep["per_tenth"].get("E")
+    if dE is None:
+        return f"spectrum exponent alpha = {a:.3g}"
+    how = "sampled; E moves along the posterior" if dep["sampled"] else (
+        "fixed; E moves when it is held elsewhere")
+    line = (f"spectrum exponent alpha = {a:.3g} ({how}): {dE:+.4g} MPa "
+            f"({100 * dE / estimate['E']:+.2g} %) per +0.1 of alpha (eq. 12 has ½)")
+    score = dep.get("score")
+    if score is not None and math.isfinite(score["step"]):
+        line += (f"; the data pull alpha by {score['step']:+.3g} ± {score['sd']:.2g} "
+                 f"({score['z']:+.1f} sd, white noise)")
+    return line
 
 
 def _delta_tilde_lines(title: str, names: list[str], dt: np.ndarray, w: int) -> list[str]:
@@ -257,6 +287,9 @@ def fit_test(cfg: Config, test) -> FitResult:
                                  problem.model.relaxation_start if problem.model.has_relaxation else None,
                                  test.strain_rate, cfg.model.modes, cfg.model.decades)
     beta0 = np.empty(len(names))
+    for k, (value, why) in SPECTRUM_START.items():
+        if k in names:
+            guess[k], notes[k] = value, why
     for j, k in enumerate(names):
         if k in guess and math.isfinite(guess[k]):
             beta0[j] = clip_to(specs[k], guess[k])
@@ -334,6 +367,7 @@ def fit_test(cfg: Config, test) -> FitResult:
 
     rate = float(test.strain_rate)
     tau = params.get("tau_max")
+    spectrum = _spectrum_dependence(problem, params, names, X, values, residuals, sigma0)
     return FitResult(
         name=cfg.name, names=names, estimate=params,
         sd=dict(zip(names, (float(x) for x in sa.sd), strict=True)),
@@ -349,7 +383,25 @@ def fit_test(cfg: Config, test) -> FitResult:
         warnings=warnings, deborah_max=float(tau * rate) if tau is not None else None,
         strain_rate=rate, relaxation_start=test.relaxation_start, window=_window_info(cfg, test, problem),
         start=start, start_notes=notes, fixed=dict(cfg.fixed_values),
-        wall_time_s=_time.perf_counter() - t_start, data_notes=list(test.notes), discrepancy=disc)
+        wall_time_s=_time.perf_counter() - t_start, data_notes=list(test.notes), discrepancy=disc,
+        spectrum_exponent=spectrum)
+
+
+def _spectrum_dependence(problem: LsqProblem, params: Mapping[str, float], names: list[str],
+                         X: np.ndarray, values: np.ndarray, residuals: np.ndarray,
+                         sigma0: float) -> dict[str, Any] | None:
+    """``alpha_dependence`` at the white estimate (None when E is not free) and, with alpha
+    fixed, the score test of its value (``alpha_score``)."""
+    if "E" not in names:
+        return None
+    other = [j for j, k in enumerate(names) if k != "alpha"]
+    alpha = params.get("alpha", UNIVERSAL_EXPONENT)
+    x_alpha = derivative(problem.basis(params), params, "alpha")[problem.mask]
+    out = alpha_dependence(X[:, other], [names[j] for j in other], values[other], x_alpha,
+                           alpha, "alpha" in names)
+    if "alpha" not in names:
+        out["score"] = alpha_score(X, x_alpha, residuals, sigma0)
+    return out
 
 
 def stochastic_analysis(cfg: Config, test, params: Mapping[str, float],

@@ -5,8 +5,9 @@ internal coordinates (ln of the time constants) with the exact Jacobian.
 ``gauss_newton``: the paper's iteration (eq. 29), β ← β + (XᵀX)⁻¹Xᵀ(Y^m - Y), solved by least squares
 on the column-scaled X (not by inverting XᵀX), with step halving until the criterion decreases and
 projection onto the prior bounds.
-``variable_projection``: the criterion minimised over the time constants only, E, G and sigma_inf
-being the linear least-squares solution for each (Golub-Pereyra, with Kaufman's Jacobian).
+``variable_projection``: the criterion minimised over the time constants (and the spectrum
+exponent) only, E, G and sigma_inf being the linear least-squares solution for each
+(Golub-Pereyra, with Kaufman's Jacobian).
 """
 
 from __future__ import annotations
@@ -152,7 +153,8 @@ def gauss_newton(problem: LsqProblem, beta0: np.ndarray, max_iterations: int = 2
 
 
 def variable_projection(problem: LsqProblem, beta0: np.ndarray, max_iterations: int = 200) -> Optimum:
-    """Minimise over the time constants only; E, G, sigma_inf by linear least squares (VP)."""
+    """Minimise over the time constants (and alpha) only; E, G, sigma_inf by linear least squares
+    (VP)."""
     n0 = problem.evaluations
     beta0 = _inside(problem, np.asarray(beta0, dtype=float))
     nl = [problem.names.index(k) for k in problem.nonlinear]
@@ -162,11 +164,12 @@ def variable_projection(problem: LsqProblem, beta0: np.ndarray, max_iterations: 
                        evaluations=problem.evaluations - n0, converged=True,
                        message="linear problem: solved by linear least squares")
     lin_cols = [problem.names.index(k) for k in problem.linear]
+    u0 = problem.to_u(beta0)
 
     def full(v: np.ndarray) -> dict[str, float]:
-        beta = beta0.copy()
-        beta[nl] = np.exp(v)
-        return problem.project(problem.params(beta))
+        u = u0.copy()
+        u[nl] = v
+        return problem.project(problem.params(problem.to_beta(u)))
 
     def fun(v: np.ndarray) -> np.ndarray:
         return -problem.residuals(full(v))
@@ -184,7 +187,7 @@ def variable_projection(problem: LsqProblem, beta0: np.ndarray, max_iterations: 
 
     lo = problem.u_lower[nl]
     hi = problem.u_upper[nl]
-    v0 = np.log(beta0[nl])
+    v0 = u0[nl]
     res = least_squares(fun, v0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac",
                         ftol=1e-12, xtol=1e-12, gtol=1e-12, max_nfev=max_iterations)
     params = full(res.x)

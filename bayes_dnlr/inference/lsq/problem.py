@@ -2,7 +2,8 @@
 
 The model runs from the first sample (history matters) to ``test.model_end`` and is compared with
 the observable where ``test.window`` is True (paper eq. 19-20). Optimisers work in internal
-coordinates u: u = β for E, G, sigma_inf and u = ln β for the time constants (they span decades).
+coordinates u: u = β for E, G, sigma_inf and the spectrum exponent alpha, and u = ln β for the
+time constants (they span decades).
 
 With a whitening operator W = L⁻¹ (K = L Lᵀ the covariance of the residuals: noise plus model
 discrepancy, inference/discrepancy/gp.py) the criterion is the generalized one, (y - f)ᵀ K⁻¹ (y - f) =
@@ -17,9 +18,15 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 
 from bayes_dnlr.errors import BayesDnlrError
-from bayes_dnlr.inference.lsq.sensitivity import log_sensitivity
+from bayes_dnlr.inference.lsq.sensitivity import derivative, log_sensitivity
 from bayes_dnlr.model import DNLR, Basis
-from bayes_dnlr.vocabulary import LINEAR_COLUMN, PARAMETER_NAMES, TIME_CONSTANTS
+from bayes_dnlr.vocabulary import (
+    LINEAR_COLUMN,
+    NONLINEAR,
+    PARAMETER_NAMES,
+    TIME_CONSTANTS,
+    UNIVERSAL_EXPONENT,
+)
 
 
 class LsqProblem:
@@ -47,7 +54,7 @@ class LsqProblem:
                 f"parameters {relax} act only in the relaxation phase, which starts after the "
                 "identification window ends: fix them (value: ...) or widen data.window")
         self.linear = [k for k in self.names if k in LINEAR_COLUMN]
-        self.nonlinear = [k for k in self.names if k in TIME_CONSTANTS]
+        self.nonlinear = [k for k in self.names if k in NONLINEAR]
         self.is_log = np.array([k in TIME_CONSTANTS for k in self.names])
         lo = np.array([bounds[k][0] for k in self.names], dtype=float)
         hi = np.array([bounds[k][1] for k in self.names], dtype=float)
@@ -55,7 +62,7 @@ class LsqProblem:
         with np.errstate(divide="ignore"):
             self.u_lower = np.where(self.is_log, np.log(np.maximum(lo, 0.0)), lo)
             self.u_upper = np.where(self.is_log, np.log(hi), hi)
-        self._cache: tuple[tuple[float, float | None], Basis] | None = None
+        self._cache: tuple[tuple[float, float | None, float], Basis] | None = None
         self.evaluations = 0
         self.whiten: Callable[[np.ndarray], np.ndarray] | None = None   # W = L⁻¹, or None (white)
 
@@ -86,12 +93,14 @@ class LsqProblem:
 
     # ---- model
     def basis(self, params: Mapping[str, float]) -> Basis:
-        """Basis with derivatives at these time constants (memoised for the last call)."""
+        """Basis with derivatives at these time constants and spectrum exponent (memoised for the
+        last call)."""
         key = (float(params["tau_max"]),
-               float(params["tau_max_R"]) if "tau_max_R" in params else None)
+               float(params["tau_max_R"]) if "tau_max_R" in params else None,
+               float(params.get("alpha", UNIVERSAL_EXPONENT)))
         if self._cache is None or self._cache[0] != key:
             tau_r = key[1] if self.model.has_relaxation else None
-            self._cache = (key, self.model.basis(key[0], tau_r, grad=True))
+            self._cache = (key, self.model.basis(key[0], tau_r, grad=True, alpha=key[2]))
             self.evaluations += 1
         return self._cache[1]
 
@@ -120,14 +129,14 @@ class LsqProblem:
         return float(r @ r)
 
     def jacobian_u(self, params: Mapping[str, float]) -> np.ndarray:
-        """∂y/∂u on the window: X for E, G, sigma_inf and τ ∂y/∂τ for the time constants."""
+        """∂y/∂u on the window: X for E, G, sigma_inf and alpha, τ ∂y/∂τ for the time constants."""
         b = self.basis(params)
         cols = []
         for k in self.names:
-            if k in LINEAR_COLUMN:
-                cols.append(b.values[self.mask, LINEAR_COLUMN[k]])
-            else:
+            if k in TIME_CONSTANTS:
                 cols.append(log_sensitivity(b, params, k)[self.mask])
+            else:
+                cols.append(derivative(b, params, k)[self.mask])
         return self._w(np.column_stack(cols))
 
     def jacobian(self, params: Mapping[str, float]) -> np.ndarray:

@@ -14,7 +14,7 @@ import numpy as np
 
 from bayes_dnlr.inference.layout import Layout
 from bayes_dnlr.inference.lsq.problem import LsqProblem, bounded_lstsq
-from bayes_dnlr.vocabulary import LINEAR_COLUMN, TIME_CONSTANTS, base_name
+from bayes_dnlr.vocabulary import LINEAR_COLUMN, NONLINEAR, TIME_CONSTANTS, base_name
 
 
 class RunProblem:
@@ -32,7 +32,7 @@ class RunProblem:
         self.names = list(layout.names)
         self.weights = {t: float(weights[t]) for t in self.blocks}
         self.linear = [k for k in self.names if base_name(k) in LINEAR_COLUMN]
-        self.nonlinear = [k for k in self.names if base_name(k) in TIME_CONSTANTS]
+        self.nonlinear = [k for k in self.names if base_name(k) in NONLINEAR]
         self.is_log = np.array([base_name(k) in TIME_CONSTANTS for k in self.names])
         self.lower = np.array([bounds[k][0] for k in self.names], dtype=float)
         self.upper = np.array([bounds[k][1] for k in self.names], dtype=float)

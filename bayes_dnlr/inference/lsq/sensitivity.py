@@ -3,7 +3,8 @@
 X (eq. 22) is the Jacobian of the model stress with respect to the parameters, one column per
 parameter. Its columns are exact: the model is linear in E, G and sigma_inf, so their columns are the
 unit responses of ``DNLR.basis``; the time-constant columns come from the forward-mode derivatives
-the integrator carries (d/d ln tau, divided by tau).
+the integrator carries (d/d ln tau, divided by tau), the spectrum exponent's (alpha) from the
+derivative of the weights (model/kernel.py).
 
 From X and the noise level sigma0: Δ = sigma0² (XᵀX)⁻¹ (eq. 32), Err(β_j) = sqrt(Δ_jj)/β_j (eq. 33),
 ρ_rs = Δ_rs / sqrt(Δ_rr Δ_ss) (eq. 34), and Δ̃ with Err on the diagonal and ρ off it (eq. 35).
@@ -19,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bayes_dnlr.model import Basis
-from bayes_dnlr.vocabulary import LINEAR_COLUMN
+from bayes_dnlr.vocabulary import LINEAR_COLUMN, SPECTRUM_PARAMETERS
 
 # identifiability thresholds (warnings, never errors)
 RHO_WARN = 0.99
@@ -31,15 +32,14 @@ NEGLIGIBLE_ERR = 0.1     # ... and only for a parameter whose Err is above 10 %:
 ZERO_VALUE = 1.0e-12     # |β_j|·|X_j| below this fraction of the largest: β_j counts as zero
 
 
-def log_sensitivity(basis: Basis, params: Mapping[str, float], name: str) -> np.ndarray:
-    """∂y/∂ln(β) for one parameter (eq. 22 times β), on the model's full grid."""
-    v = basis.values
-    if name in LINEAR_COLUMN:
-        return params[name] * v[:, LINEAR_COLUMN[name]]
+def _nonlinear_derivative(basis: Basis, params: Mapping[str, float], name: str) -> np.ndarray:
+    """∂y/∂ln(tau) for a time constant, ∂y/∂alpha for the spectrum exponent."""
     if name == "tau_max":
         g = basis.grad_tau_max
     elif name == "tau_max_R":
         g = basis.grad_tau_max_R
+    elif name == "alpha":
+        g = basis.grad_alpha
     else:
         raise ValueError(f"unknown parameter {name!r}")
     if g is None:
@@ -51,15 +51,29 @@ def log_sensitivity(basis: Basis, params: Mapping[str, float], name: str) -> np.
     return s
 
 
+def log_sensitivity(basis: Basis, params: Mapping[str, float], name: str) -> np.ndarray:
+    """∂y/∂ln(β) for one parameter (eq. 22 times β), on the model's full grid."""
+    v = basis.values
+    if name in LINEAR_COLUMN:
+        return params[name] * v[:, LINEAR_COLUMN[name]]
+    s = _nonlinear_derivative(basis, params, name)
+    return params[name] * s if name in SPECTRUM_PARAMETERS else s
+
+
+def derivative(basis: Basis, params: Mapping[str, float], name: str) -> np.ndarray:
+    """∂y/∂β for one parameter (eq. 22), on the model's full grid."""
+    if name in LINEAR_COLUMN:
+        return basis.values[:, LINEAR_COLUMN[name]]
+    s = _nonlinear_derivative(basis, params, name)
+    return s if name in SPECTRUM_PARAMETERS else s / params[name]
+
+
 def sensitivity_matrix(basis: Basis, params: Mapping[str, float], names: Sequence[str],
                        mask: np.ndarray | None = None) -> np.ndarray:
     """X (eq. 22): X[i, j] = ∂y(t_i)/∂β_j for the parameters ``names``, rows where ``mask`` is True."""
     cols = []
     for k in names:
-        if k in LINEAR_COLUMN:
-            c = basis.values[:, LINEAR_COLUMN[k]]
-        else:
-            c = log_sensitivity(basis, params, k) / params[k]
+        c = derivative(basis, params, k)
         cols.append(c if mask is None else c[mask])
     return np.column_stack(cols)
 
@@ -208,6 +222,43 @@ def analyse_holding(X: np.ndarray, names: Sequence[str], values: Sequence[float]
         names=names, values=values, X=X, Xn=Xn, covariance=full(sub.covariance), sd=vec(sub.sd),
         err=vec(sub.err), correlation=corr, delta_tilde=full(sub.delta_tilde),
         condition_number=sub.condition_number, max_normalised=np.max(np.abs(Xn), axis=0))
+
+
+def alpha_dependence(X: np.ndarray, names: Sequence[str], values: Sequence[float],
+                     x_alpha: np.ndarray, alpha: float, sampled: bool) -> dict[str, object]:
+    """How the least-squares estimate depends on the spectrum's exponent alpha (eq. 12 has ½):
+    dβ̂/dα = -(XᵀX)⁻¹Xᵀ x_α, X the columns of the other free parameters ``names`` (eq. 22) and
+    x_α = ∂y/∂α: the shift of their estimate when alpha is held at another value. With alpha
+    sampled, the same number is the slope Σ_βα/Σ_αα of the linearized posterior. ``per_tenth`` is
+    the shift for Δα = +0.1, ``relative_per_tenth`` that shift as a fraction of the estimate."""
+    scale = np.linalg.norm(X, axis=0)
+    scale[scale == 0] = 1.0
+    slope = np.linalg.lstsq(X / scale, -x_alpha, rcond=None)[0] / scale
+    vals = np.asarray(values, dtype=float)
+    return {"alpha": float(alpha), "sampled": bool(sampled),
+            "derivative": {k: float(d) for k, d in zip(names, slope, strict=True)},
+            "per_tenth": {k: float(0.1 * d) for k, d in zip(names, slope, strict=True)},
+            "relative_per_tenth": {k: (float(0.1 * d / v) if v != 0 else None)
+                                   for k, d, v in zip(names, slope, vals, strict=True)}}
+
+
+def alpha_score(X: np.ndarray, x_alpha: np.ndarray, residuals: np.ndarray,
+                sigma0: float) -> dict[str, float]:
+    """The score (Lagrange-multiplier) test of a fixed spectrum exponent: how far the data pull
+    alpha from the value it is held at. One Gauss-Newton step for alpha from the optimum with
+    alpha fixed, the other free parameters re-optimised with it: step = x̃ᵀr / x̃ᵀx̃, x̃ = x_α minus
+    its projection on the columns of X (eq. 22), r = y - f; its sd σ0/|x̃|; z = step/sd. Whitened
+    X, x_α and r (with σ0 = 1) give the same test under the model discrepancy."""
+    norms = np.linalg.norm(X, axis=0)
+    norms[norms == 0] = 1.0
+    q, _ = np.linalg.qr(X / norms)
+    xt = x_alpha - q @ (q.T @ x_alpha)
+    nx = float(np.linalg.norm(xt))
+    if not nx > 0:
+        return {"step": math.nan, "sd": math.inf, "z": 0.0}
+    step = float(xt @ residuals) / nx**2
+    sd = sigma0 / nx
+    return {"step": step, "sd": sd, "z": step / sd}
 
 
 def bound_side(value: float, low: float, high: float) -> str | None:

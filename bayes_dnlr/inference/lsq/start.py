@@ -11,6 +11,8 @@ Physics start:
   intercept giving the asymptote used above.
 - sigma_inf from the end of the hold, tau_max_R from the time the relaxation takes to cover 1 - 1/e
   of its drop (divided by m, as for tau_max).
+- alpha, the spectrum's exponent (when it is free), starts at Cunat's ½ (eq. 12), the value the
+  guesses above assume (``SPECTRUM_START``).
 
 Multi-start: starts spread over the prior box (stratified, Latin-hypercube pairing), log-spaced
 for log-uniform / log-normal priors and for time constants whose box spans more than a decade.
@@ -25,7 +27,9 @@ import numpy as np
 from bayes_dnlr.config import ParameterSpec
 from bayes_dnlr.data.conversions import haward_thackray_strain
 from bayes_dnlr.model import tau_scale, weights
-from bayes_dnlr.vocabulary import TIME_CONSTANTS
+from bayes_dnlr.vocabulary import TIME_CONSTANTS, UNIVERSAL_EXPONENT
+
+SPECTRUM_START = {"alpha": (UNIVERSAL_EXPONENT, "Cunat's universal spectrum (eq. 12)")}
 
 SD_SPAN = 3.0  # normal / log-normal priors without truncation: starts within ±3 sd
 

@@ -64,9 +64,9 @@ def support_box(priors) -> tuple[np.ndarray, np.ndarray]:
     """The prior support in sampling coordinates: (low, high) per parameter (may be infinite)."""
     lo = np.array([p.low for p in priors.priors], dtype=float)
     hi = np.array([p.high for p in priors.priors], dtype=float)
-    with np.errstate(divide="ignore"):
-        zlo = np.where(priors.log_space, np.log(np.maximum(lo, 0.0)), lo)
-        zhi = np.where(priors.log_space, np.log(hi), hi)
+    with np.errstate(divide="ignore", over="ignore"):
+        zlo = priors.from_physical(np.where(priors.log_space, np.maximum(lo, 0.0), lo))
+        zhi = priors.from_physical(hi)
     return zlo, zhi
 
 

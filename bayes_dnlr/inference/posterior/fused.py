@@ -49,7 +49,7 @@ def _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out, 
     for w in range(m):
         r = lo + w
         ok = _stress_into(theta[r, 0], theta[r, 1], theta[r, 2], theta[r, 3], theta[r, 4],
-                          grid, stress)
+                          theta[r, 5], grid, stress)
         if not ok:
             bad[w] = True
             continue
@@ -91,8 +91,9 @@ def loglike_walkers(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_
     """log-likelihood of every row of theta into ``out`` (k,); -inf where it is not defined.
     Groups of GROUP walkers in parallel (numba threads).
 
-    theta (k, 5): E, G, σ_inf, tau_max, tau_max_R (model units; the last two ignored without a
-    relaxation phase, but must then be positive anyway); sig, amp, length (k,): σ0 and the
+    theta (k, 6): E, G, σ_inf, tau_max, tau_max_R, alpha (model units; tau_max_R is
+    ignored without a relaxation phase, but must then be positive anyway; alpha is the
+    spectrum exponent, ½ for eq. 12); sig, amp, length (k,): σ0 and the
     discrepancy's amplitude and length (amp, length unused when ``use_gp`` is False);
     grid: ``DNLR.kernel_args``; y (n,): the observed values in the order of the axis x;
     idx (n,): the model sample of each of them; kind, gap: the kernel code and the pinned start

@@ -31,7 +31,12 @@ from bayes_dnlr.data import TestData
 from bayes_dnlr.inference.discrepancy.hyper import AMPLITUDE, LENGTH, Axis, gp, is_white, test_axis
 from bayes_dnlr.inference.posterior import fused as fused_kernel
 from bayes_dnlr.model import DNLR
-from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS, pack_theta
+from bayes_dnlr.vocabulary import (
+    DISCREPANCY_PARAMETERS,
+    SPECTRUM_EXPONENT,
+    UNIVERSAL_EXPONENT,
+    pack_theta,
+)
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
@@ -70,7 +75,8 @@ class TestLikelihood:
         self.ndim = len(self.names)
         model_names = model.parameter_names()
         noise_names = ("sigma0", *DISCREPANCY_PARAMETERS)
-        unknown = [k for k in self.names if k not in model_names and k not in noise_names]
+        unknown = [k for k in self.names
+                   if k not in model_names and k not in noise_names and k != SPECTRUM_EXPONENT]
         if unknown:
             raise ValueError(f"parameters {unknown} are not parameters of this model {model_names}")
         missing = [k for k in model_names if k not in self.names and k not in fixed]
@@ -88,9 +94,11 @@ class TestLikelihood:
                 raise ValueError(f"{k} is neither sampled nor fixed")
         # where each model quantity comes from: a column of theta, or a constant
         self._source = {}
-        for k in (*model_names, "sigma0", *disc_names):
+        for k in (*model_names, SPECTRUM_EXPONENT, "sigma0", *disc_names):
             if k in self.names:
                 self._source[k] = self.names.index(k)
+            elif k == SPECTRUM_EXPONENT:       # optional: eq. 12's ½ unless fixed otherwise
+                self._source[k] = float(fixed.get(k, UNIVERSAL_EXPONENT))
             elif k == "sigma0":
                 self._source[k] = float(sigma0)  # type: ignore[arg-type]
             elif k in disc_names:
@@ -128,8 +136,8 @@ class TestLikelihood:
         """Model stress on the window, (k, n), for physical parameters theta (k, ndim)."""
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         out = np.empty((theta.shape[0], self.n))
-        for i, (e, g, t, s, tr) in enumerate(zip(*self._linear_and_times(theta), strict=True)):
-            out[i] = self._stress(e, g, t, s, tr)
+        for i, (e, g, t, s, tr, a) in enumerate(zip(*self._linear_and_times(theta), strict=True)):
+            out[i] = self._stress(e, g, t, s, tr, a)
         return out
 
     def _linear_and_times(self, theta: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -138,10 +146,10 @@ class TestLikelihood:
             s, tr = self._col(theta, "sigma_inf"), self._col(theta, "tau_max_R")
         else:
             s = tr = np.zeros(theta.shape[0])
-        return e, g, t, s, tr
+        return e, g, t, s, tr, self._col(theta, SPECTRUM_EXPONENT)
 
-    def _stress(self, e: float, g: float, t: float, s: float, tr: float) -> np.ndarray:
-        b = self.model.basis(t, tr if self.has_relaxation else None).values[self.rows]
+    def _stress(self, e: float, g: float, t: float, s: float, tr: float, a: float) -> np.ndarray:
+        b = self.model.basis(t, tr if self.has_relaxation else None, alpha=a).values[self.rows]
         if self.has_relaxation:
             return b @ np.array([e, g, s])
         return b[:, :2] @ np.array([e, g])
@@ -166,7 +174,7 @@ class TestLikelihood:
             return self.log_likelihood_reference(theta)
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         k = theta.shape[0]
-        used = self.model.parameter_names()
+        used = [*self.model.parameter_names(), SPECTRUM_EXPONENT]    # alpha: ½ unless free
         sets = pack_theta(lambda name: self._col(theta, name) if name in used else None, k,
                           self.has_relaxation)
         sig = np.ascontiguousarray(self._col(theta, "sigma0"), dtype=float)

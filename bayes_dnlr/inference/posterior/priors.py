@@ -9,6 +9,12 @@ z = ln x. The density of z carries the Jacobian |dx/dz| = x, so that the distrib
 exactly the one the config states (a log-uniform prior becomes flat in z). Everything the user
 sees (chains, summaries) is in physical units; ``to_physical``/``from_physical`` convert.
 
+When the spectrum's exponent alpha is sampled, E and alpha lie on a thin curved ridge (E holds
+the weight of the modes too fast for the sampling step, which alpha sets): E is then sampled in
+log space and alpha in the *spectral* coordinate z = -10^(-alpha) (Jacobian ln 10 · 10^(-alpha)),
+in which ln E is close to linear along the ridge, so the ensemble moves follow it
+(docs/theory.md, "The spectrum's exponent").
+
 Outside the support every log-density is ``-inf``: never NaN, never an exception.
 """
 
@@ -25,6 +31,8 @@ from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS
 
 LOG_SPACE_KINDS = ("log-uniform", "log-normal")
 _LOG_SQRT_2PI = 0.5 * math.log(2.0 * math.pi)
+_LN10 = math.log(10.0)
+_LOG_LN10 = math.log(_LN10)
 
 
 def log_ndtr(x: float) -> float:
@@ -68,6 +76,7 @@ class Prior:
     scale: float = 1.0      # normal: sd; log-normal: sd_log; half-normal: scale
     log_space: bool = False
     _log_norm: float = field(default=0.0, repr=False)  # log of the normalising constant
+    spectral: bool = False  # sampled in z = -10^(-x) (the spectrum's exponent, module docstring)
 
     def renamed(self, name: str) -> Prior:
         """The same prior under another name (a test's parameter in the run's vector)."""
@@ -75,7 +84,7 @@ class Prior:
 
     @classmethod
     def from_spec(cls, name: str, spec: ParameterSpec | SampledNoise, key: str | None = None,
-                  log_space: bool | None = None) -> Prior:
+                  log_space: bool | None = None, spectral: bool = False) -> Prior:
         """Build from a config entry (a free parameter, or the sampled noise sigma0).
 
         ``key`` names the entry in error messages (default ``parameters.<name>``). ``log_space``
@@ -119,11 +128,14 @@ class Prior:
         else:  # pragma: no cover - config/schema.py restricts the kinds
             raise ConfigError(f"{key}: unknown prior '{kind}'")
         in_log = kind in LOG_SPACE_KINDS if log_space is None else bool(log_space and low >= 0)
-        return cls(name, kind, low, high, loc, scale, in_log, log_norm)
+        return cls(name, kind, low, high, loc, scale, in_log and not spectral, log_norm, spectral)
 
     # ---- transforms between physical x and the sampling coordinate z
     def to_physical(self, z: np.ndarray) -> np.ndarray:
         z = np.asarray(z, dtype=float)
+        if self.spectral:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                return -np.log10(-z)
         if not self.log_space:
             return z
         with np.errstate(over="ignore"):
@@ -131,10 +143,20 @@ class Prior:
 
     def from_physical(self, x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=float)
+        if self.spectral:
+            with np.errstate(over="ignore"):
+                return -(10.0 ** -x)
         if not self.log_space:
             return x
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.log(x)
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """dz/dx at x."""
+        x = np.asarray(x, dtype=float)
+        if self.spectral:
+            return _LN10 * 10.0 ** -x
+        return 1.0 / x if self.log_space else np.ones_like(x)
 
     # ---- densities
     def logpdf(self, x: np.ndarray) -> np.ndarray:
@@ -167,6 +189,10 @@ class Prior:
         if self.log_space:
             ok = np.isfinite(lp)
             lp = np.where(ok, lp + np.where(ok, z, 0.0), -np.inf)
+        elif self.spectral:    # |dx/dz| = 1/(ln 10 · (-z))
+            ok = np.isfinite(lp) & (z < 0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                lp = np.where(ok, lp - _LOG_LN10 - np.log(np.where(ok, -z, 1.0)), -np.inf)
         return lp
 
     def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
@@ -219,6 +245,9 @@ class PriorSet:
         out = z.copy()
         with np.errstate(over="ignore"):
             out[..., self.log_space] = np.exp(z[..., self.log_space])
+        for j, p in enumerate(self.priors):
+            if p.spectral:
+                out[..., j] = p.to_physical(z[..., j])
         return out
 
     def from_physical(self, x: np.ndarray) -> np.ndarray:
@@ -227,12 +256,15 @@ class PriorSet:
         out = x.copy()
         with np.errstate(divide="ignore", invalid="ignore"):
             out[..., self.log_space] = np.log(x[..., self.log_space])
+        for j, p in enumerate(self.priors):
+            if p.spectral:
+                out[..., j] = p.from_physical(x[..., j])
         return out
 
     def jacobian(self, x: Sequence[float]) -> np.ndarray:
         """dz/dx at x (diagonal), to carry a physical covariance into sampling coordinates."""
         x = np.asarray(x, dtype=float)
-        return np.where(self.log_space, 1.0 / x, 1.0)
+        return np.array([p.jacobian(v) for p, v in zip(self.priors, x, strict=True)], dtype=float)
 
     def log_prior(self, z: np.ndarray) -> np.ndarray:
         """Joint log density of sampling coordinates z (k, ndim) -> (k,); -inf outside."""
@@ -273,7 +305,10 @@ def build_priors(cfg: Config, discrepancy_priors: Mapping[str, ParameterSpec] | 
                  ) -> PriorSet:
     """The prior of every sampled parameter (free model parameters, sigma0 when sampled, the
     discrepancy hyperparameters when their resolved priors are given)."""
-    priors = [Prior.from_spec(k, cfg.parameters[k]) for k in cfg.free_parameters]
+    spectral = "alpha" in cfg.free_parameters      # the E-alpha ridge (module docstring)
+    priors = [Prior.from_spec(k, cfg.parameters[k], spectral=spectral and k == "alpha",
+                              log_space=True if spectral and k == "E" else None)
+              for k in cfg.free_parameters]
     if isinstance(cfg.noise.sigma0, SampledNoise):
         priors.append(Prior.from_spec("sigma0", cfg.noise.sigma0, key="noise.sigma0"))
     if cfg.noise.has_discrepancy and discrepancy_priors is not None:

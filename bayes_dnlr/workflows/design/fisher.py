@@ -24,7 +24,7 @@ from bayes_dnlr.inference.discrepancy import gp
 from bayes_dnlr.inference.discrepancy.hyper import make_axis
 from bayes_dnlr.inference.lsq.sensitivity import correlation, covariance, sensitivity_matrix
 from bayes_dnlr.model import DNLR
-from bayes_dnlr.vocabulary import RELAXATION_PARAMETERS
+from bayes_dnlr.vocabulary import RELAXATION_PARAMETERS, UNIVERSAL_EXPONENT
 from bayes_dnlr.workflows.design.candidates import Candidate, planned_protocol, window_mask
 
 
@@ -129,7 +129,8 @@ def predict(candidate: Candidate, draws: Draws, free: Sequence[str], modes: int,
     p = len(names)
     cov_sum, rel_sum, logdet = np.zeros((p, p)), np.zeros((p, p)), []
     for theta, noise in zip(draws.params, draws.noise, strict=True):
-        basis = model.basis(theta["tau_max"], theta.get("tau_max_R") if relaxation else None, grad=True)
+        basis = model.basis(theta["tau_max"], theta.get("tau_max_R") if relaxation else None, grad=True,
+                            alpha=theta.get("alpha", UNIVERSAL_EXPONENT))
         X = sensitivity_matrix(basis, theta, names, mask)
         values = np.array([theta[k] for k in names])
         try:

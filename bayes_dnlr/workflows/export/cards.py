@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bayes_dnlr.errors import BayesDnlrError
+from bayes_dnlr.vocabulary import UNIVERSAL_EXPONENT
 from bayes_dnlr.workflows.export.prony import Prony, Refit, from_parameters, refit
 
 QUANTILES = {"q05": 0.05, "median": 0.5, "q95": 0.95}
@@ -75,7 +76,8 @@ def make_cards(values: dict[str, np.ndarray], modes: int, decades: float, time_r
     cards: list[Card] = []
     for label, (i, q) in picks.items():
         params = {k: float(v[i]) for k, v in values.items()}
-        full = from_parameters(params["E"], params["G"], params["tau_max"], modes, decades)
+        full = from_parameters(params["E"], params["G"], params["tau_max"], modes, decades,
+                               params.get("alpha", UNIVERSAL_EXPONENT))
         fit = None
         if terms is not None:
             fit = refit(full, terms, time_range.t_lo, time_range.t_hi)
@@ -101,7 +103,7 @@ def small_strain_limit(card: Card, rate: float, modes: int, decades: float,
 
     t, e = ramp(rate, strain_max, 2000)
     p = card.params
-    model = simulate(t, e, {"E": p["E"], "G": p["G"], "tau_max": p["tau_max"]}, modes, decades)
+    model = simulate(t, e, {k: p[k] for k in ("E", "G", "tau_max", "alpha") if k in p}, modes, decades)
     diff = np.abs(card.prony.response(t, e) - model) / np.maximum(np.abs(model), 1e-300)
     bad = np.flatnonzero(diff[1:] > SMALL_STRAIN_TOLERANCE)
     return float(strain_max if bad.size == 0 else e[1:][bad[0]])

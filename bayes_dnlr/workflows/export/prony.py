@@ -21,6 +21,7 @@ from scipy.optimize import nnls
 
 from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.model import relaxation_times, weights
+from bayes_dnlr.model.spectrum import UNIVERSAL_EXPONENT
 
 
 @dataclass(frozen=True)
@@ -73,8 +74,9 @@ class Prony:
 
 
 def from_parameters(E: float, G: float, tau_max: float, modes: int = 50,
-                    decades: float = 6.0) -> Prony:
-    """The N-mode Prony series of the DNLR model at small strain (eq. 12-14 and 18 with ε_HT ≈ 3ε)."""
+                    decades: float = 6.0, alpha: float = UNIVERSAL_EXPONENT) -> Prony:
+    """The N-mode Prony series of the DNLR model at small strain (eq. 12-14 and 18 with ε_HT ≈ 3ε);
+    alpha is the spectrum's exponent (p_j ∝ tau_j^alpha, ½ in eq. 12)."""
     for name, v in (("E", E), ("G", G), ("tau_max", tau_max)):
         if not np.isfinite(v):
             raise BayesDnlrError(f"{name} = {v} is not a finite number")
@@ -86,7 +88,7 @@ def from_parameters(E: float, G: float, tau_max: float, modes: int = 50,
         raise BayesDnlrError(f"E = {E:g} MPa is not above 3G = {3 * G:g} MPa: the series would "
                              "stiffen with time, not relax")
     tau = relaxation_times(tau_max, modes, decades)
-    p = weights(modes, decades)
+    p = weights(modes, decades, alpha)
     return Prony(3.0 * G, (E - 3.0 * G) * p, tau)
 
 

@@ -22,6 +22,7 @@ from bayes_dnlr.errors import BayesDnlrError, RunError
 from bayes_dnlr.fileset import folder_set, recover_folder
 from bayes_dnlr.numbers import fmt
 from bayes_dnlr.runs.testset import plain_names
+from bayes_dnlr.vocabulary import UNIVERSAL_EXPONENT
 from bayes_dnlr.workflows.export import FORMAT_NAMES, abaqus, ansys, lsdyna, table
 from bayes_dnlr.workflows.export.cards import (
     RAMP_CHECK_STRAIN,
@@ -254,7 +255,9 @@ def export(run_dir: str | Path, fmt_name: str, *, terms: int | None = None, draw
         raise BayesDnlrError(f"--nu {poisson.value:g}: Poisson's ratio lies in (-1, 0.5]")
     values = {k: (run.values[k] if k in run.values
                   else np.full(run.n_draws, float(cfg.fixed_values[k])) if k in cfg.fixed_values else None)
-              for k in ("E", "G", "tau_max")}
+              for k in ("E", "G", "tau_max", "alpha")}
+    if values["alpha"] is None:         # a run made before the spectrum's exponent: eq. 12
+        del values["alpha"]
     missing = [k for k, v in values.items() if v is None]
     if missing:
         raise RunError(f"{run_dir}: the posterior has no draws of {missing} and the config does not fix "
@@ -267,7 +270,9 @@ def export(run_dir: str | Path, fmt_name: str, *, terms: int | None = None, draw
     if terms is not None:
         errs = [(c.refit.max_error,
                  ramp_error(c.prony, from_parameters(c.params["E"], c.params["G"], c.params["tau_max"],
-                                                     modes, decades), rng.strain_rate, rng.t_lo))
+                                                     modes, decades,
+                                                     c.params.get("alpha", UNIVERSAL_EXPONENT)),
+                            rng.strain_rate, rng.t_lo))
                 for c in cards.cards]
         cards.checks["refit_max_error"] = max(e for e, _ in errs)
         cards.checks["refit_ramp_error"] = max(r for _, r in errs)
@@ -304,12 +309,13 @@ def index_csv(cards: CardSet, ctx: Context) -> str:
     """One row per card: its draw, parameters, series and checks (the file's header says more)."""
     lines = [f"# bayes_dnlr export of {ctx.run}: cards of the small-strain Prony series (docs/export.md)",
              f"# checks: {json.dumps(cards.checks)}",
-             "card,quantile_of_E,posterior_draw,E_MPa,G_MPa,tau_max_s,E0_MPa,E_inf_MPa,terms,"
+             "card,quantile_of_E,posterior_draw,E_MPa,G_MPa,tau_max_s,alpha,E0_MPa,E_inf_MPa,terms,"
              "refit_max_error"]
     for c in cards.cards:
         p = c.params
         q = "" if c.quantile_of_E is None else f"{c.quantile_of_E:g}"
         err = "" if c.refit is None else f"{c.refit.max_error:.4g}"
         lines.append(f"{c.label},{q},{c.draw_index},{p['E']:.10g},{p['G']:.10g},{p['tau_max']:.10g},"
-                     f"{c.prony.e0:.10g},{c.prony.e_inf:.10g},{c.prony.terms},{err}")
+                     f"{p.get('alpha', UNIVERSAL_EXPONENT):.10g},{c.prony.e0:.10g},"
+                     f"{c.prony.e_inf:.10g},{c.prony.terms},{err}")
     return "\n".join(lines) + "\n"

@@ -1,0 +1,342 @@
+"""Misspecification: is E's interval honest when the data come from a richer model than the fitted one?
+
+For each kind of model-form error (``truth.model_form``, bayes_dnlr/truth_forms.py) and a clean
+control, synthetic tests with mildly varied true parameters (each × e^{0.1 z}) are written by
+``simulate`` and run through ``fit`` + ``sample`` exactly as a user would, from a config: the
+default config (``sigma0`` the true 0.3 MPa), and beside it the white likelihood
+(``noise.discrepancy: none``) and ``kernel: auto`` spelled out. E is the instantaneous modulus in
+both the generating and the fitted model, so its truth is known. Per kind and likelihood:
+
+- coverage of the truth by E's 90 % HDI; ``covered|flagged``: covered, or flagged by the checks;
+- flagged: summary.json's ``checks`` say "do not trust this interval" (``read_checks`` below); a
+  flagged replicate is never counted as covered;
+- mean and median |z|, z = (posterior mean - truth)/posterior sd; bias of the mean, %;
+- how often each check fires; sampling steps and time.
+
+Every setting is a config key: ``--set KEY=YAML`` changes every config (e.g.
+``--set 'parameters.alpha={value: 0.5}'``), so the benchmark runs unchanged when the likelihood or
+the checks change inside the package.
+
+    .venv/bin/python benchmarks/misspecification.py --replicates 30 --jobs 2 [--strength strong]
+    .venv/bin/python benchmarks/misspecification.py --quick          # 3 replicates, fewer kinds
+    .venv/bin/python benchmarks/misspecification.py --from results.json   # print saved results
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import tempfile
+import time
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+RAMP = {"params": {"E": 2854.0, "G": 2.32, "tau_max": 5.79}, "strain_rate": 5e-3, "strain_max": 1.9}
+# specimen B of the paper at 5e-3 1/s (Tables 4-5), then a 600 s hold (runs/hdpe-b-relax-5e-3)
+HOLD = {"params": {"E": 2270.0, "G": 2.30, "tau_max": 7.16, "sigma_inf": 100.0, "tau_max_R": 150.0},
+        "strain_rate": 5e-3, "strain_max": 2.0, "hold": 600.0}
+# label -> (truth.model_form kind or None, protocol)
+KINDS = {
+    "clean": (None, RAMP),
+    "spectrum-power": ("spectrum-power", RAMP),
+    "spectrum-lognormal": ("spectrum-lognormal", RAMP),
+    "spectrum-two-slope": ("spectrum-two-slope", RAMP),
+    "hardening-langevin": ("hardening-langevin", RAMP),
+    "strain-toe": ("strain-toe", RAMP),
+    "strain-drift": ("strain-drift", RAMP),
+    "two-process": ("two-process", RAMP),
+    "two-process-hold": ("two-process", HOLD),
+}
+QUICK_KINDS = ("clean", "spectrum-lognormal", "strain-toe", "two-process-hold")
+# likelihood label -> noise.discrepancy (None: the key left out, the package's default)
+LIKELIHOODS = {"default": None, "white": "none", "auto": {"kernel": "auto"}}
+VARY_SD = 0.1        # true parameters × exp(VARY_SD z)
+STRESS_SD = 0.3      # MPa, the white noise; sigma0 is given this true value
+N_POINTS = 1000
+# the words of summary.json's checks that mean "do not trust E's interval"
+TRUST_KEYS = ("trust_interval", "trust")
+
+
+# ---------------------------------------------------------------- checks (summary.json ``checks``)
+
+def _fired(entry: Any) -> bool:
+    """Whether one check fired: False/True as a bool (a pass flag), a mapping with ``pass``/``ok``
+    (False: fired), ``fired``/``flag`` (True: fired) or ``status`` (anything but "pass"/"ok"),
+    or a non-empty list or mapping of findings (e.g. ``bound_limited``: the parameters)."""
+    if isinstance(entry, bool):
+        return not entry
+    if isinstance(entry, dict):
+        for k in ("pass", "ok", "passed"):
+            if k in entry:
+                return not bool(entry[k])
+        for k in ("fired", "flag", "flagged"):
+            if k in entry:
+                return bool(entry[k])
+        if "status" in entry:
+            return str(entry["status"]).lower() not in ("pass", "ok", "passed")
+        return bool(entry.get("items") or entry.get("parameters"))
+    if isinstance(entry, list | tuple):
+        return len(entry) > 0
+    return False
+
+
+def read_checks(summary: dict[str, Any]) -> tuple[bool | None, list[str]]:
+    """(trust, fired): trust is summary.json's ``checks.trust_interval`` as a bool (None when the
+    run has no checks), fired the names of the checks that fired. A ``trust_interval`` given as a
+    mapping is read with the rules of ``_fired`` (its pass flag)."""
+    checks = summary.get("checks")
+    if not isinstance(checks, dict):
+        return None, []
+    trust = None
+    for k in TRUST_KEYS:
+        if k in checks:
+            trust = not _fired(checks[k])
+            break
+    fired = [k for k, v in checks.items()
+             if k not in (*TRUST_KEYS, "verdict", "adequate") and _fired(v)]
+    if "adequate" in checks and _fired(checks["adequate"]):
+        fired.append("adequate")
+    return trust, fired
+
+
+# ---------------------------------------------------------------- one replicate
+
+def _set(raw: dict, dotted: str, value: Any) -> None:
+    keys = dotted.split(".")
+    d = raw
+    for k in keys[:-1]:
+        d = d.setdefault(k, {})
+    d[keys[-1]] = value
+
+
+def truth_of(kind: str, strength: str, rep: int) -> dict[str, Any]:
+    """The truth: section of one replicate (parameters varied by replicate, fresh noise)."""
+    form, proto = KINDS[kind]
+    rng = np.random.default_rng(7919 * rep + 17)
+    params = {k: float(v * math.exp(VARY_SD * rng.standard_normal())) for k, v in proto["params"].items()}
+    truth = {k: v for k, v in proto.items() if k != "params"} | {
+        "params": params, "n_points": N_POINTS, "seed": 100_000 + rep,
+        "noise": {"strain_sd": 0.0, "stress_sd": STRESS_SD}}
+    if form is not None:
+        truth["model_form"] = {"kind": form, "strength": strength}
+    return truth
+
+
+def write_config(folder: Path, kind: str, strength: str, likelihood: str, rep: int,
+                 overrides: list[tuple[str, Any]], target_ess: float) -> Path:
+    truth = truth_of(kind, strength, rep)
+    data = {"file": "data.csv", "columns": {"time": "t_s", "strain": "eps", "stress": "stress_MPa"},
+            "observable": "stress", "strain_input": "measured"}
+    if truth.get("hold"):
+        data["relaxation_start"] = truth["strain_max"] / truth["strain_rate"]
+    noise: dict[str, Any] = {"sigma0": STRESS_SD}
+    if LIKELIHOODS[likelihood] is not None:
+        noise["discrepancy"] = LIKELIHOODS[likelihood]
+    raw = {"name": f"{kind}-{likelihood}-{rep:03d}", "data": data, "noise": noise,
+           "sampler": {"max_steps": 20000, "target_ess": target_ess, "seed": rep + 1,
+                       "checkpoint_every": 500},
+           "truth": truth}
+    for key, value in overrides:
+        _set(raw, key, value)
+    run = folder / raw["name"]
+    run.mkdir(parents=True, exist_ok=True)
+    path = run / "config.yaml"
+    path.write_text(yaml.safe_dump(raw, sort_keys=False))
+    return path
+
+
+def _draws(run_dir: Path, names: list[str]) -> dict[str, np.ndarray]:
+    import h5netcdf
+
+    with h5netcdf.File(run_dir / "posterior.nc", "r") as f:
+        g = f["posterior"]
+        return {k: np.asarray(g[k][...]).ravel() for k in names if k in g.variables}
+
+
+def _scores(fit: dict[str, Any]) -> dict[str, float | None]:
+    """The score test of the spectrum's exponent held at ½ (fit.json), white and under the
+    discrepancy (z in sd; None when alpha is sampled)."""
+    white = ((fit.get("spectrum_exponent") or {}).get("score") or {}).get("z")
+    gls = ((fit.get("discrepancy") or {}).get("alpha_score") or {}).get("z")
+    return {"score_white_z": white, "score_gls_z": gls}
+
+
+def fit_replicate(cfg, out: dict[str, Any]) -> dict[str, Any]:
+    """``--fit-only``: the linearized 90 % interval of E (the GLS one when the fit finds evidence
+    of model error, as ``sample`` would use the discrepancy; else the white one)."""
+    from bayes_dnlr.runs.fit import fit
+
+    r = fit(cfg).to_dict()
+    d = r.get("discrepancy")
+    evident = bool(d and d.get("evidence") and d.get("estimate"))   # else sample is white
+    src = d if evident else r
+    e, sd = src["estimate"]["E"], src["sd"]["E"]
+    truth_e = cfg.truth.params["E"]
+    z = (e - truth_e) / sd
+    return out | {"mean": e, "sd": sd, "lo": e - 1.645 * sd, "hi": e + 1.645 * sd,
+                  "covered": bool(abs(z) <= 1.645), "z": z, "trust": None, "fired": [],
+                  "flagged": False, "steps": 0, "converged": True, "sampling_s": 0.0,
+                  "kernel": d.get("kernel") if evident else None,
+                  "fit_bound_warnings": sum("bound" in w for w in r.get("warnings", [])),
+                  "posterior": {k: {"mean": src["estimate"][k], "sd": src["sd"][k]}
+                                for k in src["sd"]},
+                  "spectrum_exponent": r.get("spectrum_exponent"), **_scores(r)}
+
+
+def replicate(args: tuple) -> dict[str, Any]:
+    """Simulate, fit and sample one replicate; what the tables need from its outputs."""
+    folder, kind, strength, likelihood, rep, overrides, target_ess, fit_only = args
+    from bayes_dnlr.config import load_config
+    from bayes_dnlr.runs.sample import sample
+    from bayes_dnlr.workflows.simulate import simulate_test
+
+    path = write_config(Path(folder), kind, strength, likelihood, rep, overrides, target_ess)
+    cfg = load_config(path)
+    simulate_test(cfg)
+    t0 = time.perf_counter()
+    out: dict[str, Any] = {"kind": kind, "strength": strength, "likelihood": likelihood, "rep": rep,
+                           "truth": cfg.truth.params}
+    if fit_only:
+        return fit_replicate(cfg, out) | {"wall_s": time.perf_counter() - t0}
+    try:
+        s = sample(cfg, progress=False).summary
+    except Exception as err:     # a failed run is a result too: counted, not covered
+        out["error"] = f"{type(err).__name__}: {err}"
+        return out
+    post = s["posterior"]
+    e = post["E"]
+    truth_e = cfg.truth.params["E"]
+    trust, fired = read_checks(s)
+    fit = json.loads((cfg.run_dir / "fit.json").read_text())
+    noise = s.get("noise") or {}
+    out |= {
+        "mean": e["mean"], "sd": e["sd"], "lo": e["hdi_90"][0], "hi": e["hdi_90"][1],
+        "covered": bool(e["hdi_90"][0] <= truth_e <= e["hdi_90"][1]),
+        "z": (e["mean"] - truth_e) / e["sd"], "trust": trust, "fired": fired,
+        "flagged": trust is False, "steps": s["steps"], "converged": s["stop_reason"] == "converged",
+        "sampling_s": s["wall_time_s"], "wall_s": time.perf_counter() - t0,
+        "kernel": noise.get("kernel") if noise.get("model") == "discrepancy" else None,
+        "fit_bound_warnings": sum("bound" in w for w in fit.get("warnings", [])),
+        "posterior": {k: {"mean": v["mean"], "sd": v["sd"]} for k, v in post.items()},
+        **_scores(fit),
+    }
+    if "alpha" in post:
+        d = _draws(cfg.run_dir, ["E", "alpha"])
+        out["corr_E_alpha"] = float(np.corrcoef(d["E"], d["alpha"])[0, 1])
+        out["truth_alpha"] = cfg.truth.params.get("alpha")
+    out["spectrum_exponent"] = s.get("spectrum_exponent")
+    return out
+
+
+# ---------------------------------------------------------------- tables
+
+def _median(x: list[float]) -> float:
+    return float(np.median(x)) if x else math.nan
+
+
+def table(results: list[dict[str, Any]]) -> str:
+    """One row per kind × likelihood."""
+    groups: dict[tuple[str, str, str], list[dict]] = {}
+    for r in results:
+        groups.setdefault((r["kind"], r["strength"], r["likelihood"]), []).append(r)
+    head = (f"{'kind':<20}{'strength':<9}{'likelihood':<11}{'n':>4}{'cover':>7}{'cov|flag':>9}"
+            f"{'flag':>6}{'mean|z|':>9}{'med|z|':>8}{'bias %':>8}{'sd %':>7}{'steps':>7}{'s':>6}"
+            "  kernels; checks fired")
+    lines = [head]
+    for (kind, strength, lik), rs in groups.items():
+        ok = [r for r in rs if "error" not in r]
+        n = len(rs)
+        covered = sum(r["covered"] and not r["flagged"] for r in ok)
+        flagged = sum(r["flagged"] for r in ok)
+        z = np.abs([r["z"] for r in ok]) if ok else np.array([math.nan])
+        bias = np.mean([100 * (r["mean"] / r["truth"]["E"] - 1) for r in ok]) if ok else math.nan
+        sdp = np.mean([100 * r["sd"] / r["truth"]["E"] for r in ok]) if ok else math.nan
+        kernels = Counter(r["kernel"] or "white" for r in ok)
+        fired = Counter(k for r in ok for k in r["fired"])
+        notes = ", ".join(f"{k} {v}" for k, v in sorted(kernels.items()))
+        if fired:
+            notes += "; " + ", ".join(f"{k} {v}/{n}" for k, v in sorted(fired.items()))
+        for key, label in (("score_white_z", "white"), ("score_gls_z", "GLS")):
+            zs = [abs(r[key]) for r in ok if r.get(key) is not None]
+            if zs:
+                notes += (f"; alpha score |z| > 2 ({label}) {sum(x > 2 for x in zs)}/{len(zs)}, "
+                          f"median |z| {np.median(zs):.1f}")
+        if n - len(ok):
+            notes += f"; {n - len(ok)} failed"
+        lines.append(
+            f"{kind:<20}{strength:<9}{lik:<11}{n:>4}{covered / n:>7.2f}{(covered + flagged) / n:>9.2f}"
+            f"{flagged / n:>6.2f}{np.mean(z):>9.2f}{np.median(z):>8.2f}{bias:>+8.1f}{sdp:>7.2f}"
+            f"{_median([r['steps'] for r in ok]):>7.0f}{_median([r['sampling_s'] for r in ok]):>6.1f}"
+            f"  {notes}")
+        alpha = [r for r in ok if "corr_E_alpha" in r]
+        if alpha:
+            am = np.mean([r["posterior"]["alpha"]["mean"] for r in alpha])
+            asd = np.mean([r["posterior"]["alpha"]["sd"] for r in alpha])
+            rho = np.mean([r["corr_E_alpha"] for r in alpha])
+            shift = [abs(r["spectrum_exponent"]["shift_in_prior_sd"]) for r in alpha
+                     if (r.get("spectrum_exponent") or {}).get("shift_in_prior_sd") is not None]
+            far = f", |shift| > 2 prior sd in {sum(x > 2 for x in shift)}/{len(shift)}" if shift else ""
+            lines.append(f"{'':<40}alpha: posterior mean {am:.3f} (avg), sd {asd:.3f}, "
+                         f"corr(E, alpha) {rho:+.3f}{far}")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--replicates", type=int, default=30)
+    ap.add_argument("--quick", action="store_true", help=f"3 replicates of {', '.join(QUICK_KINDS)}")
+    ap.add_argument("--kinds", nargs="+", choices=list(KINDS), default=None)
+    ap.add_argument("--strength", choices=("mild", "strong"), default="mild")
+    ap.add_argument("--likelihoods", nargs="+", choices=list(LIKELIHOODS), default=list(LIKELIHOODS))
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=YAML",
+                    help="a config key for every run, e.g. 'parameters.alpha={value: 0.5}'")
+    ap.add_argument("--target-ess", type=float, default=1000.0)
+    ap.add_argument("--fit-only", action="store_true",
+                    help="least squares only: linearized intervals (the GLS ones under the "
+                         "discrepancy) and the score test of alpha; fast")
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--first", type=int, default=0, help="first replicate number (to extend a run)")
+    ap.add_argument("--out", type=Path, default=None, help="write every replicate's record (JSON)")
+    ap.add_argument("--from", dest="source", type=Path, default=None,
+                    help="print the tables of saved records instead of running")
+    args = ap.parse_args(argv)
+    if args.source is not None:
+        print(table(json.loads(args.source.read_text())))
+        return 0
+    kinds = args.kinds or (list(QUICK_KINDS) if args.quick else list(KINDS))
+    reps = 3 if args.quick else args.replicates
+    overrides = []
+    for text in args.set:
+        key, _, value = text.partition("=")
+        overrides.append((key.strip(), yaml.safe_load(value)))
+    print(f"{len(kinds)} kinds × {len(args.likelihoods)} likelihoods × {reps} replicates, strength "
+          f"{args.strength}, {N_POINTS} points, stress noise {STRESS_SD} MPa (sigma0 given), true "
+          f"parameters × exp({VARY_SD} z); overrides {args.set or 'none'}; jobs {args.jobs}")
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        work = [(tmp, k, args.strength, lik, args.first + r, overrides, args.target_ess,
+                 args.fit_only) for k in kinds for lik in args.likelihoods for r in range(reps)]
+        if args.jobs <= 1:
+            results = [replicate(w) for w in work]
+        else:
+            import multiprocessing as mp
+            from concurrent.futures import ProcessPoolExecutor
+
+            with ProcessPoolExecutor(args.jobs, mp_context=mp.get_context("spawn")) as pool:
+                results = list(pool.map(replicate, work))
+    if args.out is not None:
+        args.out.write_text(json.dumps(results, indent=1, default=float))
+    print(table(results))
+    print(f"wall time {time.perf_counter() - t0:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    sys.exit(main())
