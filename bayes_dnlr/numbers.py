@@ -87,5 +87,8 @@ def err_pct(err: Any) -> str:
 
 
 def pct(x: float | None, digits: int = 2) -> str:
-    """A fraction as a percentage ('0.0137' -> '1.37 %')."""
-    return "–" if x is None or not math.isfinite(x) else f"{100 * x:.{digits}f} %"
+    """A fraction as a percentage ('0.0137' -> '1.37 %'); '>1e4 %' beyond, as ``err_pct`` (a relative
+    sd of an estimate on a bound at 0 would print 20 digits)."""
+    if x is None or not math.isfinite(x):
+        return "–"
+    return f"{100 * x:.{digits}f} %" if abs(100 * x) < 1e4 else ">1e4 %"

@@ -107,6 +107,15 @@ def one_run(args: tuple) -> dict:
                        converged=s["stop_reason"] == "converged", loop_s=s["wall_time_s"],
                        amplitude=(s["posterior"].get("disc_amplitude") or {}).get("mean"),
                        length=(s["posterior"].get("disc_length") or {}).get("mean"))
+            c = s.get("checks") or {}
+            mf = c.get("model_form") or {}
+            out.update(coverage=(c.get("predictive_coverage") or {}).get("overall"),
+                       segments={k: v["share"] for k, v in
+                                 ((c.get("predictive_coverage") or {}).get("segments") or {}).items()},
+                       adequate=c.get("adequate"), trust=c.get("trust_interval"),
+                       score_z=mf.get("z"), score_shift_sd=mf.get("E_shift_sd"),
+                       bounds=[b["parameter"] for b in c.get("bound_limited") or []],
+                       verdict=c.get("verdict"))
     except BayesDnlrError as err:
         out["error"] = str(err).splitlines()[0][:160]
     out["wall_s"] = time.perf_counter() - t0
@@ -168,6 +177,16 @@ def main(argv: list[str] | None = None) -> int:
                          for x in rows]
                 line += f"; each 90 % HDI holds the others' means: {holds}"
             print(line)
+        if not args.fit_only:
+            for r in results:
+                if r["likelihood"] == lik and "error" not in r and r.get("verdict"):
+                    seg = ", ".join(f"{k} {100 * v:.0f}" for k, v in r["segments"].items() if v is not None)
+                    z = "" if r["score_z"] is None else (f"; model-form score z {r['score_z']:+.1f} "
+                                                         f"(E {r['score_shift_sd'] or 0:+.1f} sd)")
+                    print(f"  checks, specimen {r['k']} window {r['window']}: predictive coverage "
+                          f"{100 * r['coverage']:.0f} % ({seg}); adequate {r['adequate']}, trust "
+                          f"{r['trust']}; piled on a bound: {r['bounds'] or 'none'}{z}")
+                    print(f"    verdict: {r['verdict']}")
         for r in results:
             if r["likelihood"] == lik and "error" in r:
                 print(f"  specimen {r['k']}, window {r['window']}: {r['error']}")

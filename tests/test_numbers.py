@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from support.finished_run import make_finished_run
 
-from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pm
+from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pct, pm
 
 
 @pytest.mark.parametrize(("x", "sd", "text"), [
@@ -59,4 +59,5 @@ def test_err_percent_never_prints_thirty_digits():
 
     assert err_pct(0.00488) == "0.488"
     assert err_pct(3.5e22) == ">1e4"              # G on its bound: sd / |estimate| explodes
+    assert pct(5.4e19) == ">1e4 %" and pct(0.0137) == "1.37 %" and pct(None) == "–"
     assert err_pct(float("nan")) == "nan" and err_pct(None) == "nan"

@@ -56,7 +56,11 @@ def corner_section(run: RunResults, figdir: Path, title: str) -> list[str]:
         true = truths(run, names)
         p = drawn(figs.corner_plot, samples, names, figdir / "corner.png", est, cov, true,
                   linearized_label="GLS" if _uses_gls(run) else "Gauss-Newton", aside=True)
-        lin_txt = ("the generalized least-squares estimate and the linearized 1σ and 2σ ellipses of "
+        sandwich = bool(((run.fit or {}).get("discrepancy") or {}).get("projection"))
+        lin_txt = ("the estimate under model error (generalized least squares under the exp covariance) "
+                   "and the 1σ and 2σ ellipses of its linearized covariance under the kernels' model of "
+                   "the error (docs/model-error.md, blue)" if _uses_gls(run) and sandwich else
+                   "the generalized least-squares estimate and the linearized 1σ and 2σ ellipses of "
                    "Δ = (XᵀK⁻¹X)⁻¹ (eq. 32 with the discrepancy's covariance K, blue)"
                    if _uses_gls(run) else
                    "the Gauss-Newton estimate and the linearized 1σ and 2σ ellipses of Δ = σ0²(XᵀX)⁻¹ "
