@@ -15,6 +15,8 @@
   pull it, in sd, with E's shift per +0.1 of it. Most errors of the model's form that a change of
   the parameters absorbs (a strain toe, a second process, a peaked spectrum) pull it
   (docs/model-form.md);
+- ``noise_model``: a posterior of the white likelihood (``noise.discrepancy: none``) on residuals
+  that are not white (fit.json ``residuals.white``): its interval ignores the model error;
 - ``adequate``: the model with its noise model describes the test (coverage and plausibility pass);
   ``trust_interval``: E's interval can be used as it is (adequate, and neither a bound nor the
   prior decides E); ``verdict``: the words, each sentence from one check, a failed one with what
@@ -157,6 +159,20 @@ def model_form_check(fit: dict[str, Any], layout: Layout, post_sd: dict[str, flo
     return out
 
 
+def noise_model_check(cfg: Config, noise: dict[str, dict]) -> dict[str, dict]:
+    """Each test's likelihood against its residuals: the white likelihood chosen by the config
+    (``noise.discrepancy: none``) on residuals that are not white is not ok. A white posterior that
+    the discrepancy analysis chose (no evidence of model error) is ok: its likelihood-ratio test
+    already weighed the residuals."""
+    out = {}
+    for t, block in noise.items():
+        white_resid = (block or {}).get("fit_residuals_white")
+        chosen_white = not cfg.for_test(t).noise.has_discrepancy
+        out[t] = {"likelihood": (block or {}).get("model"), "residuals_white": white_resid,
+                  "ok": not (chosen_white and white_resid is False)}
+    return out
+
+
 def prior_sensitivity_check(draws: np.ndarray, names: list[str], priors) -> dict[str, float]:
     """Power-scaling sensitivity of every sampled parameter to the run's prior."""
     z = priors.from_physical(draws.reshape(-1, draws.shape[-1]))
@@ -279,6 +295,16 @@ def _plausibility_words(test: str, checks: dict, several: bool) -> list[tuple[st
     return out
 
 
+def _noise_model_words(test: str, c: dict, several: bool) -> tuple[bool, str | None]:
+    if c["ok"]:
+        return True, None
+    who = f"{test}: " if several else ""
+    return False, (f"{who}the residuals of the fit are signed waves, not noise, and this posterior used "
+                   "the white likelihood (noise.discrepancy: none): E's interval ignores the model "
+                   "error, so it is too narrow, and its centre follows the waves. Sample with the "
+                   "discrepancy (leave noise.discrepancy out: the default).")
+
+
 def _model_form_words(test: str, c: dict, several: bool) -> tuple[bool, str | None]:
     if c["ok"]:
         return True, None
@@ -329,6 +355,11 @@ def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[boo
                 adequate &= ok
             else:
                 trust &= ok
+    for t, c in (checks.get("noise_model") or {}).items():
+        ok, text = _noise_model_words(t, c, several)
+        trust &= ok
+        if text:
+            words.append(text)
     for t, c in (checks.get("model_form") or {}).items():
         ok, text = _model_form_words(t, c, several)
         trust &= ok
@@ -370,10 +401,11 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
         "prior_sensitivity": prior_sensitivity_check(draws, names, priors),
         "plausibility": plausibility_check(cfg, tests, layout, draws, names, standards),
         "model_form": model_form_check(fit, layout, post_sd),
+        "noise_model": noise_model_check(cfg, noise),
     }
     adequate, trust, words = verdict(checks, bool(summary.get("converged")), not layout.plain)
     if layout.plain:
-        for k in ("predictive_coverage", "plausibility"):
+        for k in ("predictive_coverage", "plausibility", "noise_model"):
             checks[k] = layout.collapse(checks[k])
         checks["model_form"] = checks["model_form"].get(layout.tests[0])      # None: no score test
     checks.update(adequate=adequate, trust_interval=trust, verdict=words)

@@ -181,3 +181,23 @@ def test_a_prior_bound_that_decides_e_is_named_with_the_move_of_e(tmp_path) -> N
     assert entry["side"] == "high" and entry["widened"] == [0.0, 10.0]
     assert abs(entry["E_shift_sd"]["E"]) > 1.0
     assert not checks["trust_interval"] and "prior box decides E" in checks["verdict"]
+
+
+def test_the_white_likelihood_chosen_on_signed_residuals_withdraws_trust() -> None:
+    from types import SimpleNamespace
+
+    from bayes_dnlr.runs.checks import noise_model_check
+
+    def config(has_discrepancy: bool):
+        noise = SimpleNamespace(has_discrepancy=has_discrepancy)
+        return SimpleNamespace(for_test=lambda t: SimpleNamespace(noise=noise))
+
+    signed = {"t": {"model": "white", "fit_residuals_white": False}}
+    assert not noise_model_check(config(False), signed)["t"]["ok"]
+    # the discrepancy analysis found no evidence of model error and fell back to white: its test decided
+    assert noise_model_check(config(True), signed)["t"]["ok"]
+    assert noise_model_check(config(False), {"t": {"model": "white", "fit_residuals_white": True}})["t"]["ok"]
+    checks = _checks()
+    checks["noise_model"] = noise_model_check(config(False), signed)
+    adequate, trust, words = verdict(checks, True, False)
+    assert adequate and not trust and "noise.discrepancy: none" in words and "too narrow" in words
