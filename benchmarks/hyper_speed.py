@@ -9,8 +9,9 @@ in sd against a saved file (an algorithm change must keep both within its tolera
 Cases: the shipped examples of runs/ (``make demo``'s first), the three real ETFE specimens of
 ../shared/data/real on windows 0.1, 0.3 and the whole curve, the real rHDPE curve with both toe
 remedies at 0.07 (skipped when ../shared/data/real is absent). Each fit runs twice in one process;
-the second (warm: numba caches and imports loaded) is timed. The reference job
-(../shared/tools/refjob.py, when present) is timed in the same run.
+the CPU time (process_time, all threads) of the second (warm: numba caches and imports loaded) is
+printed, as the machine is shared. The reference job (../shared/tools/refjob.py, or
+$BAYES_DNLR_REFJOB) is timed in the same run.
 """
 
 from __future__ import annotations
@@ -88,13 +89,13 @@ def measure(path: Path) -> dict:
     white = cfg.model_copy(deep=True)
     white.noise.discrepancy = "none"
     fit(cfg, write=False)
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     r = fit(cfg, write=False).only
-    t_default = time.perf_counter() - t0
+    t_default = time.process_time() - t0
     fit(white, write=False)
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     fit(white, write=False)
-    t_white = time.perf_counter() - t0
+    t_white = time.process_time() - t0
     d = r.discrepancy
     return {"n": r.n_points, "t_default": t_default, "t_white": t_white, "E": d["estimate"]["E"],
             "sd": d["sd"]["E"], "evaluations": d["ml_evaluations"], "lr": d["likelihood_ratio"],
