@@ -210,6 +210,7 @@ def _log_covariance(objective: Callable[[np.ndarray], float], v: np.ndarray, n_m
 
 _FIELD = {"sigma0": "sigma0", AMPLITUDE: "amplitude", LENGTH: "length"}
 GRADIENT_STEP = 1e-5      # central differences in ln h: error ~ step² × the third derivative
+FLAT = 1e-7              # a change of -log posterior below this is no change (Nelder-Mead's fatol)
 STARTS_DESCENDED = 1      # the best starts (by their value) that are descended from
 
 
@@ -241,7 +242,7 @@ def _gradient_search(objective: Callable[[np.ndarray], float], starts: list[np.n
     for v0 in ranked:
         res = minimize(value_and_gradient, v0, jac=True, method="L-BFGS-B",
                        bounds=list(zip(lo, hi, strict=True)),
-                       options={"ftol": 1e-12, "gtol": 1e-6, "maxiter": 200})
+                       options={"ftol": 1e-10, "gtol": 1e-5, "maxiter": 200})
         if best is None or res.fun < best.fun:
             best = res
     return best
@@ -375,6 +376,13 @@ def hyper_fit(kind: str, loglik: Callable[[Hyper], float], axis: Axis, r: np.nda
                 best = res
     elif starts:
         best = _gradient_search(objective, starts, lo, hi)
+        if AMPLITUDE in names:          # no model error: the amplitude's floor, where Nelder-Mead ends
+            j = names.index(AMPLITUDE)
+            v = best.x.copy()
+            v[j] = lo[j]
+            f = objective(v)
+            if f <= best.fun + FLAT:
+                best.x, best.fun = v, f
     v = best.x if best is not None else np.zeros(0)
     ll, lp = log_post(v)
     cov = _log_covariance(objective, v, 0, len(names))
