@@ -14,14 +14,14 @@ import math
 
 import numpy as np
 
-REDUCE_POINTS = 20_000    # ``auto``: files longer than this are averaged down to at most this many points
+REDUCE_POINTS = 20_000    # ``auto``: more rows than this to the window's end are averaged down to this
 
 
 def rows_per_point(spec: str | int, n: int, strain_input: str = "smoothed") -> int:
-    """The bin size k of ``data.reduce`` for n rows: ``none`` 1; ``auto`` the smallest k that leaves
-    at most REDUCE_POINTS points (1 for shorter files, and with ``strain_input: measured``, where
-    averaging the strain would change the errors-in-variables bias of the estimate); an integer as
-    given."""
+    """The bin size k of ``data.reduce`` for n rows up to the window's end: ``none`` 1; ``auto`` the
+    smallest k that leaves at most REDUCE_POINTS points (1 for shorter windows, and with
+    ``strain_input: measured``, where averaging the strain would change the errors-in-variables
+    bias of the estimate); an integer as given."""
     if spec == "none" or (spec == "auto" and strain_input != "smoothed"):
         return 1
     if spec == "auto":
@@ -47,8 +47,9 @@ def bin_means(v: np.ndarray, cuts: np.ndarray) -> np.ndarray:
     return sums / np.diff(cuts)
 
 
-def reduction_note(n: int, k: int, spec: str | int) -> str:
+def reduction_note(n: int, used: int, k: int, spec: str | int) -> str:
     """What ``data.reduce`` did, for the test's notes (printed by fit, kept in fit.json)."""
-    return (f"data.reduce ({spec}): {n} rows averaged in bins of {k} consecutive rows (the first row "
-            f"alone; no bin across the relaxation start), after the strain smoothing; σ0 given as a "
-            f"number is one row's, σ0/√{k} per point (data.reduce: none keeps every row)")
+    where = "" if used >= n else f" ({used} to the window's end)"
+    return (f"data.reduce ({spec}): {n} rows{where} averaged in bins of {k} consecutive rows (the first "
+            f"row alone; no bin across the relaxation start), after the strain smoothing; σ0 given as "
+            f"a number is one row's, σ0/√{k} per point (data.reduce: none keeps every row)")

@@ -248,9 +248,11 @@ def load_test(cfg: Config) -> TestData:
         strain_input = strain
     stress = _observable(cfg, values, strain, eps22, path)
     nom_stress = _nominal_stress(cfg, values, strain)
-    k = reduction.rows_per_point(d.reduce, time.size - virtual, d.strain_input)
+    window = window_mask(time[virtual:], strain_input[virtual:], d.window, path=path, key="data.window")
+    used = int(np.flatnonzero(window)[-1]) + 1 if window.any() else window.size  # rows to the window's end
+    k = reduction.rows_per_point(d.reduce, used, d.strain_input)
     if k > 1:       # after the smoothing: the spline of every row, averaged like the stress
-        notes.append(reduction.reduction_note(time.size - virtual, k, d.reduce))
+        notes.append(reduction.reduction_note(time.size - virtual, used, k, d.reduce))
         breaks = [] if rs is None else [int(np.searchsorted(time, rs))]
         cuts = reduction.bins(time.size, k, 1 + virtual, breaks)
         time, strain, strain_input, stress, nominal = (reduction.bin_means(v, cuts)
