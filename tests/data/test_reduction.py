@@ -66,6 +66,10 @@ def test_the_switch_does_what_the_docs_say(long_test: Path) -> None:
     # a numeric sigma0 is one row's: sigma0/√k per point
     assert resolve_sigma0(_config(long_test, 4), four)[0] == pytest.approx(0.3 / 2.0)
     assert resolve_sigma0(_config(long_test, "none"), full)[0] == 0.3
+    from bayes_dnlr.runs.target import resolve_sigma0 as sampled_sigma0  # what sample's likelihood uses
+
+    assert sampled_sigma0(_config(long_test, 4), None, four)[0] == pytest.approx(0.3 / 2.0)
+    assert sampled_sigma0(_config(long_test, "none"), None, full)[0] == 0.3
 
 
 def test_auto_counts_the_rows_to_the_window_end(long_test: Path) -> None:
