@@ -8,6 +8,12 @@ file, measured in the same run; the ratios show how time and memory grow with th
 
     .venv/bin/python benchmarks/large_files.py              # 1e4, 1e5, 1e6 rows, load and fit
     .venv/bin/python benchmarks/large_files.py --no-fit     # reading only
+    .venv/bin/python benchmarks/large_files.py --full-up-to 1000000   # every row at 1e6 too (slow)
+
+``fit`` runs with the default config, i.e. ``data.reduce: auto`` (docs/data-input.md, 1.6); up to
+``--full-up-to`` rows the same fit with ``data.reduce: none`` is run beside it and the difference of E
+is printed in its sd. The reference job (../shared/tools/refjob.py, or $BAYES_DNLR_REFJOB) is timed
+at the start; the fits' wall time is also given in reference jobs.
 
 Timings on a shared 2-core machine are noisy; read the ratios rather than the last digit. The CPU
 time (user + system, all threads) of the measured call is printed beside the wall time: it does not
@@ -18,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -26,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
+REFJOB = Path(os.environ.get("BAYES_DNLR_REFJOB", REPO.parent / "shared" / "tools" / "refjob.py"))
 
 CHILD = r"""
 import json, resource, sys, time
@@ -33,6 +41,8 @@ from bayes_dnlr.config import load_config
 from bayes_dnlr.data import load_test
 cfg = load_config(sys.argv[1])
 what = sys.argv[2]
+if len(sys.argv) > 3:
+    cfg.data.reduce = sys.argv[3] if sys.argv[3] in ("auto", "none") else int(sys.argv[3])
 t0 = time.perf_counter()
 use0 = resource.getrusage(resource.RUSAGE_SELF)
 cpu0 = use0.ru_utime + use0.ru_stime
@@ -44,13 +54,27 @@ else:
     from bayes_dnlr.runs.fit import fit
     r = fit(cfg, write=False).only
     n = r.n_points
-    extra = {"E": r.estimate["E"], "converged": bool(r.converged)}
+    d = r.discrepancy or {}
+    extra = {"E": d.get("estimate", r.estimate)["E"], "sd": d.get("sd", r.sd)["E"],
+             "converged": bool(r.converged),
+             "reduce": next((x.split(":")[0] for x in r.data_notes if x.startswith("data.reduce")), "-")}
 wall = time.perf_counter() - t0
 use = resource.getrusage(resource.RUSAGE_SELF)
 cpu = use.ru_utime + use.ru_stime - cpu0
 rss = use.ru_maxrss / 1024.0
 print(json.dumps({"n": n, "wall_s": wall, "cpu_s": cpu, "peak_rss_mb": rss, **extra}))
 """
+
+
+def reference_job() -> float | None:
+    """Seconds of the fixed CPU reference job (../shared/tools/refjob.py), None without it."""
+    if not REFJOB.is_file():
+        return None
+    out = subprocess.run([sys.executable, str(REFJOB)], capture_output=True, text=True, check=False)
+    try:
+        return float(out.stdout.strip().split()[-1])
+    except (ValueError, IndexError):
+        return None
 
 
 def write_test(folder: Path, n: int) -> Path:
@@ -73,9 +97,10 @@ def write_test(folder: Path, n: int) -> Path:
     return cfg
 
 
-def run(cfg: Path, what: str) -> dict:
-    out = subprocess.run([sys.executable, "-c", CHILD, str(cfg), what], capture_output=True, text=True,
-                         cwd=REPO, check=False)
+def run(cfg: Path, what: str, reduce: str | None = None) -> dict:
+    extra = [reduce] if reduce else []
+    out = subprocess.run([sys.executable, "-c", CHILD, str(cfg), what, *extra], capture_output=True,
+                         text=True, cwd=REPO, check=False)
     if out.returncode != 0:
         return {"error": out.stderr.strip().splitlines()[-1] if out.stderr.strip() else "failed"}
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -85,7 +110,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sizes", type=int, nargs="+", default=[10_000, 100_000, 1_000_000])
     ap.add_argument("--no-fit", action="store_true", help="measure reading only")
+    ap.add_argument("--full-up-to", type=int, default=100_000,
+                    help="also fit every row (data.reduce: none) up to this size, for the E difference")
     args = ap.parse_args()
+    ref = reference_job()
+    print(f"reference job: {ref if ref is None else f'{ref:.3f} s'}; load {os.getloadavg()}")
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         base_cfg = write_test(folder, 1000)
@@ -109,7 +138,13 @@ def main() -> None:
                 b = base[k]
                 extra = r["peak_rss_mb"] - b["peak_rss_mb"]
                 info = (r.get("note", "")[:60] if k == "load" else
-                        f"E = {r['E']:.1f} MPa, converged {r['converged']}")
+                        f"E = {r['E']:.2f} ± {r['sd']:.2f} MPa, {r['reduce']}, converged {r['converged']}"
+                        + (f", {r['wall_s'] / ref:.1f} reference jobs" if ref else ""))
+                if k == "fit" and n <= args.full_up_to and r["reduce"] != "-":
+                    f = run(cfg, "fit", "none")
+                    if "error" not in f:
+                        info += (f"; every row: E = {f['E']:.2f} ± {f['sd']:.2f} MPa in {f['wall_s']:.1f} s, "
+                                 f"{f['peak_rss_mb']:.0f} MB: ΔE = {(r['E'] - f['E']) / f['sd']:+.4f} sd")
                 print(f"{n:>9} {k:>5} {r['wall_s']:8.2f} {r['wall_s'] / b['wall_s']:7.1f} "
                       f"{r['cpu_s']:8.2f} {r['cpu_s'] / b['cpu_s']:10.1f} {r['peak_rss_mb']:8.0f} "
                       f"{extra:9.0f} {extra / (n / 1e5):16.1f}  {info}"

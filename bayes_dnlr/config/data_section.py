@@ -110,6 +110,16 @@ class DataConfig(Strict):
     gauge_length: float | None = Field(default=None, gt=0, description="L0 in mm, for an extension column")
     toe: Literal["none", "compensate"] | ToeBand = "none"
     initial_state: Literal["first-sample", "ramp-from-zero"] | None = None
+    reduce: Literal["auto", "none"] | Whole = Field(
+        default="auto", description="average consecutive rows in bins: auto (long files, to at most "
+                                    "20000 points), none (every row), or the rows per bin")
+
+    @field_validator("reduce")
+    @classmethod
+    def _reduce(cls, v: str | int) -> str | int:
+        if isinstance(v, int) and v < 1:
+            raise ValueError(f"rows per bin must be at least 1, got {v}")
+        return v
 
     @field_validator("delimiter")
     @classmethod

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from bayes_dnlr.config import Config
-from bayes_dnlr.data import hints
+from bayes_dnlr.data import hints, reduction
 from bayes_dnlr.data.checks import (
     check_increasing,
     check_load,
@@ -72,6 +72,7 @@ class TestData:
     area0: float | None = None                   # S0, mm²
     virtual_start: int = 0        # leading model-only samples (an unloaded start), never in the window
     lines: np.ndarray | None = None  # the file line of each sample (0 for a model-only sample)
+    rows_per_point: int = 1       # data.reduce: each sample the mean of this many consecutive rows
 
     @property
     def model_end(self) -> int:
@@ -248,6 +249,19 @@ def load_test(cfg: Config) -> TestData:
     stress = _observable(cfg, values, strain, eps22, path)
     nom_stress = _nominal_stress(cfg, values, strain)
     window = window_mask(time[virtual:], strain_input[virtual:], d.window, path=path, key="data.window")
+    used = int(np.flatnonzero(window)[-1]) + 1 if window.any() else window.size  # rows to the window's end
+    k = reduction.rows_per_point(d.reduce, used, d.strain_input)
+    if k > 1:       # after the smoothing: the spline of every row, averaged like the stress
+        notes.append(reduction.reduction_note(time.size - virtual, used, k, d.reduce))
+        breaks = [] if rs is None else [int(np.searchsorted(time, rs))]
+        cuts = reduction.bins(time.size, k, 1 + virtual, breaks)
+        time, strain, strain_input, stress, nominal = (reduction.bin_means(v, cuts)
+                                                       for v in (time, strain, strain_input, stress, nominal))
+        nom_stress = None if nom_stress is None else reduction.bin_means(nom_stress, cuts)
+        eps22 = None if eps22 is None else reduction.bin_means(eps22, cuts)
+        values = {r: reduction.bin_means(v, cuts) for r, v in values.items()}
+        lines = np.asarray(lines)[cuts[:-1]]
+    window = window_mask(time[virtual:], strain_input[virtual:], d.window, path=path, key="data.window")
     window = np.concatenate((np.zeros(virtual, bool), window))
     rate, how = window_strain_rate(time, strain, window, rs, first=virtual)
     notes.append(f"strain_rate: {rate:.4g} 1/s ({how})")
@@ -272,7 +286,7 @@ def load_test(cfg: Config) -> TestData:
         stress=stress, nominal_strain=nominal, nominal_stress=nom_stress, window=window,
         relaxation_start=rs, strain_rate=rate, observable=d.observable, notes=tuple(notes),
         force=values.get("force"), transverse_strain=eps22, area0=d.area0, virtual_start=virtual,
-        lines=lines)
+        lines=lines, rows_per_point=k)
     return test
 
 

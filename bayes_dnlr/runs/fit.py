@@ -96,7 +96,13 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
             raise RunError(f"{path} exists and was made from {reason}; `python -m bayes_dnlr fit "
                            f"--force {config}` replaces it, or set output.dir to fit into another "
                            "run directory and keep it")
-    result = fit_run(cfg, test.tests, plain=test.plain)
+    from threadpoolctl import threadpool_limits
+
+    # the fit's linear algebra is on (n, p) arrays with a handful of columns: a second BLAS thread
+    # only waits to be woken (the hyperparameter search took 2 ms per quasi-Newton step with two
+    # threads on a busy machine, 0.1 ms with one)
+    with threadpool_limits(limits=1, user_api="blas"):
+        result = fit_run(cfg, test.tests, plain=test.plain)
     secs = sections(cfg)
     result.config_digest = identity.config_digest(cfg, secs)
     result.config_sections = identity.section_digests(cfg, secs)

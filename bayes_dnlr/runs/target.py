@@ -50,8 +50,10 @@ def resolve_sigma0(cfg: Config, fit: TestFit, test) -> tuple[float | None, str, 
     With a discrepancy, ``residuals`` means the white part of the residuals: the maximum-likelihood
     σ0 that fit.json's discrepancy analysis found beside the amplitude and length."""
     spec = cfg.noise.sigma0
-    if isinstance(spec, int | float):
-        return float(spec), "config", None
+    if isinstance(spec, int | float):       # one row's: per point of a reduced test (data.reduce) σ0/√k
+        from bayes_dnlr.inference.lsq.sigma0 import resolve_sigma0 as from_config
+
+        return from_config(cfg, test)[0], "config", None
     disc = fit.discrepancy if cfg.noise.has_discrepancy else None
     priors = discrepancy_priors({"discrepancy": disc}) if disc else None
     if priors is not None and is_white(priors):

@@ -1,6 +1,7 @@
 """Large files (issue 10): a 1 kHz test of 1000 s (1e6 rows, 40 MB) is read with the default
 settings and its strain smoothed (the GCV spline failed as 'ill-posed' at 1e6 samples before);
-the fit of it is a slow test. Time and peak memory per size: benchmarks/large_files.py."""
+the fit of it (data.reduce: auto, bins of 50 rows) is a slow test. Time and peak memory per size:
+benchmarks/large_files.py."""
 
 from __future__ import annotations
 
@@ -27,7 +28,9 @@ def million(tmp_path_factory) -> Path:
 
 
 def test_a_million_rows_load_and_the_smoothing_succeeds(million: Path) -> None:
-    test = load_test(load_config(million))
+    cfg = load_config(million)
+    cfg.data.reduce = "none"
+    test = load_test(cfg)
     assert test.time.size == ROWS
     assert test.window.sum() == ROWS                       # the default window: the whole test
     note = next(n for n in test.notes if n.startswith("strain_input: smoothed"))
@@ -45,5 +48,6 @@ def test_a_million_rows_fit_with_the_default_config(million: Path) -> None:
 
     result = fit(load_config(million), write=False).only
     assert result.converged
-    assert result.n_points == ROWS
+    assert result.n_points == 1 + -(-(ROWS - 1) // 50)        # data.reduce: auto, bins of 50 rows
+    assert any(n.startswith("data.reduce (auto)") for n in result.data_notes)
     assert result.estimate["E"] == pytest.approx(2854.0, rel=0.01)

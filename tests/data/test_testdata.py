@@ -498,13 +498,18 @@ def test_smoothed_is_the_default_and_measured_keeps_the_raw_strain(write_csv, ma
 
 
 def test_26000_rows_load(write_csv, make_config):
-    """A long record loads whole (its speed is measured in benchmarks/, not asserted here)."""
+    """A long record loads whole with data.reduce: none (its speed is measured in benchmarks/, not
+    asserted here)."""
     rng = np.random.default_rng(0)
     t = np.arange(26000) * 0.02
     e = 8e-3 * t + rng.normal(0, 1e-4, t.size)
     write_csv(csv_text({"t_s": t, "F_N": 900 * np.tanh(3 * e), "eps11": e}))
-    test = load_test(make_config())
+    test = load_test(make_config(reduce="none"))
     assert test.time.size == 26000
+    # the default (data.reduce: auto) averages pairs of rows past 20000 rows, and says so
+    test = load_test(make_config())
+    assert test.time.size == 1 + 25999 // 2 + 1 and test.rows_per_point == 2
+    assert any(n.startswith("data.reduce (auto): 26000 rows averaged in bins of 2") for n in test.notes)
 
 
 # ------------------------------------------------------------------ baseline noise

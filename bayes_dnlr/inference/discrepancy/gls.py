@@ -39,6 +39,7 @@ from bayes_dnlr.inference.discrepancy.hyper import (
     amplitude_prior,
     hyper_fit,
     resolved_priors,
+    restricted_likelihood,
     restricted_log_likelihood,
     search_priors,
     test_axis,
@@ -123,9 +124,10 @@ def _generalized(cfg, problem, beta_white, axis, kernels, sigma0, floor) -> dict
     rms = float(np.sqrt(np.mean(r**2)))
     priors = _priors(cfg, rms, axis)
     fits = {}
-    for k in dict.fromkeys((*kernels, WORKING)):
-        fits[k] = hyper_fit(k, lambda h, k=k: restricted_log_likelihood(x, r, X, h, k, origin), axis, r,
-                            priors, sigma0, floor)
+    for k in dict.fromkeys((WORKING, *kernels)):      # each kernel warm-started from the last optimum
+        warm = fits[next(reversed(fits))].hyper if fits else None
+        fits[k] = hyper_fit(k, restricted_likelihood(x, r, X, k, origin), axis, r,
+                            priors, sigma0, floor, warm)
     hw = fits[WORKING].hyper
     problem.whiten = whitener(axis, hw, WORKING)
     try:
@@ -186,9 +188,10 @@ def _l2(cfg, problem, beta_white, axis, kernels, sigma0, floor) -> dict[str, Any
     priors = _priors(cfg, rms, axis)
     per = {}
     for k in kernels:
+        warm = Hyper(**per[next(reversed(per))]["hyperparameters"]) if per else None
         fit = hyper_fit(k, lambda h, k=k: orthogonal.log_likelihood(cols, x, r, h.sigma0, h.amplitude,
                                                                    h.length, k, origin),
-                        axis, r, priors, sigma0, floor)
+                        axis, r, priors, sigma0, floor, warm)
         h = fit.hyper
         star = orthogonal.star_covariance(cols, x, h.sigma0, h.amplitude, h.length, k, origin)
         mt = orthogonal.mtilde(cols, x, h.length, k, origin)

@@ -125,6 +125,24 @@ def whiten(x: np.ndarray, V: np.ndarray, sigma0: float, amplitude: float, length
     return (out[:, 0] if vec else out), float(logdet)
 
 
+def whitening(x: np.ndarray, V: np.ndarray, kind: str = "matern32", start: float | None = None):
+    """(σ0, a, ℓ) -> (L⁻¹ V, log det K) as ``whiten`` gives them, with the axis and V (n, m) checked
+    and laid out once: for a search that whitens the same columns hundreds of times. The returned
+    array is a buffer the next call overwrites."""
+    x = _axis(x)
+    V2 = np.ascontiguousarray(np.asarray(V, dtype=float).reshape(x.size, -1))
+    out, store = np.empty_like(V2), np.empty((0, 9))
+    code, gap = kernel_code(kind), _gap(x, start)
+
+    def apply(sigma0: float, amplitude: float, length: float) -> tuple[np.ndarray, float]:
+        if not kalman._valid(sigma0, amplitude, length):
+            raise ValueError(f"invalid hyperparameters sigma0 = {sigma0}, amplitude = {amplitude}, "
+                             f"length = {length}")
+        return out, float(kalman._filter(x, V2, sigma0, amplitude, length, code, gap, out, store))
+
+    return apply
+
+
 def solve(x: np.ndarray, V: np.ndarray, sigma0: float, amplitude: float, length: float,
           kind: str = "matern32", start: float | None = None) -> np.ndarray:
     """C⁻¹ V for C = k(x, x) + σ0² I; V (n,) or (n, m). O(n m): the filter and its adjoint."""

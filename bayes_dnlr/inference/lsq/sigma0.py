@@ -52,8 +52,8 @@ def resolve_sigma0(cfg: Config, test, residuals: np.ndarray | None = None) -> tu
     residuals on the window (needed for 'residuals' and for a sampled sigma0).
     """
     spec = cfg.noise.sigma0
-    if isinstance(spec, int | float):
-        return float(spec), SOURCE_CONFIG
+    if isinstance(spec, int | float):      # one row's sd; a bin of k rows (data.reduce) has σ0/√k
+        return float(spec) / math.sqrt(getattr(test, "rows_per_point", 1)), SOURCE_CONFIG
     if isinstance(spec, BaselineNoise):
         from bayes_dnlr.data import baseline_sd
 
