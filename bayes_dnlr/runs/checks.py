@@ -41,6 +41,7 @@ from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS, PARAMETER_NAMES, base_
 N_CURVES = 200              # posterior draws pushed through the model for the predictive band
 COVERAGE_LOW = 0.80         # overall share below this: the band is too narrow for the data
 COVERAGE_HIGH = 0.97        # above this: wider than the scatter (said, not a failure)
+E_WEIGHTED_LOW = 0.80       # coverage weighted by E's information below this: the misfit reaches E
 SEGMENT_LOW = 0.50          # a segment (with enough points) below this: the model fails there
 SEGMENT_MIN_POINTS = 20
 SHIFT_SD = 1.0              # widening a bound moves E by more than this many posterior sd
@@ -95,7 +96,32 @@ def coverage_check(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarra
         rows = window_rows(data)
         time = np.asarray(data.time[: data.model_end], dtype=float)[rows]
         out[t] = predictive.coverage(inside, predictive.segments(time, data.relaxation_start))
+        w = _e_weights(cfg, data, layout, t, flat, names, inside.size)
+        if w is not None:
+            out[t]["E_weighted"] = predictive.weighted_share(inside, w)
     return out
+
+
+def _e_weights(cfg: Config, data, layout: Layout, test: str, flat: np.ndarray, names: list[str],
+               n: int) -> np.ndarray | None:
+    """Each compared sample's share of E's least-squares variance at the posterior median (None when
+    E is not free or the Jacobian does not line up with the compared samples)."""
+    from bayes_dnlr.inference.lsq.problem import LsqProblem
+
+    view = cfg.for_test(test)
+    free = view.free_parameters
+    if "E" not in free:
+        return None
+    point = dict(view.fixed_values)
+    for k in free:
+        name = layout.name(k, test)
+        if name in names:
+            point[k] = float(np.median(flat[:, names.index(name)]))
+    problem = LsqProblem.for_config(view, data)
+    X = problem.jacobian(point)
+    if X.shape[0] != n:
+        return None
+    return predictive.weights(X, free.index("E"))
 
 
 def plausibility_check(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray,
@@ -249,6 +275,13 @@ def _cap(text: str) -> str:
     return text[:1].upper() + text[1:] if text[:1].isascii() else text
 
 
+def _coverage_reaches_e(c: dict) -> bool:
+    """Whether a test's misfit lies where E draws its information (the E-weighted coverage below
+    E_WEIGHTED_LOW; without the weights, any misfit counts)."""
+    w = c.get("E_weighted")
+    return w is None or w < E_WEIGHTED_LOW
+
+
 def _coverage_words(test: str, c: dict, several: bool) -> tuple[bool, str]:
     who = f"{test}: " if several else ""
     low_segments = [(name, s["share"]) for name, s in c["segments"].items()
@@ -262,10 +295,16 @@ def _coverage_words(test: str, c: dict, several: bool) -> tuple[bool, str]:
     if ok:
         return True, text + " (80-97 % expected)."
     where = ", ".join(f"{_share(s)} in the {name}" for name, s in low_segments)
-    return False, (text + (f", {where}" if where else "") + ": the model with its noise model does "
-                   "not describe this test there, and E's interval rests on a misfit the likelihood "
-                   "does not model. Look at the residuals of that part (a toe, a second process, a "
-                   "window past yield) and fix the start or the window.")
+    text += ((f", {where}" if where else "")
+             + ": the model with its noise model does not describe this test there")
+    if not _coverage_reaches_e(c):
+        return False, (text + f", but E draws little of its information from there (the band holds "
+                       f"{_share(c['E_weighted'])} of the points weighted by their share of E's "
+                       "variance): E's interval stands; the other parameters', and any prediction "
+                       "there, do not. A model or window that describes that part would tell.")
+    return False, (text + ", and E's interval rests on a misfit the likelihood does not model. Look at "
+                   "the residuals of that part (a toe, a second process, a window past yield) and "
+                   "fix the start or the window.")
 
 
 def _plausibility_words(test: str, checks: dict, several: bool) -> list[tuple[str, bool, str]]:
@@ -344,15 +383,18 @@ def _bound_words(entries: list[dict]) -> tuple[bool, list[str]]:
 def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[bool, bool, str]:
     """(adequate, trust_interval, words) from the checks."""
     adequate, trust, words = True, True, []
+    reaches_e = implausible = False
     for t, c in checks["predictive_coverage"].items():
         ok, text = _coverage_words(t, c, several)
         adequate &= ok
+        reaches_e |= not ok and _coverage_reaches_e(c)
         words.append(text)
     for t, c in checks["plausibility"].items():
         for kind, ok, text in _plausibility_words(t, c, several):
             words.append(text)
             if kind == "adequate":
                 adequate &= ok
+                implausible |= not ok
             else:
                 trust &= ok
     for t, c in (checks.get("noise_model") or {}).items():
@@ -379,8 +421,11 @@ def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[boo
         trust = False
         words.append("The chain has not converged: its intervals are not final (raise "
                      "sampler.max_steps and run `sample` again).")
-    trust &= adequate
-    head = ("Use E's interval as it is." if trust else
+    trust &= not reaches_e
+    trust &= not implausible
+    head = ("Use E's interval as it is." + ("" if adequate else " The model does not describe all "
+                                            "of this test (below), but not where E is measured.")
+            if trust else
             "The model describes this test, but do not use E's interval as it is." if adequate else
             "The model does not describe this test: E's interval is not reliable.")
     return adequate, trust, " ".join([head, *(_cap(w) for w in words)])

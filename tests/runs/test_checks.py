@@ -183,6 +183,25 @@ def test_a_prior_bound_that_decides_e_is_named_with_the_move_of_e(tmp_path) -> N
     assert not checks["trust_interval"] and "prior box decides E" in checks["verdict"]
 
 
+def test_a_misfit_where_e_has_no_weight_leaves_e_trusted() -> None:
+    """Weights from a Jacobian: a sample's share of E's variance; the verdict reads the weighted
+    coverage: a misfit at the end of a ramp (where E has little weight) keeps E's interval."""
+    x = np.linspace(0.0, 1.0, 200)
+    X = np.column_stack([1.0 - np.exp(-x / 0.02), x])       # E acts early, a hardening term late
+    w = predictive.weights(X, 0)
+    assert w.sum() == pytest.approx(1.0) and w[:40].sum() > w[-40:].sum()
+    inside = np.ones(200, dtype=bool)
+    inside[-60:] = False                                    # the misfit: the last 30 %
+    assert predictive.weighted_share(inside, w) > predictive.weighted_share(~inside, w)
+    checks = _checks(block=0.3)
+    checks["predictive_coverage"]["t"]["E_weighted"] = 0.95
+    adequate, trust, words = verdict(checks, True, False)
+    assert not adequate and trust and "E's interval stands" in words
+    checks["predictive_coverage"]["t"]["E_weighted"] = 0.5
+    adequate, trust, words = verdict(checks, True, False)
+    assert not adequate and not trust and "E's interval rests on a misfit" in words
+
+
 def test_the_white_likelihood_chosen_on_signed_residuals_withdraws_trust() -> None:
     from types import SimpleNamespace
 

@@ -7,6 +7,11 @@ puts around it (σ0², plus the model discrepancy's variance when there is one).
 describes the test, with its noise model, holds about 90 % of the points in every segment; a test
 whose misfit the likelihood does not describe holds fewer, most visibly in the segment where the
 model is wrong.
+
+A misfit moves a parameter only through the samples that inform it: ``weights`` gives each sample's
+share of E's least-squares variance (the squared row of (XᵀX)⁻¹Xᵀ, eq. 22), and ``weighted_share``
+the coverage with those weights, so that a misfit where E has no weight (the large strains, say) is
+told apart from one where it has.
 """
 
 from __future__ import annotations
@@ -47,3 +52,20 @@ def coverage(inside: np.ndarray, masks: dict[str, np.ndarray]) -> dict:
     seg = {name: {"share": float(inside[m].mean()) if m.any() else None, "points": int(m.sum())}
            for name, m in masks.items()}
     return {"overall": float(inside.mean()), "points": int(inside.size), "segments": seg}
+
+
+def weights(X: np.ndarray, column: int) -> np.ndarray:
+    """Each sample's share of the least-squares variance of the parameter in ``column`` of the
+    Jacobian X (n, p): h = the row of (XᵀX)⁻¹Xᵀ, h_i² / Σ h². Columns are scaled first (E and the
+    time constants differ by orders of magnitude)."""
+    scale = np.linalg.norm(X, axis=0)
+    scale[scale == 0] = 1.0
+    pinv = np.linalg.pinv(X / scale)
+    h2 = pinv[column] ** 2
+    total = h2.sum()
+    return h2 / total if total > 0 else np.full(X.shape[0], 1.0 / X.shape[0])
+
+
+def weighted_share(inside: np.ndarray, w: np.ndarray) -> float:
+    """The share of the points inside the band, each counted with its weight."""
+    return float(np.sum(w * inside) / np.sum(w))

@@ -14,9 +14,11 @@ discrepancy, inference/discrepancy/gp.py) the criterion is the generalized one, 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
+from bayes_dnlr.config import Config
 from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.inference.lsq.sensitivity import derivative, log_sensitivity
 from bayes_dnlr.model import DNLR, Basis
@@ -65,6 +67,15 @@ class LsqProblem:
         self._cache: tuple[tuple[float, float | None, float], Basis] | None = None
         self.evaluations = 0
         self.whiten: Callable[[np.ndarray], np.ndarray] | None = None   # W = L⁻¹, or None (white)
+
+    @classmethod
+    def for_config(cls, cfg: Config, test: Any) -> LsqProblem:
+        """The problem of one test (a TestData) with the free parameters, fixed values and prior
+        bounds of ``cfg`` (a one-test view)."""
+        names = cfg.free_parameters
+        return cls(test.time, test.strain_input, test.stress, test.window, test.relaxation_start,
+                   names, cfg.fixed_values, {k: cfg.parameters[k].bounds() for k in names},
+                   cfg.model.modes, cfg.model.decades)
 
     # ---- layout
     @property
