@@ -289,6 +289,43 @@ def _current_values(cfg: Config, secs: tuple[str, ...], exclude_none: bool) -> d
     return out
 
 
+def _default_of(cfg: Config, key: str) -> tuple[bool, Any]:
+    """(True, the schema's default) of a config key such as ``data.reduce``, or (False, None) for a
+    key without one (inside a list, a mapping of the user's, or required)."""
+    if "[" in key:
+        return False, None
+    *parents, leaf = key.split(".")
+    obj: Any = cfg
+    for part in parents:
+        obj = getattr(obj, part, None)
+        if obj is None:
+            return False, None
+    field = getattr(type(obj), "model_fields", {}).get(leaf)
+    if field is None or field.is_required():
+        return False, None
+    default = field.get_default(call_default_factory=True)
+    return True, default.model_dump(mode="json") if hasattr(default, "model_dump") else default
+
+
+def _only_new_defaults(old: Mapping[str, Any] | None, new: Mapping[str, Any], cfg: Config,
+                       section: str) -> bool:
+    """Whether ``section`` differs from the stored values only by keys the stored result does not
+    know (a newer version's) that hold their default: such a result is still the config's."""
+    if not isinstance(old, Mapping) or section not in old:
+        return False
+    a, b = _flat({section: old.get(section)}, ""), _flat({section: new.get(section)}, "")
+    diff = [k for k in dict.fromkeys([*a, *b]) if a.get(k) != b.get(k)]
+    if not diff:
+        return False
+    for k in diff:
+        if k in a:
+            return False
+        known, default = _default_of(cfg, k)
+        if not known or json.dumps(default, sort_keys=True) != json.dumps(b.get(k), sort_keys=True):
+            return False
+    return True
+
+
 def chain_stale_reason(attrs: Mapping[str, Any], cfg: Config, data_sha256: str, run_dir: Path) -> str | None:
     """Why the chain whose attributes are ``attrs`` does not belong to ``cfg`` and its data (None
     when it does): the changed sections with their keys, and the data file."""
@@ -301,6 +338,9 @@ def chain_stale_reason(attrs: Mapping[str, Any], cfg: Config, data_sha256: str, 
     if _form(record) >= FORM:
         now = chain_parts(cfg, data_sha256)
         changed = [k for k in now if stored.get(k) != now[k]]
+        old = _stored_values(record)
+        current = _current_values(cfg, secs, exclude_none=False)
+        changed = [k for k in changed if k == DATA_FILE or not _only_new_defaults(old, current, cfg, k)]
     else:
         changed = _legacy_changed(stored, cfg, secs, run_dir)
         sampler = digest(_sampler_values(cfg))
@@ -327,6 +367,8 @@ def fit_stale_reason(saved: Mapping[str, Any], cfg: Config, secs: tuple[str, ...
     if _form(record) >= FORM:
         changed = ([] if saved.get("config_digest") == config_digest(cfg, secs)
                    else [s for s, d in section_digests(cfg, secs).items() if old.get(s) != d] or list(secs))
+        values = section_values(cfg, secs)
+        changed = [s for s in changed if not _only_new_defaults(_stored_values(record), values, cfg, s)]
     else:
         changed = _legacy_changed(old, cfg, secs, run_dir) if old else list(secs)
     reasons = []

@@ -252,3 +252,37 @@ def test_moved_run_folder_is_the_same_run(run: Path, tmp_path: Path, capsys) -> 
     code, text = _sample(config, capsys)
     assert code == 0, text
     assert read_run(moved / "chains.h5").steps == 40
+
+
+def _as_if_made_before_data_reduce(run_dir: Path) -> None:
+    """Rewrite a run's fit.json and chain as a version without the ``data.reduce`` key wrote them:
+    the key absent from the stored values, and other digests of the data section."""
+    fit_path = run_dir / "fit.json"
+    saved = json.loads(fit_path.read_text())
+    saved["identity"]["values"]["data"].pop("reduce")
+    saved["config_sections"]["data"] = "0" * 64
+    saved["config_digest"] = "1" * 64
+    fit_path.write_text(json.dumps(saved))
+    with h5py.File(run_dir / "chains.h5", "r+") as h:
+        record = json.loads(h.attrs["identity"])
+        record["values"]["data"].pop("reduce")
+        h.attrs["identity"] = json.dumps(record)
+        parts = json.loads(h.attrs["fingerprint_parts"])
+        parts["data"] = "2" * 64
+        h.attrs["fingerprint_parts"] = json.dumps(parts)
+
+
+def test_a_key_a_newer_version_added_at_its_default_keeps_the_results(run: Path, capsys) -> None:
+    """A result made before a config key existed belongs to a config that leaves the key at its
+    default; set to another value, the key is a real change."""
+    from bayes_dnlr.runs.fit import fit_is_current
+
+    assert _sample(run, capsys)[0] == 0
+    _as_if_made_before_data_reduce(run.parent)
+    assert fit_is_current(load_config(run))
+    _edit(run, sampler__max_steps=40)                 # continue the chain: it must not be refused
+    code, text = _sample(run, capsys)
+    assert code == 0, text
+    _edit(run, data__reduce="none")
+    code, text = _sample(run, capsys)
+    assert code == 2 and "data.reduce" in text, text
