@@ -17,7 +17,7 @@ class SamplerConfig(Strict):
     target_ess: float = Field(default=1000.0, gt=0)
     seed: Whole = Field(default=1, ge=0, lt=2**32, description="numpy's RandomState takes 0 <= seed < 2**32")
     checkpoint_every: Whole = Field(default=100, ge=1)
-    moves: Literal["de-snooker", "stretch", "de"] = Field(
+    moves: Literal["de-snooker", "stretch", "de", "de-blocks"] = Field(
         default="de", description="emcee moves; DEMove alone mixes best here (benchmarks/moves.py)")
     burn_in_tau: float = Field(default=5.0, ge=0, description="burn-in, in autocorrelation times")
     min_tau_multiple: float = Field(default=50.0, gt=0, description="chain length >= this many tau")

@@ -40,13 +40,16 @@ MOVES = {
     "de-snooker": "DEMove (0.8) + DESnookerMove (0.2)",
     "de": "DEMove",
     "stretch": "StretchMove (a = 2)",
+    "de-blocks": "DEMove on the model parameters (0.5) + the discrepancy's hyperparameters redrawn "
+                 "from a Student t of the other walkers, the model parameters carried along (0.5)",
 }
 
 
 # ---------------------------------------------------------------- configuration
 
-def make_moves(kind: str) -> Any:
-    """emcee moves for ``sampler.moves`` (benchmarks/moves.py compares them)."""
+def make_moves(kind: str, names: list[str] | None = None) -> Any:
+    """emcee moves for ``sampler.moves`` (benchmarks/moves.py compares them); ``names``: the
+    sampled parameters (``de-blocks`` splits them into the model and the hyperparameter block)."""
     emcee = load_emcee()
 
     if kind == "stretch":
@@ -55,6 +58,10 @@ def make_moves(kind: str) -> Any:
         return emcee.moves.DEMove()
     if kind == "de-snooker":
         return [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
+    if kind == "de-blocks":
+        from bayes_dnlr.inference.mcmc.blocks import block_moves
+
+        return block_moves(names)
     raise ConfigError(f"sampler.moves: unknown moves {kind!r}; expected one of {list(MOVES)}")
 
 
@@ -238,7 +245,8 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
 
     walkers, ndim = state.coords.shape
     chain = _Growing(chain0)
-    sampler = emcee.EnsembleSampler(walkers, ndim, log_prob, moves=make_moves(moves), vectorize=True)
+    sampler = emcee.EnsembleSampler(walkers, ndim, log_prob, vectorize=True,
+                                    moves=make_moves(moves, getattr(log_prob, "names", None)))
     every = rule.checkpoint_every
     conv = None
     reason = None
