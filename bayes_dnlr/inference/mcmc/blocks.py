@@ -62,7 +62,8 @@ class ConditionalMove(_emcee.moves.RedBlueMove):
         comp = np.concatenate(c, axis=0)[:, self.hyper]
         ns, d, p = s.shape[0], self.hyper.size, self.model.size
         mean = comp.mean(axis=0)
-        cov = np.atleast_2d(np.cov(comp, rowvar=False)) * self.scale**2
+        dev = comp - mean
+        cov = dev.T @ dev * (self.scale**2 / (comp.shape[0] - 1))
         cov += np.eye(d) * (1e-300 + 1e-9 * float(np.max(np.diag(cov))))   # a flat complement
         chol = np.linalg.cholesky(cov)
         h_new = mean + (random.randn(ns, d) @ chol.T) / np.sqrt(
@@ -73,10 +74,10 @@ class ConditionalMove(_emcee.moves.RedBlueMove):
         q = s.copy()
         q[:, self.hyper] = h_new
         q[:, self.model], ld_new = self.mapper.place(h_new, u_new)
-        zero, eye = np.zeros(p), np.eye(p)
-        factors = (t_logpdf(h_old, mean, chol, self.dof) - t_logpdf(h_new, mean, chol, self.dof)
-                   + t_logpdf(u_old, zero, eye, self.dof) - t_logpdf(u_new, zero, eye, self.dof)
-                   + ld_new - ld_old)
+        lt_h = t_logpdf(np.concatenate([h_old, h_new]), mean, chol, self.dof)
+        lt_u = -0.5 * (self.dof + p) * np.log1p(np.sum(np.concatenate([u_old, u_new]) ** 2,
+                                                       axis=1) / self.dof)
+        factors = lt_h[:ns] - lt_h[ns:] + lt_u[:ns] - lt_u[ns:] + ld_new - ld_old
         bad = ~np.isfinite(factors)          # a walker far outside the map's reach: rejected
         q[bad] = s[bad]
         factors[bad] = -np.inf

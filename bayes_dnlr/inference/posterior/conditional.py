@@ -39,37 +39,30 @@ class ConditionalMap:
     def __init__(self, axes: list[np.ndarray], mu: np.ndarray, chol: np.ndarray,
                  model: list[int], hyper: list[int]) -> None:
         self.axes = axes                    # per hyperparameter: the grid (ln units)
-        self.mu = mu                        # (*grid, p)
-        self.log_diag = np.log(np.diagonal(chol, axis1=-2, axis2=-1))   # (*grid, p)
-        self.lower = np.tril(chol, -1)      # (*grid, p, p)
+        shape = tuple(ax.size for ax in axes)
+        p = mu.shape[-1]
+        self._mu = mu.reshape(-1, p)        # (nodes, p)
+        self._chol = chol.reshape(-1, p, p)  # (nodes, p, p), lower, positive diagonal
+        self._strides = np.array([int(np.prod(shape[j + 1:])) for j in range(len(shape))])
+        self._corners = np.array(list(itertools.product((0, 1), repeat=len(axes))))  # (2^d, d)
         self.model = list(model)
         self.hyper = list(hyper)
 
     def _at(self, h: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """μ, A and ln det A at the rows of h (k, d), multilinear in the grid, clamped."""
-        k = h.shape[0]
-        lo_idx, frac = [], []
+        """μ, A and ln det A at the rows of h (k, d), multilinear in the grid (A's entries mixed
+        with non-negative weights: still lower triangular with a positive diagonal), clamped."""
+        lo_idx, frac = np.empty(h.shape, dtype=np.int64), np.empty(h.shape)
         for j, ax in enumerate(self.axes):
             v = np.clip(h[:, j], ax[0], ax[-1])
             i = np.clip(np.searchsorted(ax, v, side="right") - 1, 0, ax.size - 2)
-            lo_idx.append(i)
-            frac.append((v - ax[i]) / (ax[i + 1] - ax[i]))
-        p = self.mu.shape[-1]
-        mu = np.zeros((k, p))
-        ld = np.zeros((k, p))
-        low = np.zeros((k, p, p))
-        for corner in itertools.product((0, 1), repeat=len(self.axes)):
-            w = np.ones(k)
-            idx = []
-            for j, c in enumerate(corner):
-                w = w * (frac[j] if c else 1.0 - frac[j])
-                idx.append(lo_idx[j] + c)
-            idx = tuple(idx)
-            mu += w[:, None] * self.mu[idx]
-            ld += w[:, None] * self.log_diag[idx]
-            low += w[:, None, None] * self.lower[idx]
-        a = low + np.einsum("ki,ij->kij", np.exp(ld), np.eye(p))
-        return mu, a, ld.sum(axis=1)
+            lo_idx[:, j] = i
+            frac[:, j] = (v - ax[i]) / (ax[i + 1] - ax[i])
+        c = self._corners                                            # (2^d, d)
+        nodes = (lo_idx[:, None, :] + c[None]) @ self._strides        # (k, 2^d)
+        w = np.prod(np.where(c[None] == 1, frac[:, None, :], 1.0 - frac[:, None, :]), axis=2)
+        mu = np.einsum("kc,kcp->kp", w, self._mu[nodes])
+        a = np.einsum("kc,kcpq->kpq", w, self._chol[nodes])
+        return mu, a, np.log(np.diagonal(a, axis1=1, axis2=2)).sum(axis=1)
 
     def standardize(self, h: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(u, ln det A(h)): the model block's standardized position u = A(h)⁻¹ (θ - μ(h))."""
