@@ -1,10 +1,12 @@
 """The user's wall time and the chain's steps with the model discrepancy, each beside the reference
 job timed in the same run (``../shared/tools/refjob.py``, when present) and the load average.
 
-(a) steps to ESS 1000 (the stopping rule), discrepancy against white, with ``sampler.moves`` ``de``
-    (with the conditional move) and ``de-plain`` (DEMove alone, as before), on the shipped example re-simulated with a correlated error (exp kernel,
-    amplitude 0.5 MPa, length 20 s) and on the three real ETFE specimens (../shared/data/real,
-    the config of benchmarks/real_etfe.py; skipped when absent); E, G, tau_max mean ± sd beside;
+(a) steps to ESS 1000 (the stopping rule), discrepancy against white, with ``sampler.moves``
+    ``de-plain`` (DEMove alone, as before) and ``de`` (with the conditional move), on the shipped
+    example re-simulated with a correlated error (exp kernel, amplitude 0.5 MPa, length 20 s) and
+    on the three real ETFE specimens (../shared/data/real, the config of benchmarks/real_etfe.py;
+    skipped when absent); E, G, tau_max mean ± sd beside, and the difference of the posterior means
+    between the two moves in Monte Carlo standard errors (sd / √ESS bulk of each run);
 (b) ``sample`` on the shipped example (the ``make demo`` config) from an empty run folder;
 (c) real ETFE specimen 1 from an empty run folder: ``sample`` (fit included) + ``report``.
 
@@ -44,8 +46,8 @@ from bayes_dnlr.runs.sample import sample
 s = sample(load_config(sys.argv[1]), progress=False).summary
 print(json.dumps({"steps": s["steps"], "tau": s["autocorr_time"], "loop_s": s["wall_time_s"],
                   "stop": s["stop_reason"], "kernel": (s.get("noise") or {}).get("kernel"),
-                  "post": {k: [s["posterior"][k]["mean"], s["posterior"][k]["sd"]]
-                           for k in s["parameters"]}}))
+                  "post": {k: [s["posterior"][k]["mean"], s["posterior"][k]["sd"],
+                               s["posterior"][k]["ess_bulk"]] for k in s["parameters"]}}))
 """
 
 
@@ -120,11 +122,19 @@ def part_a(tmp: Path, moves: list[str]) -> None:
             r = sample_json(with_moves(cfg, mv))
             rows.setdefault(label, {})[f"{lik} {mv}"] = r
             tau = ", ".join(f"{k} {v:.1f}" for k, v in r["tau"].items())
-            post = ", ".join(f"{k} {m:.5g} ± {s:.3g}" for k, (m, s) in r["post"].items()
+            post = ", ".join(f"{k} {m:.5g} ± {s:.3g}" for k, (m, s, _) in r["post"].items()
                              if k in ("E", "G", "tau_max"))
             print(f"  {label:<38s} {lik:<5s} {mv:<9s} {r['steps']:5d} steps ({r['stop']}), loop "
                   f"{r['loop_s']:.2f} s; tau {tau}; {post}", flush=True)
     for label, r in rows.items():
+        runs = [v for k, v in r.items() if k.startswith("disc")]
+        if len(runs) == 2:      # the posterior, before and after: the difference in Monte Carlo se
+            a, b = (v["post"] for v in runs)
+            se = {k: (a[k][1] ** 2 / a[k][2] + b[k][1] ** 2 / b[k][2]) ** 0.5 for k in a if k in b}
+            diff = ", ".join(f"{k} {(b[k][0] - a[k][0]) / se[k]:+.1f} se (sd ratio "
+                             f"{b[k][1] / a[k][1]:.3f})" for k in se)
+            print(f"  {label}: {' -> '.join(k.split()[1] for k in r if k.startswith('disc'))}: "
+                  f"mean difference {diff}")
         white = r["white de"]["steps"]
         ratios = ", ".join(f"{k.split()[1]} {v['steps'] / white:.2f} x" for k, v in r.items()
                            if k.startswith("disc"))
