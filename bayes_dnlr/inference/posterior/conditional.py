@@ -85,12 +85,15 @@ class ConditionalMap:
 def conditional_map(like, priors, center: np.ndarray) -> ConditionalMap | None:
     """The map of one test's likelihood ``like`` (its names are the sampled vector's, ``priors``
     in the same order) around ``center`` (sampling coordinates); None without sampled
-    hyperparameters or when the linearization fails."""
+    hyperparameters, when the linearization fails, and for the orthogonal discrepancy (``target:
+    l2``): there δ cannot take the sensitivities' directions, θ*'s conditional is far narrower than
+    this map's, and the move was accepted in 8 % of the proposals (τ 46 against 16 with DEMove
+    alone on a real curve)."""
     names = list(priors.names)
     hyper = [j for j, k in enumerate(names) if k in (AMPLITUDE_NAME, LENGTH_NAME)]
     model = [j for j, k in enumerate(names) if k not in (AMPLITUDE_NAME, LENGTH_NAME, "sigma0")]
     d = like.discrepancy
-    if d is None or not hyper or not model or list(like.names) != names:
+    if d is None or d.columns is not None or not hyper or not model or list(like.names) != names:
         return None
     z0 = np.asarray(center, dtype=float)
     theta0 = priors.to_physical(z0)

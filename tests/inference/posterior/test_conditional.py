@@ -50,3 +50,15 @@ def test_no_map_without_sampled_hyperparameters() -> None:
     test = make_test(n=200)
     post = build_log_posterior(white_config(), test, sigma0=0.3)
     assert post.conditional_map(post.priors.from_physical(np.array([2854.0, 2.32, 5.79]))) is None
+
+
+def test_no_map_for_the_orthogonal_discrepancy() -> None:
+    test = make_test(n=200, error=("exp", 0.5, 20.0))
+    cfg = discrepancy_config("exp", "time")
+    center = np.log([TRUTH["E"], TRUTH["G"], TRUTH["tau_max"], 0.5, 20.0])
+    plain = build_log_posterior(cfg, test, sigma0=0.3, discrepancy_priors=discrepancy_priors(1e3))
+    center[:2] = [TRUTH["E"], TRUTH["G"]]
+    assert plain.conditional_map(center) is not None
+    ortho = build_log_posterior(cfg, test, sigma0=0.3, discrepancy_priors=discrepancy_priors(1e3),
+                                columns=np.ones((200, 1)))
+    assert ortho.conditional_map(center) is None
