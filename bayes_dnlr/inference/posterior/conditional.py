@@ -1,5 +1,6 @@
-"""How the model parameters' posterior moves with the discrepancy's hyperparameters: the map that
-carries a walker's model parameters along when the hyperparameters change (inference/mcmc/blocks.py).
+"""How the model parameters' posterior moves with the discrepancy's hyperparameters: their
+conditional given the hyperparameters, from which the conditional move (inference/mcmc/blocks.py)
+draws them afresh.
 
 Under the discrepancy r = δ + ε the model parameters given the hyperparameters h are close to
 Gaussian, with the generalized least-squares mean and covariance of the linearized model
@@ -8,10 +9,10 @@ coordinates at the centre z0, r0 the residuals there and L(h) the Cholesky facto
 
     C(h) = (Jᵀ K⁻¹ J)⁻¹,   μ(h) = z0 + C(h) Jᵀ K⁻¹ r0,   A(h) = chol C(h).
 
-Long lengths let δ take over slow trends (G's sd grows about as √ℓ), so a walker whose h changes
-should keep its standardized position u = A(h)⁻¹ (θ - μ(h)): θ' = μ(h') + A(h') u. The map is a
-bijection for each pair (h, h'), its own inverse with the pair swapped, and its Jacobian is
-det A(h') / det A(h). μ and A are tabulated once on a grid of h (the sampling coordinates of the
+Long lengths let δ take over slow trends (G's sd grows about as √ℓ). The move places θ' =
+μ(h') + A(h') u' for a fresh u' and needs u = A(h)⁻¹ (θ - μ(h)) of the walker's own θ
+(``place``, ``standardize``; ``carry`` keeps u: a bijection for each pair (h, h') with Jacobian
+det A(h') / det A(h)). μ and A are tabulated once on a grid of h (the sampling coordinates of the
 hyperparameters, ln a and ln ℓ) and interpolated multilinearly, clamped outside the grid: any
 smooth function of h keeps the move exact (the Metropolis-Hastings ratio uses the same map); the
 closer it is to the true conditional, the more proposals are accepted.
@@ -33,8 +34,8 @@ FD_STEP = 1e-5          # relative step of the finite-difference sensitivities
 
 
 class ConditionalMap:
-    """``carry(h_old, h_new, theta) -> (theta_new, log_jacobian)`` for the model block ``model`` of
-    the sampling coordinates, the hyperparameters ``hyper`` (indices into the sampled vector)."""
+    """μ(h) and A(h) of the model block ``model`` of the sampling coordinates given the
+    hyperparameters ``hyper`` (indices into the sampled vector), tabulated on the grid ``axes``."""
 
     def __init__(self, axes: list[np.ndarray], mu: np.ndarray, chol: np.ndarray,
                  model: list[int], hyper: list[int]) -> None:
