@@ -65,7 +65,7 @@ def template(args: argparse.Namespace) -> dict:
         "parameters": PRIOR,
         "noise": {"sigma0": SIGMA0, "discrepancy": disc},
         "sampler": {"walkers": 32, "max_steps": 20000, "target_ess": args.target_ess, "seed": 1,
-                    "checkpoint_every": 200},
+                    "checkpoint_every": 200, "moves": args.moves},
         "fit": {"multistart": 4},
         "truth": {"params": {"E": 2854.0, "G": 2.32, "tau_max": 5.79}, "strain_rate": 5.0e-3,
                   "strain_max": 1.9, "n_points": args.points,
@@ -160,6 +160,7 @@ def main() -> None:
     ap.add_argument("--target-ess", type=float, default=400.0)
     ap.add_argument("--likelihood", choices=("white", "discrepancy"), default="white")
     ap.add_argument("--seed", type=int, default=2018)
+    ap.add_argument("--moves", default="de", help="sampler.moves (de-plain: DEMove alone)")
     ap.add_argument("--out", type=Path, required=True, help="folder for the runs, table and plot")
     args = ap.parse_args()
 

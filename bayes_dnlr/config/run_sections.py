@@ -17,8 +17,9 @@ class SamplerConfig(Strict):
     target_ess: float = Field(default=1000.0, gt=0)
     seed: Whole = Field(default=1, ge=0, lt=2**32, description="numpy's RandomState takes 0 <= seed < 2**32")
     checkpoint_every: Whole = Field(default=100, ge=1)
-    moves: Literal["de-snooker", "stretch", "de"] = Field(
-        default="de", description="emcee moves; DEMove alone mixes best here (benchmarks/moves.py)")
+    moves: Literal["de-snooker", "stretch", "de", "de-plain"] = Field(
+        default="de", description="emcee moves; DEMove mixes best here (benchmarks/moves.py); with "
+        "the discrepancy's hyperparameters sampled `de` adds the conditional move, `de-plain` does not")
     burn_in_tau: float = Field(default=5.0, ge=0, description="burn-in, in autocorrelation times")
     min_tau_multiple: float = Field(default=50.0, gt=0, description="chain length >= this many tau")
     threads: Whole | None = Field(

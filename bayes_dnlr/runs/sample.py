@@ -28,7 +28,13 @@ from bayes_dnlr.config import Config, ConfigError
 from bayes_dnlr.digests import digest
 from bayes_dnlr.errors import BayesDnlrError, StaleRunError
 from bayes_dnlr.inference.layout import Layout
-from bayes_dnlr.inference.mcmc.ensemble import MOVES, make_moves, run_ensemble, start_ensemble
+from bayes_dnlr.inference.mcmc.ensemble import (
+    CONDITIONAL,
+    MOVES,
+    make_moves,
+    run_ensemble,
+    start_ensemble,
+)
 from bayes_dnlr.inference.mcmc.state import SamplerState
 from bayes_dnlr.inference.mcmc.stopping import (
     MIN_STEPS_FOR_TAU,
@@ -231,6 +237,8 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
                             "`sample --restart` discards it and starts again")
 
     walkers, ndim = sc.walkers, len(names)
+    # the conditional move of `de` (inference/mcmc/blocks.py), from fit.json: the same on a resume
+    mapper = post.conditional_map(priors.from_physical(target.x0)) if sc.moves == "de" else None
     if stored is None:
         coords, lp = start_ensemble(post, priors, target.x0, target.cov, walkers, sc.seed)
         state0 = SamplerState(coords, lp, np.random.RandomState(sc.seed).get_state())
@@ -241,6 +249,7 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
             "identity": identity.chain_record(cfg, test, before),
             "data_file": str(test.path), "version": _version(), "modes": cfg.model.modes,
             "decades": cfg.model.decades, "moves": sc.moves, "seed": sc.seed,
+            "moves_detail": CONDITIONAL if mapper is not None else MOVES.get(sc.moves, sc.moves),
             "sigma0": _sigma0_attr(sigma0), "sigma0_source": json.dumps(sigma0_source),
             "created": datetime.now(UTC).isoformat(timespec="seconds"), **target.meta,
         }
@@ -263,7 +272,8 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
     store_before, store_prev = writer.store_time, (stored.store_time if stored is not None else 0.0)
     try:
         out = run_ensemble(post, priors.to_physical, sc.moves, state, chain0, writer, rule,
-                           fresh=fresh, elapsed0=elapsed0, evals0=evals0, progress=progress)
+                           fresh=fresh, elapsed0=elapsed0, evals0=evals0, progress=progress,
+                           mapper=mapper)
     except BaseException as err:
         steps = writer.steps
         writer.close()
@@ -471,7 +481,8 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
         "deborah_max": layout.collapse({t: (fit if layout.plain else singles.get(t) or {}).get("deborah_max")
                                         for t in layout.tests}),
         "name": cfg.name, "stop_reason": reason, "converged": reason == "converged",
-        "burn_in": int(burn), "target_ess": sc.target_ess, "moves": MOVES.get(sc.moves, sc.moves),
+        "burn_in": int(burn), "target_ess": sc.target_ess,
+        "moves": run.attrs.get("moves_detail") or MOVES.get(sc.moves, sc.moves),
         "seed": sc.seed, "threads": _threads_in_use(), "acceptance_fraction": acc,
         "sigma0_source": sigma0_source,
         "storage_time_s": store_time, "storage_overhead": store_time / sampling,

@@ -40,18 +40,29 @@ MOVES = {
     "de-snooker": "DEMove (0.8) + DESnookerMove (0.2)",
     "de": "DEMove",
     "stretch": "StretchMove (a = 2)",
+    "de-plain": "DEMove (also with the discrepancy's hyperparameters sampled)",
 }
+CONDITIONAL = ("DEMove (0.3) + the conditional move (0.7): the discrepancy's hyperparameters from "
+               "the other walkers, the model parameters from their conditional given them")
 
 
 # ---------------------------------------------------------------- configuration
 
-def make_moves(kind: str) -> Any:
-    """emcee moves for ``sampler.moves`` (benchmarks/moves.py compares them)."""
+def make_moves(kind: str, mapper: Any = None) -> Any:
+    """emcee moves for ``sampler.moves`` (benchmarks/moves.py compares them). ``mapper``: the
+    model parameters' conditional given the discrepancy's hyperparameters
+    (inference/posterior/conditional.py) when they are sampled; ``de`` then adds the conditional
+    move (inference/mcmc/blocks.py, benchmarks/chain_mixing.py), ``de-plain`` does not."""
     emcee = load_emcee()
 
     if kind == "stretch":
         return emcee.moves.StretchMove()
-    if kind == "de":
+    if kind == "de" and mapper is not None:
+        from bayes_dnlr.inference.mcmc.blocks import CONDITIONAL_WEIGHT, ConditionalMove
+
+        return [(emcee.moves.DEMove(), 1.0 - CONDITIONAL_WEIGHT),
+                (ConditionalMove(mapper), CONDITIONAL_WEIGHT)]
+    if kind in ("de", "de-plain"):
         return emcee.moves.DEMove()
     if kind == "de-snooker":
         return [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
@@ -220,7 +231,7 @@ def next_check(n: int, conv: Convergence | None, every: int) -> int:
 def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Callable, moves: str,
                  state: SamplerState, chain0: np.ndarray, writer: CheckpointSink, rule: StopRule, *,
                  fresh: bool, elapsed0: float = 0.0, evals0: int = 0,
-                 progress: bool = True) -> RunOutcome:
+                 progress: bool = True, mapper: Any = None) -> RunOutcome:
     """Sample from ``state`` until the stopping rule holds or ``rule.max_steps``.
 
     Every ``rule.checkpoint_every`` steps the block is committed to ``writer`` with the state after
@@ -228,7 +239,7 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
     continues the same chain bit-exactly. The stopping rule is checked more often, at the steps of
     ``next_check``; a run that stops inside a block commits the steps it did.
     ``chain0``: the steps already done (physical units). ``log_prob.n_evals`` (when present)
-    counts model evaluations.
+    counts model evaluations. ``mapper``: see ``make_moves``.
 
     ``sampling_time`` (summary.json ``wall_time_s``) is the time of this loop only: the emcee
     steps, the likelihood, the checks of the stopping rule and the checkpoints; the imports, the
@@ -238,7 +249,8 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
 
     walkers, ndim = state.coords.shape
     chain = _Growing(chain0)
-    sampler = emcee.EnsembleSampler(walkers, ndim, log_prob, moves=make_moves(moves), vectorize=True)
+    sampler = emcee.EnsembleSampler(walkers, ndim, log_prob, vectorize=True,
+                                    moves=make_moves(moves, mapper))
     every = rule.checkpoint_every
     conv = None
     reason = None

@@ -56,6 +56,16 @@ class LogPosterior:
             out += like.log_likelihood_reference(self.layout.for_test(theta, t))
         return out
 
+    def conditional_map(self, center: np.ndarray):
+        """The model parameters' conditional given the discrepancy's hyperparameters around
+        ``center`` (sampling coordinates; inference/posterior/conditional.py), for the conditional
+        move; None for several tests or without sampled hyperparameters."""
+        if len(self.likelihoods) != 1:
+            return None
+        from bayes_dnlr.inference.posterior.conditional import conditional_map
+
+        return conditional_map(next(iter(self.likelihoods.values())), self.priors, center)
+
     def __call__(self, z: np.ndarray) -> np.ndarray:
         z = np.atleast_2d(np.asarray(z, dtype=float))
         lp = self.priors.log_prior(z)

@@ -1,0 +1,112 @@
+"""The conditional move keeps the target distribution, whatever its map (a deliberately wrong one
+here): a correlated Gaussian and a funnel (the spread of the model block grows with a
+hyperparameter) sampled to their moments; and it stays inside emcee's contract."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bayes_dnlr.inference.mcmc.blocks import ConditionalMove
+from bayes_dnlr.inference.mcmc.emcee_import import load_emcee
+from bayes_dnlr.inference.mcmc.ensemble import make_moves
+from bayes_dnlr.inference.mcmc.stopping import _tau
+from bayes_dnlr.inference.posterior.conditional import ConditionalMap
+
+
+def _wrong_map() -> ConditionalMap:
+    """A map of the model block (0, 1) on the hyperparameters (2, 3) that is not the target's
+    conditional: a shifted mean, a scale that grows with h1, a shear."""
+    axes = [np.linspace(-3, 3, 7), np.linspace(-3, 3, 5)]
+    g1, g2 = np.meshgrid(*axes, indexing="ij")
+    mu = np.stack([0.3 * g1 + 0.5, -0.2 * g2], axis=-1)
+    chol = np.zeros((7, 5, 2, 2))
+    chol[..., 0, 0] = np.exp(0.3 * g1)
+    chol[..., 1, 1] = 0.8
+    chol[..., 1, 0] = 0.2 * g2
+    return ConditionalMap(axes, mu, chol, model=[0, 1], hyper=[2, 3])
+
+
+def _run(log_prob, start: np.ndarray, steps: int, seed: int = 3) -> np.ndarray:
+    emcee = load_emcee()
+    sampler = emcee.EnsembleSampler(start.shape[0], start.shape[1], log_prob, vectorize=True,
+                                    moves=make_moves("de", _wrong_map()))
+    sampler._random.seed(seed)
+    sampler.run_mcmc(start, steps, progress=False)
+    return sampler.get_chain()
+
+
+def _kept(chain: np.ndarray, burn: int = 200) -> tuple[np.ndarray, np.ndarray]:
+    kept = chain[burn:]
+    return kept.reshape(-1, kept.shape[-1]), kept.shape[0] * kept.shape[1] / _tau(kept)
+
+
+def test_the_conditional_move_keeps_a_correlated_gaussian() -> None:
+    rng = np.random.default_rng(0)
+    a = rng.standard_normal((4, 4))
+    cov = a @ a.T + 0.5 * np.eye(4)            # correlated within and across the two blocks
+    mean = np.array([1.0, -2.0, 0.5, 1.5])
+    prec = np.linalg.inv(cov)
+
+    def log_prob(x):
+        d = x - mean
+        return -0.5 * np.einsum("ij,jk,ik->i", d, prec, d)
+
+    start = mean + rng.standard_normal((32, 4)) @ np.linalg.cholesky(cov).T
+    flat, ess = _kept(_run(log_prob, start, 3000))
+    sd = np.sqrt(np.diag(cov))
+    assert np.all(np.abs(flat.mean(axis=0) - mean) < 4.5 * sd / np.sqrt(ess)), flat.mean(axis=0)
+    assert np.all(np.abs(flat.std(axis=0) / sd - 1) < 6 / np.sqrt(2 * ess)), flat.std(axis=0) / sd
+    assert np.all(np.abs(np.corrcoef(flat.T) - cov / np.outer(sd, sd)) < 0.08)
+
+
+def test_the_conditional_move_keeps_a_funnel() -> None:
+    """h = (h1, h2) ~ N(0, I); the model block θ | h ~ N(0, exp(h1) I): E θ = 0,
+    Var θ = E exp(h1) = exp(1/2)."""
+    def log_prob(x):
+        h1 = x[:, 2]
+        return (-0.5 * np.sum(x[:, 2:] ** 2, axis=1) - 0.5 * np.sum(x[:, :2] ** 2, axis=1)
+                * np.exp(-h1) - h1)
+
+    rng = np.random.default_rng(1)
+    h = rng.standard_normal((32, 2))
+    start = np.column_stack([np.exp(h[:, :1] / 2) * rng.standard_normal((32, 2)), h])
+    flat, ess = _kept(_run(log_prob, start, 4000))
+    var = np.array([np.exp(0.5), np.exp(0.5), 1.0, 1.0])
+    assert np.all(np.abs(flat.mean(axis=0)) < 4.5 * np.sqrt(var / ess)), flat.mean(axis=0)
+    assert np.all(np.abs(flat.var(axis=0) / var - 1) < 0.12), flat.var(axis=0) / var
+
+
+def test_the_map_is_invertible_and_its_jacobian_is_the_determinant() -> None:
+    m = _wrong_map()
+    rng = np.random.default_rng(2)
+    h = rng.uniform(-4, 4, (6, 2))             # also outside the grid: clamped
+    theta = rng.standard_normal((6, 2))
+    u, ld = m.standardize(h, theta)
+    back, ld2 = m.place(h, u)
+    assert np.allclose(back, theta) and np.allclose(ld, ld2)
+    h_new = rng.uniform(-3, 3, (6, 2))
+    out, log_jac = m.carry(h, h_new, theta)
+    eps = 1e-6
+    for k in range(6):
+        jac = np.column_stack([(m.carry(h[k:k + 1], h_new[k:k + 1], theta[k:k + 1] + eps * e)[0][0]
+                                - out[k]) / eps for e in np.eye(2)])
+        assert np.isclose(np.log(abs(np.linalg.det(jac))), log_jac[k], atol=1e-5)
+
+
+def test_the_move_changes_both_blocks_and_rejects_what_it_cannot_place() -> None:
+    rng = np.random.RandomState(4)
+    s = rng.randn(16, 4)
+    c = [rng.randn(16, 4)]
+    q, f = ConditionalMove(_wrong_map()).get_proposal(s, c, rng)
+    assert not np.any(np.isclose(q, s))
+    assert np.all(np.isfinite(f))
+    s[0, 0] = np.inf
+    q, f = ConditionalMove(_wrong_map()).get_proposal(s, c, rng)
+    assert f[0] == -np.inf and np.all(np.isfinite(f[1:]))
+
+
+def test_de_without_a_map_and_de_plain_are_plain_de() -> None:
+    assert type(make_moves("de")).__name__ == "DEMove"
+    assert type(make_moves("de-plain", _wrong_map())).__name__ == "DEMove"
+    kinds = [type(m).__name__ for m, _ in make_moves("de", _wrong_map())]
+    assert kinds == ["DEMove", "ConditionalMove"]
