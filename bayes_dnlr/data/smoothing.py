@@ -17,12 +17,17 @@ item 9).
 
 from __future__ import annotations
 
+import hashlib
+import io
 import math
+import os
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 
 from bayes_dnlr.data.brent import fminbound
+from bayes_dnlr.diskio import temp_path
 
 SMOOTH_MIN_POINTS = 5       # fewer samples: a least-squares line (2: the samples themselves)
 LOG_LAMBDA = (-3.0, 14.0)   # GCV search range of log10 λ, λ in (median step)³
@@ -199,15 +204,64 @@ def _line(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return y.mean() + xc * (np.dot(xc, y - y.mean()) / np.dot(xc, xc))
 
 
-def smooth_strain(time: np.ndarray, strain: np.ndarray, breaks: Sequence[int] = ()
-                  ) -> tuple[np.ndarray, list[float]]:
+def _cache_file(cache: Path, time: np.ndarray, strain: np.ndarray, breaks: Sequence[int]) -> Path:
+    """The file of a smoothing in ``cache``: named by the digest of everything the result depends
+    on (the samples, the breaks, the search's constants)."""
+    h = hashlib.sha256()
+    for a in (np.ascontiguousarray(time, dtype=float), np.ascontiguousarray(strain, dtype=float)):
+        h.update(str(a.shape).encode())
+        h.update(a.tobytes())
+    h.update(repr((list(map(int, breaks)), SMOOTH_MIN_POINTS, LOG_LAMBDA, PRIOR_VAR)).encode())
+    return Path(cache) / f"strain-{h.hexdigest()[:32]}.npz"
+
+
+def _cached(path: Path) -> tuple[np.ndarray, list[float]] | None:
+    try:
+        with np.load(path) as z:
+            return z["strain"], [float(v) for v in z["lams"]]
+    except (OSError, ValueError, KeyError):
+        return None
+
+
+def _store(path: Path, fit: np.ndarray, lams: list[float]) -> None:
+    """Keep a smoothing for the next command (replaced in one step; a cache that cannot be written
+    is no error: the next command smooths again)."""
+    buf = io.BytesIO()
+    np.savez(buf, strain=fit, lams=np.asarray(lams, dtype=float))
+    tmp = temp_path(path)
+    try:
+        path.parent.mkdir(exist_ok=True)
+        tmp.write_bytes(buf.getvalue())
+        os.replace(tmp, path)
+    except OSError:
+        tmp.unlink(missing_ok=True)
+
+
+def smooth_strain(time: np.ndarray, strain: np.ndarray, breaks: Sequence[int] = (),
+                  cache: Path | None = None) -> tuple[np.ndarray, list[float]]:
     """The strain that drives the model: a GCV smoothing spline per segment, split at ``breaks``.
 
     Segments share their break sample (the kink at the start of a hold), where the two fits are
     averaged, so a kink in the strain history is kept rather than rounded off. Segments of 3 or 4
     samples get a least-squares line, of 2 samples the samples themselves. Returns the smoothed
     strain and the λ of each segment (in s³; inf for a straight line, NaN when not smoothed).
+
+    ``cache``: a folder (created when its parent exists) that keeps the result by the digest of its
+    inputs, so that the commands after the first (sample, report) do not search λ again.
     """
+    path = None
+    if cache is not None and Path(cache).parent.is_dir():
+        path = _cache_file(Path(cache), time, strain, breaks)
+        hit = _cached(path)
+        if hit is not None and hit[0].shape == np.shape(strain):
+            return hit
+    out = _smooth(time, strain, breaks)
+    if path is not None:
+        _store(path, *out)
+    return out
+
+
+def _smooth(time: np.ndarray, strain: np.ndarray, breaks: Sequence[int]) -> tuple[np.ndarray, list[float]]:
     edges = segment_edges(time.size, breaks)
     weight = np.zeros(time.size)
     acc = np.zeros(time.size)

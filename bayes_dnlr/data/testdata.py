@@ -196,8 +196,9 @@ def _load_source(d) -> str:
     return f"the force column ({d.columns.force!r})"
 
 
-def load_test(cfg: Config) -> TestData:
-    """Read the test that ``cfg.data`` describes (see docs/data-input.md)."""
+def load_test(cfg: Config, cache: Path | None = None) -> TestData:
+    """Read the test that ``cfg.data`` describes (see docs/data-input.md); ``cache``: a folder where
+    the smoothed strain is kept by the digest of its inputs (the run folder's, from ``runs``)."""
     from bayes_dnlr.digests import file_sha256
 
     d = cfg.data
@@ -242,7 +243,7 @@ def load_test(cfg: Config) -> TestData:
     if d.strain_input == "smoothed":
         breaks = [] if rs is None else [int(np.searchsorted(time, rs))]
         sampling = sampling_breaks(time, breaks)
-        strain_input, lams = smooth_strain(time, strain, sorted({*breaks, *sampling}))
+        strain_input, lams = smooth_strain(time, strain, sorted({*breaks, *sampling}), cache)
         notes.append(_smoothing_note(time, sorted({*breaks, *sampling}), lams, sampling))
     else:
         strain_input = strain

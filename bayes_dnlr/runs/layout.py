@@ -9,6 +9,8 @@
         report.html, figures/  the report (``report``)
         export/                FE material cards (``export``)
         sample.lock            while a ``sample`` runs
+        .cache/                the smoothed strain of each command's data, by the digest of its
+                               inputs (data/smoothing.py): safe to delete
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ REPORT_FILE = "report.html"
 FIGURES_DIR = "figures"
 EXPORT_DIR = "export"
 SAMPLE_LOCK = "sample.lock"
+SMOOTHING_CACHE = ".cache"
 RESULT_FILES = (FIT_FILE, SUMMARY_FILE, POSTERIOR_FILE)     # what a report is built from
 
 

@@ -18,7 +18,7 @@ import numpy as np
 from bayes_dnlr.config import Config, load_config
 from bayes_dnlr.inference.layout import Layout, joint_name
 from bayes_dnlr.runs.folder import find_config
-from bayes_dnlr.runs.layout import FIT_FILE, POSTERIOR_FILE, SUMMARY_FILE
+from bayes_dnlr.runs.layout import FIT_FILE, POSTERIOR_FILE, SMOOTHING_CACHE, SUMMARY_FILE
 from bayes_dnlr.runs.records import Analysis, FitRecord, TestFit
 from bayes_dnlr.runs.testset import plain_names
 from bayes_dnlr.vocabulary import NOISE_NAMES, base_name
@@ -341,7 +341,7 @@ def attach_test(run: RunResults, cfg: Config) -> None:
     try:
         from bayes_dnlr.data import load_test
 
-        run.test = load_test(cfg)
+        run.test = load_test(cfg, cfg.run_dir / SMOOTHING_CACHE)
     except Exception as err:  # noqa: BLE001 - the report says what is missing and goes on
         run.data_error = f"{type(err).__name__}: {err}"
 

@@ -13,6 +13,7 @@ from typing import Any
 
 from bayes_dnlr.config import Config
 from bayes_dnlr.digests import digest
+from bayes_dnlr.runs.layout import SMOOTHING_CACHE
 
 SECTIONS = ("data", "model", "parameters", "noise", "fit")
 
@@ -57,4 +58,5 @@ def load_tests(cfg: Config) -> TestSet:
     """The tests of a config, loaded (``data.load_test`` of each test's view)."""
     from bayes_dnlr.data import load_test
 
-    return TestSet({t: load_test(cfg.for_test(t)) for t in cfg.test_names}, plain_names(cfg))
+    cache = cfg.run_dir / SMOOTHING_CACHE
+    return TestSet({t: load_test(cfg.for_test(t), cache) for t in cfg.test_names}, plain_names(cfg))

@@ -560,3 +560,27 @@ def test_baseline_over_a_loaded_specimen_is_refused(write_csv, make_config, wind
     with pytest.raises(DataError) as err:
         baseline_sd(test, Window(**window))
     assert "noise.sigma0.baseline {" in str(err.value) and words in str(err.value), str(err.value)
+
+
+def test_a_smoothing_is_kept_by_the_digest_of_its_inputs(tmp_path, monkeypatch):
+    """The second command with the same samples reads the first one's smoothing, bit for bit; other
+    samples are smoothed anew; no cache folder appears where its parent does not exist."""
+    from bayes_dnlr.data import smoothing
+
+    t = np.linspace(0.0, 100.0, 400)
+    e = 1e-3 * t + np.random.default_rng(4).normal(0.0, 1e-4, t.size)
+    first = smoothing.smooth_strain(t, e, [200], tmp_path / ".cache")
+    assert len(list((tmp_path / ".cache").glob("strain-*.npz"))) == 1
+
+    def no_search(*args, **kw):
+        raise AssertionError("searched again")
+
+    monkeypatch.setattr(smoothing, "_search", no_search)
+    again = smoothing.smooth_strain(t, e, [200], tmp_path / ".cache")
+    np.testing.assert_array_equal(again[0], first[0])
+    assert again[1] == first[1]
+    with pytest.raises(AssertionError, match="searched again"):
+        smoothing.smooth_strain(t, e + 1e-6, [200], tmp_path / ".cache")
+    monkeypatch.undo()
+    smoothing.smooth_strain(t, e, [200], tmp_path / "absent" / ".cache")
+    assert not (tmp_path / "absent").exists()
