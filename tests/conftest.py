@@ -10,6 +10,14 @@ import os
 # left as they are: the thread tests set them.)
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
+import signal
+
+# Ctrl-C as in a terminal, for this process and the runs it forks: a shell that starts `make test`
+# in the background (`make test &`, some CI runners) hands it SIGINT ignored, and the package keeps
+# an ignored SIGINT ignored (interrupt.py), so the tests of Ctrl-C would see no signal at all.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
