@@ -41,7 +41,7 @@ from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS, PARAMETER_NAMES, base_
 N_CURVES = 200              # posterior draws pushed through the model for the predictive band
 COVERAGE_LOW = 0.80         # overall share below this: the band is too narrow for the data
 COVERAGE_HIGH = 0.97        # above this: wider than the scatter (said, not a failure)
-E_WEIGHTED_LOW = 0.80       # coverage weighted by E's information below this: the misfit reaches E
+E_WEIGHTED_LOW = 0.99       # the misfit lies where E draws more than 1 % of its information: it reaches E
 SEGMENT_LOW = 0.50          # a segment (with enough points) below this: the model fails there
 SEGMENT_MIN_POINTS = 20
 SHIFT_SD = 1.0              # widening a bound moves E by more than this many posterior sd

@@ -194,10 +194,10 @@ def test_a_misfit_where_e_has_no_weight_leaves_e_trusted() -> None:
     inside[-60:] = False                                    # the misfit: the last 30 %
     assert predictive.weighted_share(inside, w) > predictive.weighted_share(~inside, w)
     checks = _checks(block=0.3)
-    checks["predictive_coverage"]["t"]["E_weighted"] = 0.95
+    checks["predictive_coverage"]["t"]["E_weighted"] = 0.997
     adequate, trust, words = verdict(checks, True, False)
     assert not adequate and trust and "E's interval stands" in words
-    checks["predictive_coverage"]["t"]["E_weighted"] = 0.5
+    checks["predictive_coverage"]["t"]["E_weighted"] = 0.97
     adequate, trust, words = verdict(checks, True, False)
     assert not adequate and not trust and "E's interval rests on a misfit" in words
 
