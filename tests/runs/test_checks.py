@@ -220,3 +220,11 @@ def test_the_white_likelihood_chosen_on_signed_residuals_withdraws_trust() -> No
     checks["noise_model"] = noise_model_check(config(False), signed)
     adequate, trust, words = verdict(checks, True, False)
     assert adequate and not trust and "noise.discrepancy: none" in words and "too narrow" in words
+
+
+def test_the_model_form_check_of_a_joint_run_reads_each_tests_own_fit() -> None:
+    layout = Layout.build({"a": ["E", "tau_max"], "b": ["E", "tau_max"]}, ("tau_max",))
+    fit = {"single_fits": {"a": _fit_with_score(6.0, 0.1), "b": _fit_with_score(1.0, 0.01)}}
+    c = model_form_check(fit, layout, {"E": 30.0})
+    assert not c["a"]["ok"] and c["a"]["E_shift_sd"] == pytest.approx(-11.0)
+    assert c["b"]["ok"] and c["b"]["E_relative_per_tenth"] == -0.1

@@ -105,7 +105,7 @@ class RunFit:
             "single_fits": {t: {k: v for k, v in r.to_dict().items()
                                 if k in ("estimate", "sd", "err", "sigma0", "sigma0_source", "residuals",
                                          "warnings", "discrepancy", "strain_rate", "deborah_max",
-                                         "n_points", "relaxation_start", "data_notes")}
+                                         "n_points", "relaxation_start", "data_notes", "spectrum_exponent")}
                             for t, r in self.singles.items()},
             "criterion": self.criterion, "converged": self.converged, "message": self.message,
             "iterations": self.iterations, "condition_number": self.condition_number,
