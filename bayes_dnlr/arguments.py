@@ -3,8 +3,7 @@
 A config names its run folder (``Config.run_dir``: the config's own folder when the folder is named
 after the run), so the commands that work on a finished run (report, compare, export) also take the
 config, and those that start from a config (simulate, fit, sample) also take a run folder that holds
-the config the user wrote. Where a form cannot work the error says what is expected, with an example
-(issue 15).
+the config the user wrote. Where a form cannot work the error says what is expected, with an example.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Numbers as people read them: significant digits, a value to the precision of its sd, percents.
 
-The one precision rule of the package (issue 15), used by the console tables, the report's headline
+The one precision rule of the package, used by the console tables, the report's headline
 and tables, compare and batch, so that one value reads the same everywhere:
 
 - a value without an sd: ``SIG`` = 4 significant digits (``fmt``);

@@ -1,4 +1,4 @@
-"""Frozen copy of the forward model before issue 14 (commit 1186b15): the baseline of forward.py.
+"""Frozen copy of the forward model before the compiled kernel (commit 1186b15): the baseline of forward.py.
 
 ``integrate`` is the old kernel verbatim; ``OldDNLR`` reproduces the old ``DNLR._phase`` (a full
 distinct-steps x modes decay table built with numpy on every call), ``basis`` and ``stress``.

@@ -1,7 +1,7 @@
 """Speed of ``design``: a grid of 50 conditions at a parameter guess, and a posterior average over
 100 draws (one condition, then the 50-condition grid), against one sensitivity evaluation
 (DNLR.basis with derivatives on the paper's 2000-point test) measured in the same run.
-The target (issue 12): <= 10 s for the grid of 50, or for the average over 100 draws.
+The target: <= 10 s for the grid of 50, or for the average over 100 draws.
 
     python benchmarks/design_speed.py [--run runs/hdpe-a-5e-3]
 

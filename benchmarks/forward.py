@@ -1,4 +1,4 @@
-"""Forward-model speed (issue 14): N = 50 modes, uniform and ±15 % jittered time grids.
+"""Forward-model speed: N = 50 modes, uniform and ±15 % jittered time grids.
 
 Prints, with ratios against baselines measured in the same run:
 

@@ -1,4 +1,4 @@
-"""Joint recovery and speed (issue 11): three rates with one E and G, tau_max per test.
+"""Joint recovery and speed: three rates with one E and G, tau_max per test.
 
 A synthetic three-rate set (2.5e-3, 5e-3, 1e-2 1/s to Hencky strain 1.9, ``--points`` samples each,
 stress noise 0.3 MPa; E 2854, G 2.32, tau_max 10.64 / 5.79 / 3.15 s) is sampled test by test and

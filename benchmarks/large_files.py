@@ -1,4 +1,4 @@
-"""Large files (issue 10): time and peak memory of reading a test (``load_test``: parse, check,
+"""Large files: time and peak memory of reading a test (``load_test``: parse, check,
 smooth the strain) and of ``fit`` with the default config, for 1e4 to 1e6 rows.
 
 A 1 kHz tensile test of 1000 s to strain 1.9 (Table 3 parameters, strain noise 1e-4, stress noise

@@ -1,4 +1,4 @@
-"""Specimens as a population (issue 11): coverage of the two-stage method and the time of one step.
+"""Specimens as a population: coverage of the two-stage method and the time of one step.
 
 1. Coverage: ``--populations`` (default 100) synthetic populations of ``--specimens`` (8) specimens,
    E_k ~ Normal(2850, 100) MPa. Stage 1 is drawn cheaply, NOT sampled: each specimen's posterior is

@@ -1,4 +1,4 @@
-"""Population coverage with real stage-1 posteriors (issue 11): every specimen fitted and sampled.
+"""Population coverage with real stage-1 posteriors: every specimen fitted and sampled.
 
 ``benchmarks/population.py`` draws each specimen's posterior cheaply (normal draws). Here every
 specimen is a synthetic test (a 5e-3 1/s ramp to strain 1.9, ``--points`` points, stress noise 0.3

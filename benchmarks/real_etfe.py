@@ -10,7 +10,7 @@ into the project) and through the ordinary pipeline (fit, then sample unless --f
 
 - E per specimen and window: posterior mean ± sd and 90 % HDI (or the linearized estimate ± sd with
   --fit-only), for each likelihood;
-- the ratio of the between-specimen sd of E to the mean within-specimen posterior sd (issue 8: about
+- the ratio of the between-specimen sd of E to the mean within-specimen posterior sd (about
   5 with the white likelihood; aim <= 2);
 - whether each specimen's 90 % interval contains the other specimens' estimates;
 - the discrepancy's hyperparameters and the likelihood ratio against the white model.

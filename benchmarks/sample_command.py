@@ -1,4 +1,4 @@
-"""`python -m bayes_dnlr sample runs/hdpe-a-5e-3/config.yaml` end to end (issue 14: <= 2.5 s).
+"""`python -m bayes_dnlr sample runs/hdpe-a-5e-3/config.yaml` end to end (<= 2.5 s).
 
 On a copy of the shipped run (the shipped folder is not touched), warm numba cache:
 
@@ -224,7 +224,7 @@ def loops(run: Path, n: int) -> None:
           + ("met" if ratio <= 0.5 else "NOT met"))
 
 
-def issue8(tmp: Path, run: Path) -> None:
+def discrepancy_runs(tmp: Path, run: Path) -> None:
     per, _ = script(STEP, str(run / "config.yaml"))
     print(f"  likelihood per ensemble step, 32 walkers (2 calls of 16), {per['n_points']} points:")
     for k in ("white", "exp", "matern32"):
@@ -236,7 +236,7 @@ def issue8(tmp: Path, run: Path) -> None:
     loops = {}
     for label, noise in (("discrepancy (exp, time)", {"discrepancy": {"kernel": "exp", "axis": "time"}}),
                          ("white", {"discrepancy": "none"})):
-        d = copy_run(tmp / "issue8", label.split()[0], truth=truth, noise=noise)
+        d = copy_run(tmp / "discrepancy", label.split()[0], truth=truth, noise=noise)
         cfg = str(d / "config.yaml")
         cli("simulate", cfg, "--force")
         cli("fit", cfg, "--quiet")
@@ -260,7 +260,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--loops", type=int, default=3)
-    ap.add_argument("--skip-issue8", action="store_true")
+    ap.add_argument("--skip-discrepancy", action="store_true")
     args = ap.parse_args()
     print(load())
     with tempfile.TemporaryDirectory() as tmp:
@@ -272,9 +272,9 @@ def main() -> None:
         print("3. the sampling loop against the old per-walker likelihood (white: the shipped example "
               "has no evidence of model error)")
         loops(run, args.loops)
-        if not args.skip_issue8:
-            print("4. issue 8: the discrepancy likelihood")
-            issue8(Path(tmp), run)
+        if not args.skip_discrepancy:
+            print("4. the discrepancy likelihood")
+            discrepancy_runs(Path(tmp), run)
     print(load())
 
 

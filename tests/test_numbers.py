@@ -1,5 +1,5 @@
 """One precision rule (bayes_dnlr/numbers.py): the same value reads the same in the console table,
-the report's headline and tables, and compare (issue 15: "2869 ± 13.77" against "2869 ± 14")."""
+the report's headline and tables, and compare ("2869 ± 13.77" against "2869 ± 14")."""
 
 from __future__ import annotations
 

@@ -38,7 +38,7 @@ def _loading_starts(test: TestData) -> float | None:
 
 
 def check_baseline(test: TestData, mask: np.ndarray, key: str) -> None:
-    """Refuse a baseline window over a loaded specimen (issue 9, item 7).
+    """Refuse a baseline window over a loaded specimen.
 
     Unloaded: the strain does not rise across the window by more than its own noise can explain
     (5 sd of a line's rise over the window, or 0.1 % of the test's strain range if larger). Flat and

@@ -100,7 +100,7 @@ def initial_slope(strain: np.ndarray, stress: np.ndarray) -> tuple[float, int, i
 
 def percent_warning(nominal_strain: np.ndarray, nominal_stress: np.ndarray | None, name: str) -> str | None:
     """A note when the strain's magnitude does not fit the stress: an initial slope below any
-    semicrystalline polymer's modulus suggests a percent column read as a fraction (issue 9, item 8)."""
+    semicrystalline polymer's modulus suggests a percent column read as a fraction."""
     if nominal_stress is None or nominal_strain.size < 10:
         return None
     slope, a, b = initial_slope(nominal_strain, nominal_stress)
@@ -117,7 +117,7 @@ def percent_warning(nominal_strain: np.ndarray, nominal_stress: np.ndarray | Non
 def first_sample_warning(stress: np.ndarray, strain: np.ndarray, line: int,
                          force: np.ndarray | None = None, area0: float | None = None) -> str | None:
     """A note when the first sample carries a load well above the noise: the model assumes the
-    specimen unloaded and at rest there (issue 9, item 5). With a force column the load is said in
+    specimen unloaded and at rest there. With a force column the load is said in
     newtons first: a stress in MPa is only as right as area0, and without area0 (``None``: init's
     placeholder) it is not said at all."""
     load, unit = (stress, "MPa") if force is None else (force, "N")

@@ -2,7 +2,7 @@
 
 The model (paper section 3) starts from the relaxed state at the first sample: an unloaded
 specimen when the strain there is zero. A record whose toe was cropped, or that starts under a
-preload, breaks that assumption and biases E (issue 9, item 5). Two remedies, both as the standards
+preload, breaks that assumption and biases E. Two remedies, both as the standards
 define them:
 
 - **Toe compensation** (ASTM D638 Appendix X1; ISO 527-1 zero-point correction): the linear part of

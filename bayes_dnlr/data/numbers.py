@@ -1,7 +1,7 @@
 """Numbers in a cell, strictly: ASCII digits, one decimal mark, optional grouped thousands.
 
 Python's ``float()`` accepts ``6_54.93`` and full-width digits (``５０``); a machine export never
-writes those, so they are refused here, with the reason (issue 10). Missing-value tokens
+writes those, so they are refused here, with the reason. Missing-value tokens
 (``NaN``, ``NA``, an empty cell) read as NaN, so the reader can tell padding from a bad cell.
 """
 

@@ -73,7 +73,7 @@ def _slope(t: np.ndarray, e: np.ndarray) -> float:
 
 def window_strain_rate(time: np.ndarray, strain: np.ndarray, window: np.ndarray,
                        relaxation_start: float | None, first: int = 0) -> tuple[float, str]:
-    """The strain rate of the loading the fit sees (issue 9, item 6), and how it was found.
+    """The strain rate of the loading the fit sees, and how it was found.
 
     The least-squares slope of ε(t) over the window's loading: its samples of the ramp (up to
     relaxation_start) from the first one until the strain has made 98 % of its rise in the window

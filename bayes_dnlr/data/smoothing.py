@@ -11,8 +11,7 @@ straight line (λ → ∞), and for any record length: a 10⁶-sample ramp is sm
 Time is measured in each segment's median sampling step, so λ means the same for a 1 kHz and a
 0.01 Hz record. Segments are split at the start of a hold (the kink is kept) and where the
 sampling interval changes (0.2 s, then 180 s): a sparse stretch gets its own λ instead of the
-dense stretch's, which would let the spline follow the noise between sparse samples (issue 9,
-item 9).
+dense stretch's, which would let the spline follow the noise between sparse samples.
 """
 
 from __future__ import annotations

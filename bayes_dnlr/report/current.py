@@ -1,4 +1,4 @@
-"""Is a run's report current? report.html newer than everything it is built from (issue 15: the
+"""Is a run's report current? report.html newer than everything it is built from (the
 re-run of a finished ``make demo`` rebuilt an unchanged report, 17 s for nothing)."""
 
 from __future__ import annotations

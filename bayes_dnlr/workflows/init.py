@@ -4,7 +4,7 @@
 guesses the columns (data/guess.py), writes a commented config and returns the list of edits the
 user must make or check before ``fit``: the cross-section (a force column), the gauge length (an
 extension column), every column guessed from values rather than named, the units it could not read,
-the strain measure and the identification window. It never overwrites a file (issue 15).
+the strain measure and the identification window. It never overwrites a file.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Commands take a config file or a run folder wherever that makes sense; where a form cannot work,
-the one-line error says what is expected (issue 15)."""
+the one-line error says what is expected."""
 
 from __future__ import annotations
 

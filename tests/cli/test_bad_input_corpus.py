@@ -1,4 +1,4 @@
-"""The bad-input corpus (issue 10): a generated set of broken or awkward configs, CSV files and run
+"""The bad-input corpus: a generated set of broken or awkward configs, CSV files and run
 environments, each run through the command line.
 
 For every case the test asserts the outcome class:

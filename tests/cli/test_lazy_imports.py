@@ -1,4 +1,4 @@
-"""`fit` and `sample` import no plotting and none of the heavy modules they do not use (issue 14):
+"""`fit` and `sample` import no plotting and none of the heavy modules they do not use:
 each command runs in a fresh process, then the process lists what it imported."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""What the data layer checks and says about a test (issue 9, items 5, 6 and 8): the first sample,
+"""What the data layer checks and says about a test: the first sample,
 toe compensation and an unloaded start, the strain rate of the window, and a strain column whose
 unit or meaning looks wrong."""
 

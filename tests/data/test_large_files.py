@@ -1,4 +1,4 @@
-"""Large files (issue 10): a 1 kHz test of 1000 s (1e6 rows, 40 MB) is read with the default
+"""Large files: a 1 kHz test of 1000 s (1e6 rows, 40 MB) is read with the default
 settings and its strain smoothed (the GCV spline failed as 'ill-posed' at 1e6 samples before);
 the fit of it (data.reduce: auto, bins of 50 rows) is a slow test. Time and peak memory per size:
 benchmarks/large_files.py."""

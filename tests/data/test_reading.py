@@ -1,4 +1,4 @@
-"""Machine exports read as they are (issue 9, "What to build" 2; issue 10, bad cells).
+"""Machine exports read as they are (and their bad cells).
 
 A corpus of export variants generated from one synthetic test: delimiters, decimal marks, metadata
 blocks, units rows, padding, percent, kN and ms, several specimens side by side, Windows and old-Mac

@@ -1,4 +1,4 @@
-"""The compiled kernel (issue 14): step levels, the one-set stress, the parallel batch, threads,
+"""The compiled kernel: step levels, the one-set stress, the parallel batch, threads,
 and simulate's reuse of the prepared grid. The physics itself is held against Radau and closed
 forms in test_dnlr.py; here every decay path is held against the same Radau reference."""
 

@@ -1,5 +1,5 @@
 """report skips a current report (newer than its config, data and results); --force rebuilds it
-(issue 15: the re-run of `make demo` rebuilt an unchanged report)."""
+(the re-run of `make demo` rebuilt an unchanged report)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""`report` builds for any run `fit` accepts (issue 9, item 1): pre-yield windows, a relaxation
+"""`report` builds for any run `fit` accepts: pre-yield windows, a relaxation
 test with a tiny ramp, a window on the hold only (G on its bound), a 50-point test. Figures and
 captions adapt to the window; the inset hides no data; the trace plot names its axes; the rank
 caption describes what is drawn; the ISO text does not contradict itself; a standard modulus

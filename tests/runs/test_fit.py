@@ -1,4 +1,4 @@
-"""`fit` on awkward optima (issue 9, items 4 and 10): a parameter on its lower bound gives results
+"""`fit` on awkward optima: a parameter on its lower bound gives results
 with a warning naming it, a singular X names the parameters, the negligible-sensitivity warning
 spares well-determined parameters, and a relaxed modulus above the instantaneous one is flagged."""
 

@@ -1,4 +1,4 @@
-"""Several tests, one answer (issue 11): a run with ``tests:`` through simulate, fit and sample; the
+"""Several tests, one answer: a run with ``tests:`` through simulate, fit and sample; the
 joint names in every output; a one-test config unchanged; bad configs name the key."""
 
 from __future__ import annotations
@@ -166,7 +166,7 @@ def test_joint_report_shows_every_test_one_corner_and_tables_3_5(joint_run):
 
 @pytest.mark.slow
 def test_joint_recovery(tmp_path):
-    """Three rates with one E and G (issue 11, "Joint recovery"): the joint E within 3 sd of the
+    """Three rates with one E and G : the joint E within 3 sd of the
     truth, its sd at most 0.75 × the best single-test posterior sd, R-hat ≤ 1.01 and ESS ≥ 1000
     for every parameter (benchmarks/joint.py prints these with the times)."""
     from support.joint import recovery

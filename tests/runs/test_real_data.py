@@ -1,4 +1,4 @@
-"""Optional: real machine exports read as they are, with a config only (issue 9, item 7 of the brief).
+"""Optional: real machine exports read as they are, with a config only.
 
 The real curves live outside the project, never copied into it (tests/support/real_data.py finds them:
 $BAYES_DNLR_REAL_DATA or ../shared/data/real); without them these tests skip, and the summary says

@@ -17,7 +17,7 @@ from bayes_dnlr.runs.chains import read_run
 
 # never converges (target_ess huge): stops at max_steps; checkpoints every 50 steps. Long enough
 # that the signal, sent once 150 steps are committed, arrives mid-run: the compiled all-walker
-# likelihood (issue 14) did 1000 steps of 2000 points in under a second, before the signal. The
+# likelihood did 1000 steps of 2000 points in under a second, before the signal. The
 # steps count for that, not the points: 500 points make each run a quarter as dear.
 SAMPLER = {"max_steps": 4000, "target_ess": 1.0e9, "checkpoint_every": 50, "walkers": 32}
 POINTS = 500

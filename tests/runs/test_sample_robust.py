@@ -1,4 +1,4 @@
-"""`sample` never blocks a run (issue 9 items 2-3, issue 10): a stuck walker is a finding of the
+"""`sample` never blocks a run: a stuck walker is a finding of the
 stopping rule, not a NaN crash on every resume; walkers start inside the prior support even when
 the estimate sits in a corner of the prior box; a stale fit.json names what `sample` offers."""
 

@@ -70,7 +70,7 @@ def make_joint(folder: Path, name: str = "joint", *, per_test: tuple[str, ...] =
 def recovery(folder: Path, seed: int = 0, n_points: int = 400, stress_sd: float = 0.3) -> dict[str, Any]:
     """Joint recovery on a synthetic three-rate set (one E and G, tau_max per test, the paper's
     protocol to strain 1.9): the joint posterior beside each test sampled alone, all with the default
-    sampler (ESS >= 1000) and the default noise model. Returns the figures issue 11 asks for."""
+    sampler (ESS >= 1000) and the default noise model. Returns the figures of the joint recovery."""
     import json
     import time
 

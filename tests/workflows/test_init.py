@@ -1,5 +1,5 @@
-"""init: a starting config from an export; `fit` accepts it after at most the edits init lists
-(issue 15). The real curves are read from ../shared/data/real (or $BAYES_DNLR_REAL_DATA) and the
+"""init: a starting config from an export; `fit` accepts it after at most the edits init lists.
+The real curves are read from ../shared/data/real (or $BAYES_DNLR_REAL_DATA) and the
 tests that need them skip when the folder is absent; the Bluehill-like export ships in runs/."""
 
 from __future__ import annotations

@@ -188,7 +188,7 @@ def test_shipped_relaxation_example_auto_finds_the_hold():
     assert "relaxation_start: auto -> 400 s (detected)" in test.notes
 
 
-# ------------------------------------------------------------------ machine-export layouts (issue 9)
+# ------------------------------------------------------------------ machine-export layouts
 
 LAYOUT_EXAMPLES = {"bluehill-like": ("delimiter ',' (detected)", "metadata lines 1-5 (not read)",
                                      "header line 7", "units row line 8"),

@@ -6,7 +6,7 @@ The stopping rule (stopping.convergence) stops when every emcee ESS >= target, t
 credit now, the least of the emcee ESS, ArviZ's (when evaluated) and ``target × kept / (m τ)``
 (the chain-length condition as a share of the target). It is shown monotone (an estimate that
 drops leaves the bar where it was), reaches the total only when the rule says "converged", and
-stays below it otherwise (issue 15: the total no longer jumps with the predicted number of steps).
+stays below it otherwise (the total no longer jumps with the predicted number of steps).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Specimens as a population (issue 11): the two-stage method, the `population` command on
+"""Specimens as a population: the two-stage method, the `population` command on
 finished runs, its named errors, and (slow) the coverage of mu_E and s_E."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The rate question in the data (issue 11): a joint run with one E per test answers whether E
+"""The rate question in the data: a joint run with one E per test answers whether E
 depends on the strain rate: "consistent" on data made with one E, "rate-dependent" on data made
 with E rising 10 % per decade of rate. Both under each test's discrepancy likelihood (the default,
 which falls back to white noise where a test shows no model error)."""

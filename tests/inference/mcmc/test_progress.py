@@ -1,5 +1,5 @@
 """The sampling progress bar: one measure (the ESS the stopping rule credits) toward a fixed total
-(target_ess); monotone; 100 % exactly when the rule says converged (issue 15)."""
+(target_ess); monotone; 100 % exactly when the rule says converged."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The stopping rule is checked often enough to stop within 5 % of the target ESS (issue 14), and a
+"""The stopping rule is checked often enough to stop within 5 % of the target ESS, and a
 run that stops between checkpoints resumes and stops exactly like an uninterrupted one."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""A batch feeds the population step (issue 13 with issue 11's `population`): population.json from
+"""A batch feeds the population step: population.json from
 the ok single-test runs only, its section of the batch page, reuse when nothing changed, the
 opt-out, the note with fewer than three usable tests, and a failure that leaves the batch ok."""
 
