@@ -35,7 +35,8 @@ The derivatives with respect to ln(tau_max) and ln(tau_max_R) are carried forwar
 ``integrate`` (exact): d a/d ln tau = x a, d φ/d ln tau = φ - a.
 
 All njit functions stay in this one module: numba's on-disk cache does not notice changes in a
-helper imported from another module (see NOTES-apis.md).
+helper imported from another module (inference/posterior/fused.py works around it for its own
+callees).
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ against it): importing ArviZ costs seconds (scipy.stats, matplotlib) that ``samp
 The DataTree is built and read with arviz_base only.
 - emcee's integrated autocorrelation time τ and the ESS it implies, (kept steps × walkers) / τ.
 
-summary.json keys are a contract (DESIGN.md); extra keys are documented in docs/sampling.md.
+summary.json's keys are a contract, documented in docs/sampling.md.
 """
 
 from __future__ import annotations

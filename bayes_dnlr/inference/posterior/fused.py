@@ -13,7 +13,7 @@ is always the same walkers of the call, and nothing is summed across walkers, so
 not depend on the number of threads: a fixed seed gives the same chain with 1 or 2 threads.
 
 numba's on-disk cache keys a function on the content of its own file only, not on the njit
-helpers it calls from other modules (NOTES-apis.md). ``_depend_on`` adds the content of
+helpers it calls from other modules. ``_depend_on`` adds the content of
 model/kernel.py and inference/discrepancy/kalman.py to the cache key of ``loglike_walkers``, so an edit there
 recompiles it instead of loading stale machine code.
 """
