@@ -1,8 +1,8 @@
 """The run directory: where a run's outputs live, and fingerprints that tell a stale result.
 
 Layout (a contract, runs/layout.py and docs/sampling.md): config.yaml, fit.json, chains.h5,
-posterior.nc, summary.json, report.html, figures/. When the run directory is the folder of the user's own config.yaml,
-that file is left untouched and the resolved config goes to ``config.resolved.yaml``.
+posterior.nc, summary.json, report.html, figures/. When the run directory is the folder of the
+user's own config.yaml, that file is left untouched and the resolved config goes to ``config.resolved.yaml``.
 """
 
 from __future__ import annotations
