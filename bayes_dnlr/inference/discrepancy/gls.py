@@ -69,18 +69,10 @@ def on_bound(cfg: Config, name: str, value: float) -> bool:
                 or (math.isfinite(hi) and abs(value - hi) <= 1e-6 * abs(hi)))
 
 
-def _problem(cfg: Config, test) -> LsqProblem:
-    names = cfg.free_parameters
-    specs = cfg.parameters
-    return LsqProblem(test.time, test.strain_input, test.stress, test.window, test.relaxation_start,
-                      names, cfg.fixed_values, {k: specs[k].bounds() for k in names},
-                      cfg.model.modes, cfg.model.decades)
-
-
 def columns_for(cfg: Config, test, estimate: dict[str, float]):
     """(the orthogonality columns at the estimate θ*, the discrepancy's axis) of a test: what
     ``sample`` conditions on with ``target: l2``, rebuilt from fit.json's estimate as ``fit`` did."""
-    problem = _problem(cfg, test)
+    problem = LsqProblem.for_config(cfg, test)
     params = problem.params([float(estimate[k]) for k in problem.names])
     axis = test_axis(cfg.noise.discrepancy, test, problem.mask)
     X = axis.sort(problem.jacobian_u(params))

@@ -71,6 +71,22 @@ def _columns(V: np.ndarray | None, n: int) -> np.ndarray:
     return V
 
 
+def _right_hand_side(V: np.ndarray, n: int) -> tuple[np.ndarray, bool]:
+    """V (n,) or (n, m) as a C-contiguous (n, m) array, and whether it was a vector."""
+    V = np.asarray(V, dtype=float)
+    vec = V.ndim == 1
+    V2 = np.ascontiguousarray(V[:, None] if vec else V)
+    if V2.shape[0] != n:
+        raise ValueError(f"{V2.shape[0]} rows for an axis of {n} points")
+    return V2, vec
+
+
+def _check_hyper(sigma0: float, amplitude: float, length: float) -> None:
+    if not kalman._valid(sigma0, amplitude, length):
+        raise ValueError(f"invalid hyperparameters sigma0 = {sigma0}, amplitude = {amplitude}, "
+                         f"length = {length}")
+
+
 def log_likelihood(x: np.ndarray, r: np.ndarray, sigma0: float, amplitude: float, length: float,
                    kind: str = "matern32", start: float | None = None,
                    V: np.ndarray | None = None) -> float:
@@ -111,14 +127,8 @@ def whiten(x: np.ndarray, V: np.ndarray, sigma0: float, amplitude: float, length
     Generalized least squares with covariance K is ordinary least squares on L⁻¹ y and L⁻¹ X.
     """
     x = _axis(x)
-    V = np.asarray(V, dtype=float)
-    vec = V.ndim == 1
-    V2 = np.ascontiguousarray(V[:, None] if vec else V)
-    if V2.shape[0] != x.size:
-        raise ValueError(f"{V2.shape[0]} rows for an axis of {x.size} points")
-    if not kalman._valid(float(sigma0), float(amplitude), float(length)):
-        raise ValueError(f"invalid hyperparameters sigma0 = {sigma0}, amplitude = {amplitude}, "
-                         f"length = {length}")
+    V2, vec = _right_hand_side(V, x.size)
+    _check_hyper(float(sigma0), float(amplitude), float(length))
     out = np.empty_like(V2)
     logdet = kalman._filter(x, V2, float(sigma0), float(amplitude), float(length), kernel_code(kind),
                             _gap(x, start), out, np.empty((0, 9)))
@@ -135,9 +145,7 @@ def whitening(x: np.ndarray, V: np.ndarray, kind: str = "matern32", start: float
     code, gap = kernel_code(kind), _gap(x, start)
 
     def apply(sigma0: float, amplitude: float, length: float) -> tuple[np.ndarray, float]:
-        if not kalman._valid(sigma0, amplitude, length):
-            raise ValueError(f"invalid hyperparameters sigma0 = {sigma0}, amplitude = {amplitude}, "
-                             f"length = {length}")
+        _check_hyper(sigma0, amplitude, length)
         return out, float(kalman._filter(x, V2, sigma0, amplitude, length, code, gap, out, store))
 
     return apply
@@ -147,14 +155,8 @@ def solve(x: np.ndarray, V: np.ndarray, sigma0: float, amplitude: float, length:
           kind: str = "matern32", start: float | None = None) -> np.ndarray:
     """C⁻¹ V for C = k(x, x) + σ0² I; V (n,) or (n, m). O(n m): the filter and its adjoint."""
     x = _axis(x)
-    V = np.asarray(V, dtype=float)
-    vec = V.ndim == 1
-    V2 = np.ascontiguousarray(V[:, None] if vec else V)
-    if V2.shape[0] != x.size:
-        raise ValueError(f"{V2.shape[0]} rows for an axis of {x.size} points")
-    if not kalman._valid(float(sigma0), float(amplitude), float(length)):
-        raise ValueError(f"invalid hyperparameters sigma0 = {sigma0}, amplitude = {amplitude}, "
-                         f"length = {length}")
+    V2, vec = _right_hand_side(V, x.size)
+    _check_hyper(float(sigma0), float(amplitude), float(length))
     out = kalman._solve(x, V2, float(sigma0), float(amplitude), float(length), kernel_code(kind),
                         _gap(x, start))
     return out[:, 0] if vec else out

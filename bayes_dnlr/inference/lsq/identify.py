@@ -272,9 +272,7 @@ def fit_test(cfg: Config, test) -> FitResult:
     t_start = _time.perf_counter()
     names = cfg.free_parameters
     specs = cfg.parameters
-    problem = LsqProblem(test.time, test.strain_input, test.stress, test.window, test.relaxation_start,
-                         names, cfg.fixed_values, {k: specs[k].bounds() for k in names},
-                         cfg.model.modes, cfg.model.decades)
+    problem = LsqProblem.for_config(cfg, test)
     if problem.n_points <= len(names):
         raise BayesDnlrError(f"the window holds {problem.n_points} samples for {len(names)} free "
                              "parameters: widen data.window")
@@ -413,9 +411,7 @@ def stochastic_analysis(cfg: Config, test, params: Mapping[str, float],
     the window samples (``test.time[test.window]``).
     """
     names = cfg.free_parameters
-    problem = LsqProblem(test.time, test.strain_input, test.stress, test.window, test.relaxation_start,
-                         names, cfg.fixed_values, {k: cfg.parameters[k].bounds() for k in names},
-                         cfg.model.modes, cfg.model.decades)
+    problem = LsqProblem.for_config(cfg, test)
     full = problem.params([params[k] for k in names])
     return analyse(problem.jacobian(full), names, problem.vector(full), sigma0)
 

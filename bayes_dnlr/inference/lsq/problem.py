@@ -31,7 +31,22 @@ from bayes_dnlr.vocabulary import (
 )
 
 
-class LsqProblem:
+class LogCoordinates:
+    """The optimiser's coordinates u of a problem's free parameters: ln of the time constants
+    (``is_log``), the others as they are."""
+
+    is_log: np.ndarray
+
+    def to_u(self, beta: Sequence[float]) -> np.ndarray:
+        beta = np.asarray(beta, dtype=float)
+        return np.where(self.is_log, np.log(np.where(self.is_log, beta, 1.0)), beta)
+
+    def to_beta(self, u: Sequence[float]) -> np.ndarray:
+        u = np.asarray(u, dtype=float)
+        return np.where(self.is_log, np.exp(np.where(self.is_log, u, 0.0)), u)
+
+
+class LsqProblem(LogCoordinates):
     """Residuals y^m - y(β) on the window (eq. 19), the criterion (eq. 20) and its Jacobian (eq. 22)."""
 
     def __init__(self, time: np.ndarray, strain_input: np.ndarray, stress: np.ndarray,
@@ -90,14 +105,6 @@ class LsqProblem:
         """All parameters (fixed and free) as a dict, canonical order."""
         free = dict(zip(self.names, (float(b) for b in beta), strict=True))
         return {k: free[k] if k in free else self.fixed[k] for k in self.all_names}
-
-    def to_u(self, beta: Sequence[float]) -> np.ndarray:
-        beta = np.asarray(beta, dtype=float)
-        return np.where(self.is_log, np.log(np.where(self.is_log, beta, 1.0)), beta)
-
-    def to_beta(self, u: Sequence[float]) -> np.ndarray:
-        u = np.asarray(u, dtype=float)
-        return np.where(self.is_log, np.exp(np.where(self.is_log, u, 0.0)), u)
 
     def vector(self, params: Mapping[str, float]) -> np.ndarray:
         return np.array([params[k] for k in self.names], dtype=float)

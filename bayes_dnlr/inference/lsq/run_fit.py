@@ -185,14 +185,7 @@ def _joint_identifiability(sa: StochasticAnalysis) -> list[str]:
 
 
 def _blocks(views: dict[str, Config], tests: dict[str, Any]) -> dict[str, LsqProblem]:
-    out = {}
-    for t, cfg in views.items():
-        data = tests[t]
-        names = cfg.free_parameters
-        out[t] = LsqProblem(data.time, data.strain_input, data.stress, data.window, data.relaxation_start,
-                            names, cfg.fixed_values, {k: cfg.parameters[k].bounds() for k in names},
-                            cfg.model.modes, cfg.model.decades)
-    return out
+    return {t: LsqProblem.for_config(cfg, tests[t]) for t, cfg in views.items()}
 
 
 def _fit_single(i: int, view: Config, test: Any) -> FitResult:

@@ -13,11 +13,11 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 
 from bayes_dnlr.inference.layout import Layout
-from bayes_dnlr.inference.lsq.problem import LsqProblem, bounded_lstsq
+from bayes_dnlr.inference.lsq.problem import LogCoordinates, LsqProblem, bounded_lstsq
 from bayes_dnlr.vocabulary import LINEAR_COLUMN, NONLINEAR, TIME_CONSTANTS, base_name
 
 
-class RunProblem:
+class RunProblem(LogCoordinates):
     """The least-squares problem of several tests, with the interface of ``LsqProblem``
     (residuals, Jacobian, variable projection) so that the optimisers run on it unchanged.
 
@@ -59,14 +59,6 @@ class RunProblem:
 
     def vector(self, params: Mapping[str, float]) -> np.ndarray:
         return np.array([params[k] for k in self.names], dtype=float)
-
-    def to_u(self, beta: Sequence[float]) -> np.ndarray:
-        beta = np.asarray(beta, dtype=float)
-        return np.where(self.is_log, np.log(np.where(self.is_log, beta, 1.0)), beta)
-
-    def to_beta(self, u: Sequence[float]) -> np.ndarray:
-        u = np.asarray(u, dtype=float)
-        return np.where(self.is_log, np.exp(np.where(self.is_log, u, 0.0)), u)
 
     def local(self, params: Mapping[str, float], test: str) -> dict[str, float]:
         """The block's own parameter dict (its fixed values included) from joint ``params``."""
