@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import shutil
 import subprocess
 import sys
@@ -31,11 +30,10 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 from real_etfe import FILE, REAL, specimens  # noqa: E402
+from reference_job import load  # noqa: E402
+from reference_job import seconds as refjob  # noqa: E402
 from sample_command import SHIPPED, copy_run  # noqa: E402
 
-REFJOB = Path(os.environ.get("BAYES_DNLR_REFJOB", ROOT.parent / "shared" / "tools" / "refjob.py"))
-if not REFJOB.is_file():
-    REFJOB = ROOT.parents[1] / "shared" / "tools" / "refjob.py"
 CORRELATED = {"noise": {"strain_sd": 1.0e-4, "stress_sd": 0.3, "force_sd": 0,
                         "correlated": {"kernel": "exp", "amplitude": 0.5, "length": 20.0}}}
 
@@ -43,24 +41,13 @@ RUN = r"""
 import json, sys
 from bayes_dnlr.config import load_config
 from bayes_dnlr.runs.sample import sample
+
 s = sample(load_config(sys.argv[1]), progress=False).summary
 print(json.dumps({"steps": s["steps"], "tau": s["autocorr_time"], "loop_s": s["wall_time_s"],
                   "stop": s["stop_reason"], "kernel": (s.get("noise") or {}).get("kernel"),
                   "post": {k: [s["posterior"][k]["mean"], s["posterior"][k]["sd"],
                                s["posterior"][k]["ess_bulk"]] for k in s["parameters"]}}))
 """
-
-
-def refjob() -> float | None:
-    if not REFJOB.is_file():
-        return None
-    out = subprocess.run([sys.executable, str(REFJOB)], capture_output=True, text=True, check=True)
-    return float(out.stdout.split()[-1])
-
-
-def load() -> str:
-    a, b, c = os.getloadavg()
-    return f"load {a:.2f} {b:.2f} {c:.2f}"
 
 
 def stamp(label: str) -> float | None:

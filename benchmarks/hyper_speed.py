@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -27,22 +26,12 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+from reference_job import seconds as reference_job  # benchmarks/ is the script's folder
 
 REPO = Path(__file__).resolve().parents[1]
 REAL = Path(os.environ.get("BAYES_DNLR_REAL_DATA", REPO.parent / "shared" / "data" / "real"))
-REFJOB = Path(os.environ.get("BAYES_DNLR_REFJOB", REPO.parent / "shared" / "tools" / "refjob.py"))
 SHIPPED = ["hdpe-a-5e-3", "hdpe-a-1e-2", "hdpe-a-2.5e-3", "hdpe-b-relax-5e-3", "bluehill-like",
            "zwick-like"]
-
-
-def reference_job() -> float | None:
-    if not REFJOB.is_file():
-        return None
-    out = subprocess.run([sys.executable, str(REFJOB)], capture_output=True, text=True, check=False)
-    try:
-        return float(out.stdout.strip().split()[-1])
-    except (ValueError, IndexError):
-        return None
 
 
 def real_cases(tmp: Path, which: list[str]) -> list[tuple[str, Path]]:

@@ -5,37 +5,25 @@ sets found old, new or mixed after each kill, and the temporaries left after the
     .venv/bin/python benchmarks/kill_sets.py [--instants 20] [--draws 2000] [--tests 3] [--only export|batch]
 
 Prints one line per command and the wall time of the whole, as a ratio to the reference job
-(python /work/shared/tools/refjob.py, when present) measured in the same run.
+(benchmarks/reference_job.py, when present) measured in the same run.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
+from reference_job import seconds as refjob  # benchmarks/ is the script's folder
+
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "tests"))
 
-from finished_run import make_finished_run  # noqa: E402
-from kill_support import batch_kills, export_kills  # noqa: E402
-from test_publish_whole import _campaign  # noqa: E402
-
-REFJOB = Path("/work/shared/tools/refjob.py")
-
-
-def refjob() -> float | None:
-    if not REFJOB.is_file():
-        return None
-    out = subprocess.run([sys.executable, str(REFJOB)], capture_output=True, text=True)
-    try:
-        return float(out.stdout.split()[-1])
-    except (ValueError, IndexError):
-        return None
+from support.finished_run import make_finished_run  # noqa: E402
+from support.kill import batch_kills, campaign, export_kills  # noqa: E402
 
 
 def main() -> None:
@@ -60,8 +48,8 @@ def main() -> None:
                 print(f"  {m}")
         if args.only in (None, "batch"):
             t0 = time.monotonic()
-            campaign, batch_args = _campaign(root / "campaign", args.tests)
-            tally = batch_kills(campaign, batch_args, root / "batch", args.instants)
+            folder, batch_args = campaign(root / "campaign", args.tests)
+            tally = batch_kills(folder, batch_args, root / "batch", args.instants)
             dt = time.monotonic() - t0
             print(tally.line(f"batch of {args.tests} tests with reports") + f"; {dt:.0f} s"
                   + (f" ({dt / ref:.1f} reference jobs)" if ref else ""))

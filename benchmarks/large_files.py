@@ -31,9 +31,9 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from reference_job import seconds as reference_job  # benchmarks/ is the script's folder
 
 REPO = Path(__file__).resolve().parents[1]
-REFJOB = Path(os.environ.get("BAYES_DNLR_REFJOB", REPO.parent / "shared" / "tools" / "refjob.py"))
 
 CHILD = r"""
 import json, resource, sys, time
@@ -64,17 +64,6 @@ cpu = use.ru_utime + use.ru_stime - cpu0
 rss = use.ru_maxrss / 1024.0
 print(json.dumps({"n": n, "wall_s": wall, "cpu_s": cpu, "peak_rss_mb": rss, **extra}))
 """
-
-
-def reference_job() -> float | None:
-    """Seconds of the fixed CPU reference job (../shared/tools/refjob.py), None without it."""
-    if not REFJOB.is_file():
-        return None
-    out = subprocess.run([sys.executable, str(REFJOB)], capture_output=True, text=True, check=False)
-    try:
-        return float(out.stdout.strip().split()[-1])
-    except (ValueError, IndexError):
-        return None
 
 
 def write_test(folder: Path, n: int) -> Path:

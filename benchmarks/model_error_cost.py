@@ -21,16 +21,15 @@ from __future__ import annotations
 
 import argparse
 import os
-import subprocess
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
+from reference_job import seconds as _refjob  # benchmarks/ is the script's folder
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
-REFJOB = Path(os.environ.get("BAYES_DNLR_REFJOB", ROOT.parent / "shared" / "tools" / "refjob.py"))
 
 
 def _posteriors(cfg, test, center: np.ndarray, hyper: tuple[float, float]) -> dict:
@@ -75,18 +74,11 @@ def _time(posts: dict, repeats: int) -> dict[str, float]:
     return best
 
 
-def _refjob() -> float | None:
-    if not REFJOB.is_file():
-        return None
-    out = subprocess.run([sys.executable, str(REFJOB)], capture_output=True, text=True, check=True)
-    return float(out.stdout.split()[0])
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=25)
     args = ap.parse_args()
-    from sampling_support import TRUTH_RELAX, make_test
+    from support.sampling import TRUTH_RELAX, make_test
 
     from bayes_dnlr.config import load_config, parse_config
     from bayes_dnlr.model import set_threads

@@ -7,16 +7,14 @@ A few instants here; benchmarks/kill_sets.py kills each at 20 instants (docs/exp
 
 from __future__ import annotations
 
-import csv
 import json
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
-from support.batch import tiny_campaign
 from support.finished_run import make_finished_run
-from support.kill import batch_kills, export_kills, leftovers
+from support.kill import batch_kills, campaign, export_kills, leftovers
 
 from bayes_dnlr.fileset import folder_set, publishing, recover, recover_folder
 
@@ -40,33 +38,19 @@ def test_killed_export_at_20_instants(finished_run: Path, tmp_path: Path) -> Non
     assert tally.kills == 20 and not tally.mixed and tally.left_after_next_run == []
 
 
-def _campaign(folder: Path, tests: int) -> tuple[Path, list[str]]:
-    """A manifest batch with reports, run once; then new seeds (the runs' inputs changed)."""
-    template, manifest = tiny_campaign(folder, tests, points=150)
-    args = ["batch", str(template), "--manifest", str(manifest), "--out", str(folder / "out"),
-            "--jobs", str(min(tests, 2)), "--quiet", "--no-population"]
-    subprocess.run([sys.executable, "-m", "bayes_dnlr", *args], check=True, capture_output=True, timeout=900)
-    rows = list(csv.DictReader(open(manifest)))
-    for r in rows:
-        r["sampler.seed"] = str(int(r["sampler.seed"]) + 10)
-    with open(manifest, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    return folder, [*args, "--restart"]
 
 
 def test_killed_batch_leaves_every_set_old_or_new(tmp_path: Path) -> None:
-    campaign, args = _campaign(tmp_path / "campaign", 1)
-    tally = batch_kills(campaign, args, tmp_path / "work", instants=1, points=("fileset.written",))
+    folder, args = campaign(tmp_path / "campaign", 1)
+    tally = batch_kills(folder, args, tmp_path / "work", instants=1, points=("fileset.written",))
     assert tally.kills == 2 and not tally.mixed, tally.mixed
     assert tally.left_after_next_run == []
 
 
 @pytest.mark.slow
 def test_killed_batch_at_20_instants(tmp_path: Path) -> None:
-    campaign, args = _campaign(tmp_path / "campaign", 3)
-    tally = batch_kills(campaign, args, tmp_path / "work", instants=20)
+    folder, args = campaign(tmp_path / "campaign", 3)
+    tally = batch_kills(folder, args, tmp_path / "work", instants=20)
     assert tally.kills == 20 and not tally.mixed and tally.left_after_next_run == []
 
 

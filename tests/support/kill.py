@@ -21,6 +21,7 @@ from bayes_dnlr.diskio import KILL_ENV
 from bayes_dnlr.fileset import recover, recover_folder
 from bayes_dnlr.report.current import REPORT_SET
 from bayes_dnlr.workflows.batch.run import BATCH_SET
+from support.batch import tiny_campaign
 
 LEFTOVER = re.compile(r"(\.tmp|\.before|\.publishing|\.old)$")
 _IMG = re.compile(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"')
@@ -225,3 +226,19 @@ def batch_kills(campaign: Path, batch_args: list[str], work: Path, instants: int
         tally.left_after_next_run += leftovers(root)
         shutil.rmtree(root)
     return tally
+
+
+def campaign(folder: Path, tests: int) -> tuple[Path, list[str]]:
+    """A manifest batch with reports, run once; then new seeds (the runs' inputs changed)."""
+    template, manifest = tiny_campaign(folder, tests, points=150)
+    args = ["batch", str(template), "--manifest", str(manifest), "--out", str(folder / "out"),
+            "--jobs", str(min(tests, 2)), "--quiet", "--no-population"]
+    subprocess.run([sys.executable, "-m", "bayes_dnlr", *args], check=True, capture_output=True, timeout=900)
+    rows = list(csv.DictReader(open(manifest)))
+    for r in rows:
+        r["sampler.seed"] = str(int(r["sampler.seed"]) + 10)
+    with open(manifest, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    return folder, [*args, "--restart"]
