@@ -35,7 +35,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 def _posteriors(cfg, test, center: np.ndarray, hyper: tuple[float, float]) -> dict:
     from bayes_dnlr.config import ParameterSpec, parse_config
     from bayes_dnlr.inference.discrepancy.gls import columns_for
-    from bayes_dnlr.inference.posterior.likelihood import build_log_posterior
+    from bayes_dnlr.inference.posterior.density import build_log_posterior
 
     raw = cfg.model_dump(mode="json", exclude_none=True)
     priors = {"disc_amplitude": ParameterSpec(prior="half-normal", scale=1.0),
@@ -82,14 +82,14 @@ def main() -> None:
 
     from bayes_dnlr.config import load_config, parse_config
     from bayes_dnlr.model import set_threads
-    from bayes_dnlr.runs.fit import load_tests
+    from bayes_dnlr.data import load_test
 
     set_threads(1)
     print(f"load average before: {os.getloadavg()}; one thread, CPU time")
     ref0 = _refjob()
     cases = []
     cfg = load_config(ROOT / "runs" / "hdpe-a-5e-3" / "config.yaml")
-    cases.append(("shipped example, 2000 points, p = 3", cfg, load_tests(cfg),
+    cases.append(("shipped example, 2000 points, p = 3", cfg, load_test(cfg),
                   np.array([2854.0, 2.32, 5.79]), (0.4, 20.0)))
     window = np.ones(700, bool)
     window[100:150] = False

@@ -27,10 +27,11 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from bayes_dnlr.inference.discrepancy import kalman
-from bayes_dnlr.inference.discrepancy.kalman import KERNELS, LANE_GROUP  # noqa: F401  (re-exported)
+from bayes_dnlr.inference.discrepancy.kalman import KERNELS  # noqa: F401  (re-exported)
 
 # ------------------------------------------------------------------ Python API
 
@@ -116,7 +117,8 @@ def log_likelihood_batch(x: np.ndarray, R: np.ndarray, sigma0: np.ndarray, ampli
     hyper = [np.ascontiguousarray(np.broadcast_to(np.asarray(v, dtype=float), (k,)))
              for v in (sigma0, amplitude, length)]
     out = np.empty(k)
-    kalman.loglike_batch(x, Rt, *hyper, kernel_code(kind), _gap(x, start), _columns(V, x.size), out)
+    kalman.loglike_batch(x, Rt, *hyper, kernel_code(kind), _gap(x, start), _columns(V, x.size), out,
+                         numba.get_num_threads())
     return out
 
 

@@ -35,7 +35,7 @@ from numba import njit, prange
 KERNELS = {"exp": 0, "matern32": 1}
 _LOG_2PI = math.log(2.0 * math.pi)
 _REF = 0.25          # a step within 0.25/λ of the reference step reuses its exp by a series
-LANE_GROUP = 8       # walkers per group: one group per thread at a time
+LANE_GROUP = 16      # the most walkers side by side in one filter (one thread)
 _NCF = 8             # per-sample lane coefficients of the orthogonal sums
 
 
@@ -484,7 +484,9 @@ def _lanes(kind, cols, x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out):
     quad = np.zeros(k)
     prod = np.ones(k)
     logdet = np.zeros(k)
-    e_ref = np.ones(k)       # e^{-λ d_ref} of each lane, d_ref = 0 to start
+    d_ref = np.zeros(k)      # each lane's reference step (0 to start) and its e^{-λ d_ref}
+    e_ref = np.ones(k)
+    d_lo, d_hi = 0.0, -1.0   # steps that keep every lane's reference (none yet)
     ok = np.empty(k, dtype=np.bool_)
     exact = np.ones(k, dtype=np.bool_)    # False: the lane's product left the normal range
     # the orthogonal sums of ``_sums`` (cols): per sample the lanes' transition, gains, and the
@@ -512,17 +514,25 @@ def _lanes(kind, cols, x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out):
         q1[w] = q0[w] * lam[w] * lam[w]
         p00[w], p01[w], p11[w] = _initial_cov(kind, gap, lam[w], q0[w], q1[w])
         u00[w], u01[w], u11[w] = _initial_cov(kind, gap, lam[w], 1.0, lam[w] * lam[w])
-    lam_max = lam.max() if k else 0.0
-    d_ref = 0.0
     for i in range(n):
         if i > 0:
             d = x[i] - x[i - 1]
-            if abs(d - d_ref) * lam_max > _REF:       # a new reference step: one exp a lane
-                d_ref = d
+            # a lane whose step left its reference step's range takes this one (one exp), as
+            # ``_sums`` does, so that each lane's values are those of its walker alone, whatever
+            # the other lanes hold. [d_lo, d_hi], inside every lane's range with a margin, spares
+            # the lanes' test on most steps
+            if not d_lo <= d <= d_hi:
+                d_lo, d_hi = -np.inf, np.inf
                 for w in range(k):
-                    e_ref[w] = math.exp(-lam[w] * d)
+                    if abs(d - d_ref[w]) * lam[w] > _REF:
+                        d_ref[w] = d
+                        e_ref[w] = math.exp(-lam[w] * d)
+                    half = _REF / lam[w] * (1.0 - 1e-9)
+                    d_lo = max(d_lo, d_ref[w] - half)
+                    d_hi = min(d_hi, d_ref[w] + half)
             for w in range(k):
-                a00, a01, a10, a11 = _transition_e(kind, d, lam[w], _decay(lam[w], d, d_ref, e_ref[w]))
+                a00, a01, a10, a11 = _transition_e(kind, d, lam[w],
+                                                   _decay(lam[w], d, d_ref[w], e_ref[w]))
                 if kind == 0:      # one state: m1, p01, p11 stay 0
                     m0[w] = _predict_mean(kind, a00, a01, a10, a11, m0[w], 0.0)[0]
                     p00[w] = _predict_cov(kind, a00, a01, a10, a11, p00[w], 0.0, 0.0, q0[w], 0.0)[0]
@@ -589,11 +599,23 @@ def _lanes(kind, cols, x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out):
         out[lo + w] = ll if ok[w] and math.isfinite(ll) else -np.inf
 
 
+@njit(cache=True)
+def lane_group(k: int, threads: int) -> int:
+    """Walkers per group when k walkers are shared by ``threads`` threads: as many lanes as a
+    thread gets, up to LANE_GROUP. The filter's steps are a chain of dependent operations (the
+    division of one step waits for the last), so a filter runs about as fast with 16 lanes as
+    with 8: one thread takes all of them, two take half each. The values do not depend on it."""
+    per_thread = (k + threads - 1) // max(threads, 1)
+    return max(1, min(LANE_GROUP, per_thread))
+
+
 @njit(cache=True, parallel=True)
-def loglike_batch(x, Rt, sigma0, amplitude, length, kind, gap, V, out):
-    """``loglike_lanes`` over all columns of Rt, groups of LANE_GROUP walkers in parallel."""
+def loglike_batch(x, Rt, sigma0, amplitude, length, kind, gap, V, out, threads):
+    """``loglike_lanes`` over all columns of Rt, in groups (``lane_group``) over ``threads``
+    threads (numba's count, passed in: a function that reads it cannot be cached)."""
     k = Rt.shape[1]
-    groups = (k + LANE_GROUP - 1) // LANE_GROUP
+    size = lane_group(k, threads)
+    groups = (k + size - 1) // size
     for g in prange(groups):
-        lo = g * LANE_GROUP
-        loglike_lanes(x, Rt, lo, min(k, lo + LANE_GROUP), sigma0, amplitude, length, kind, gap, V, out)
+        lo = g * size
+        loglike_lanes(x, Rt, lo, min(k, lo + size), sigma0, amplitude, length, kind, gap, V, out)

@@ -6,11 +6,12 @@ no basis is formed), the residual r = y - σ(θ) on the compared samples, then
 - white: log L = -½ Σ r² / σ0² - n ln σ0 - (n/2) ln 2π (eq. 27 up to constants);
 - with the discrepancy: log L = log N(r | 0, k(x, x) + σ0² I), or the orthogonal discrepancy's
   log N(r | 0, C - K V M⁻¹ Vᵀ K), by the Kalman filter of ``kalman.loglike_lanes``
-  (inference/discrepancy/kalman.py), eight walkers side by side as SIMD lanes.
+  (inference/discrepancy/kalman.py), the walkers of a group side by side as SIMD lanes.
 
-Walkers run in groups of ``kalman.LANE_GROUP`` (8), one group per numba thread (``prange``). A group
-is always the same walkers of the call, and nothing is summed across walkers, so the result does
-not depend on the number of threads: a fixed seed gives the same chain with 1 or 2 threads.
+Walkers run in groups, one group per numba thread (``prange``): as many as a thread gets, up to
+``kalman.LANE_GROUP`` (16) side by side in the filter (``kalman.lane_group``). Nothing is summed
+across walkers, and a lane's values are its walker's alone, so the result does not depend on the
+number of threads or on the groups: a fixed seed gives the same chain with 1 or 2 threads.
 
 numba's on-disk cache keys a function on the content of its own file only, not on the njit
 helpers it calls from other modules. ``_depend_on`` adds the content of
@@ -26,13 +27,13 @@ from pathlib import Path
 from types import ModuleType
 
 import numpy as np
-from numba import njit, prange
+from numba import get_num_threads, njit, prange
 
 from bayes_dnlr.inference.discrepancy import kalman
 from bayes_dnlr.model import kernel, threads
 
 _LOG_2PI = math.log(2.0 * math.pi)
-GROUP = kalman.LANE_GROUP
+_lane_group = kalman.lane_group
 _stress_into = kernel.stress_into
 _lanes = kalman.loglike_lanes
 
@@ -87,9 +88,9 @@ def _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out, 
 
 
 @njit(cache=True, parallel=True)
-def loglike_walkers(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out):
+def loglike_walkers(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out, threads):
     """log-likelihood of every row of theta into ``out`` (k,); -inf where it is not defined.
-    Groups of GROUP walkers in parallel (numba threads).
+    Groups of walkers in parallel (numba threads; ``kalman.lane_group``).
 
     theta (k, 6): E, G, σ_inf, tau_max, tau_max_R, alpha (model units; tau_max_R is
     ignored without a relaxation phase, but must then be positive anyway; alpha is the
@@ -98,33 +99,36 @@ def loglike_walkers(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_
     grid: ``DNLR.kernel_args``; y (n,): the observed values in the order of the axis x;
     idx (n,): the model sample of each of them; kind, gap: the kernel code and the pinned start
     (inf: stationary) of inference/discrepancy/kalman.py; V (n, p): the orthogonality columns in the
-    order of x
-    (p = 0: the plain discrepancy).
+    order of x (p = 0: the plain discrepancy); threads: numba's thread count (passed in: a
+    function that reads it cannot be cached).
     """
     k = theta.shape[0]
-    groups = (k + GROUP - 1) // GROUP
+    size = _lane_group(k, threads)
+    groups = (k + size - 1) // size
     for g in prange(groups):
-        lo = g * GROUP
+        lo = g * size
         _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out, lo,
-               min(k, lo + GROUP))
+               min(k, lo + size))
 
 
 @njit(cache=True)
 def loglike_walkers_serial(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out):
-    """``loglike_walkers`` in the calling thread, the same groups one after the other (the same
+    """``loglike_walkers`` in the calling thread, the walkers in groups of up to LANE_GROUP (the same
     values): for one thread, and in a process forked from one whose numba threads run on GNU
     OpenMP, where numba terminates a child that starts a parallel region."""
     k = theta.shape[0]
-    for lo in range(0, k, GROUP):
+    size = _lane_group(k, 1)
+    for lo in range(0, k, size):
         _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out, lo,
-               min(k, lo + GROUP))
+               min(k, lo + size))
 
 
 def evaluate(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out) -> None:
     """``loglike_walkers`` when threads may run, else ``loglike_walkers_serial``
     (``model.threads.parallel_allowed``)."""
     if threads.parallel_allowed():
-        loglike_walkers(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out)
+        loglike_walkers(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out,
+                        get_num_threads())
     else:
         loglike_walkers_serial(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out)
 

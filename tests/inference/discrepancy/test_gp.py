@@ -90,6 +90,8 @@ def test_batch_does_not_depend_on_threads_or_grouping() -> None:
     finally:
         numba.set_num_threads(before)
     np.testing.assert_array_equal(one, two)
+    alone = [gp.log_likelihood_batch(x, R[w:w + 1], *(h[w:w + 1] for h in hyper))[0] for w in range(k)]
+    np.testing.assert_array_equal(one, alone)          # a lane's value is its walker's alone
     single = [gp.log_likelihood(x, R[w], *(h[w] for h in hyper)) for w in range(k)]
     np.testing.assert_allclose(one, single, rtol=1e-12)
 
