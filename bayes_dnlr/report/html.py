@@ -193,7 +193,11 @@ def page_html(run: RunResults, figdir: Path, t0: float) -> str:
         if several or not s.several_tests:
             n += 1
             numbers[s.key] = n
-    page = Page(run, {t: _part(run, t) for t in run.cfg.test_names}, rate_question(run), figdir, numbers)
+    page = Page(run, {}, rate_question(run), figdir, numbers)
+    # the run's own figures first (corner, trace, rank): they need no model curve, so the worker
+    # process draws them while this one pushes the draws through the model for each test's part
+    bodies = {s.key: s.body(page) for s in SECTIONS if s.key in FIRST and s.key in numbers}
+    page.parts.update({t: _part(run, t) for t in run.cfg.test_names})
     sec = _top(run)
     sec.append(_headline(run, {t: p.standards for t, p in page.parts.items()}, page.rate))
     if not run.has_posterior:
@@ -208,9 +212,8 @@ def page_html(run: RunResults, figdir: Path, t0: float) -> str:
     warns = _warnings(run)
     if warns:
         sec.append('<div class="box warn"><b>Warnings</b>' + bullets(warns) + "</div>")
-    bodies = {}
-    for s in sorted(SECTIONS, key=lambda s: s.key not in FIRST):   # the worker's figures first
-        if s.key in numbers:
+    for s in SECTIONS:
+        if s.key in numbers and s.key not in bodies:
             bodies[s.key] = s.body(page)
     for s in SECTIONS:
         if bodies.get(s.key):
