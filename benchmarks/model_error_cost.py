@@ -81,8 +81,8 @@ def main() -> None:
     from support.sampling import TRUTH_RELAX, make_test
 
     from bayes_dnlr.config import load_config, parse_config
-    from bayes_dnlr.model import set_threads
     from bayes_dnlr.data import load_test
+    from bayes_dnlr.model import set_threads
 
     set_threads(1)
     print(f"load average before: {os.getloadavg()}; one thread, CPU time")

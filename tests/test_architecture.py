@@ -31,7 +31,7 @@ PACKAGE = Path(bayes_dnlr.__file__).parent
 # reads data: two ranks.
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("leaves", ("errors", "numbers", "vocabulary", "units", "digests", "diskio", "fileset",
-                "interrupt", "standards", "crosscheck")),
+                "interrupt", "standards", "crosscheck", "machine_load", "numba_cache")),
     ("config", ("config",)),
     ("data", ("data",)),
     ("model", ("model",)),

@@ -26,26 +26,15 @@ import os
 import numba
 import numpy as np
 
+from bayes_dnlr.machine_load import other_runnable
+
 SPIN_COUNT = "30000"
-
-
-def _other_runnable() -> float:
-    """How many other tasks want a core now: the kernel's count of runnable tasks (Linux
-    /proc/loadavg, 4th field, this process included), else the 1-minute load average."""
-    try:
-        with open("/proc/loadavg") as f:
-            return max(0, int(f.read().split()[3].split("/")[0]) - 1)
-    except (OSError, IndexError, ValueError):
-        try:
-            return os.getloadavg()[0]
-        except OSError:         # pragma: no cover - no load figure on this system
-            return float("inf")
 
 
 def _wait_policy() -> dict[str, str]:
     """The OpenMP wait settings for this process (see the module doc): spin briefly only when a
     core is free for the second thread besides this one."""
-    if (os.cpu_count() or 1) - _other_runnable() >= 2:
+    if (os.cpu_count() or 1) - other_runnable() >= 2:
         return {"OMP_WAIT_POLICY": "ACTIVE", "GOMP_SPINCOUNT": SPIN_COUNT}
     return {"OMP_WAIT_POLICY": "PASSIVE"}
 

@@ -5,7 +5,7 @@
   function's name, its arguments (arrays by their bytes), the package's and matplotlib's versions
   and the source of the figure modules make a key, written into the PNG's text chunk. A PNG that
   holds the same key is not drawn again. The figure functions themselves always draw.
-- When a core is free (two or more, and the last minute's load leaves one), a worker process
+- When a core is free (two or more, and one of them idle now), a worker process
   forked when the report starts (before this process runs any other Python thread) imports
   matplotlib while the run is loaded, then draws the figures handed to it (``aside=True``) while
   this process draws the others. ``figure_session`` waits for them at its end; the page embeds
@@ -28,6 +28,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from bayes_dnlr.machine_load import other_runnable
 
 KEY = "bayes_dnlr-figure-key"
 _current: ContextVar[str | None] = ContextVar("figure_key", default=None)
@@ -56,9 +58,10 @@ def _nothing() -> None:
 
 
 def _free_core() -> bool:
-    """Two cores or more for this process, and the last minute's load leaves one of them free."""
+    """Two cores or more for this process, and one of them free now (``machine_load``: not the
+    last minute's load, which still counts the ``sample`` run just before the report)."""
     cores = len(os.sched_getaffinity(0))
-    return cores >= 2 and os.getloadavg()[0] <= cores - 1
+    return cores >= 2 and other_runnable() <= cores - 2
 
 
 def _fork_worker(warm: Callable[[], None] | None):

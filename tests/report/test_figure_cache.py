@@ -81,3 +81,39 @@ def test_the_worker_draws_the_same_page(run, tmp_path, monkeypatch):
         "report.html", "figures")))
     assert _text(build_report(alone)).replace(str(alone), str(run)) == aside
     assert {k: v[1] for k, v in _pngs(alone).items()} == pngs
+
+
+def test_the_worker_waits_for_a_core_idle_now(monkeypatch):
+    """The figure worker is forked when a core is idle at this instant, whatever the last minute's
+    load says (it still counts the `sample` run just before the report)."""
+    monkeypatch.setattr(figure_cache.os, "sched_getaffinity", lambda _pid: {0, 1})
+    monkeypatch.setattr(figure_cache.os, "getloadavg", lambda: (1.9, 1.9, 1.9))
+    monkeypatch.setattr(figure_cache, "other_runnable", lambda: 0)
+    assert figure_cache._free_core()
+    monkeypatch.setattr(figure_cache, "other_runnable", lambda: 1)
+    assert not figure_cache._free_core()
+    monkeypatch.setattr(figure_cache.os, "sched_getaffinity", lambda _pid: {0})
+    monkeypatch.setattr(figure_cache, "other_runnable", lambda: 0)
+    assert not figure_cache._free_core()
+
+
+def test_other_runnable_counts_the_tasks_running_now(monkeypatch, tmp_path):
+    """The kernel's runnable count less this process; the minute's load where there is none."""
+    import builtins
+
+    from bayes_dnlr import machine_load
+
+    real_open = builtins.open
+    loadavg = tmp_path / "loadavg"
+
+    def fake_open(path, *args, **kwargs):
+        return real_open(loadavg if path == "/proc/loadavg" else path, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "open", fake_open)
+    monkeypatch.setattr(machine_load.os, "getloadavg", lambda: (1.25, 1.0, 1.0))
+    loadavg.write_text("1.90 1.50 1.20 3/120 999\n")
+    assert machine_load.other_runnable() == 2
+    loadavg.write_text("0.10 0.10 0.10 1/120 999\n")
+    assert machine_load.other_runnable() == 0
+    loadavg.unlink()
+    assert machine_load.other_runnable() == 1.25

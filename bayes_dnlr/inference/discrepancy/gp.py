@@ -30,7 +30,7 @@ import math
 import numba
 import numpy as np
 
-from bayes_dnlr.inference.discrepancy import kalman
+from bayes_dnlr.inference.discrepancy import kalman, lanes
 from bayes_dnlr.inference.discrepancy.kalman import KERNELS  # noqa: F401  (re-exported)
 
 # ------------------------------------------------------------------ Python API
@@ -83,7 +83,7 @@ def _right_hand_side(V: np.ndarray, n: int) -> tuple[np.ndarray, bool]:
 
 
 def _check_hyper(sigma0: float, amplitude: float, length: float) -> None:
-    if not kalman._valid(sigma0, amplitude, length):
+    if not kalman.valid(sigma0, amplitude, length):
         raise ValueError(f"invalid hyperparameters sigma0 = {sigma0}, amplitude = {amplitude}, "
                          f"length = {length}")
 
@@ -102,7 +102,7 @@ def log_likelihood(x: np.ndarray, r: np.ndarray, sigma0: float, amplitude: float
     r = np.ascontiguousarray(r, dtype=float)
     if r.shape != x.shape:
         raise ValueError(f"residuals {r.shape} and axis {x.shape} differ")
-    return float(kalman._loglike(x, r, _columns(V, x.size), float(sigma0), float(amplitude),
+    return float(kalman.loglike(x, r, _columns(V, x.size), float(sigma0), float(amplitude),
                                  float(length), kernel_code(kind), _gap(x, start)))
 
 
@@ -117,7 +117,7 @@ def log_likelihood_batch(x: np.ndarray, R: np.ndarray, sigma0: np.ndarray, ampli
     hyper = [np.ascontiguousarray(np.broadcast_to(np.asarray(v, dtype=float), (k,)))
              for v in (sigma0, amplitude, length)]
     out = np.empty(k)
-    kalman.loglike_batch(x, Rt, *hyper, kernel_code(kind), _gap(x, start), _columns(V, x.size), out,
+    lanes.loglike_batch(x, Rt, *hyper, kernel_code(kind), _gap(x, start), _columns(V, x.size), out,
                          numba.get_num_threads())
     return out
 

@@ -5,37 +5,35 @@ no basis is formed), the residual r = y - σ(θ) on the compared samples, then
 
 - white: log L = -½ Σ r² / σ0² - n ln σ0 - (n/2) ln 2π (eq. 27 up to constants);
 - with the discrepancy: log L = log N(r | 0, k(x, x) + σ0² I), or the orthogonal discrepancy's
-  log N(r | 0, C - K V M⁻¹ Vᵀ K), by the Kalman filter of ``kalman.loglike_lanes``
-  (inference/discrepancy/kalman.py), the walkers of a group side by side as SIMD lanes.
+  log N(r | 0, C - K V M⁻¹ Vᵀ K), by the Kalman filter of ``lanes.loglike_lanes``
+  (inference/discrepancy/lanes.py), the walkers of a group side by side as SIMD lanes.
 
 Walkers run in groups, one group per numba thread (``prange``): as many as a thread gets, up to
-``kalman.LANE_GROUP`` (16) side by side in the filter (``kalman.lane_group``). Nothing is summed
+``lanes.LANE_GROUP`` (16) side by side in the filter (``lanes.lane_group``). Nothing is summed
 across walkers, and a lane's values are its walker's alone, so the result does not depend on the
 number of threads or on the groups: a fixed seed gives the same chain with 1 or 2 threads.
 
 numba's on-disk cache keys a function on the content of its own file only, not on the njit
-helpers it calls from other modules. ``_depend_on`` adds the content of
-model/kernel.py and inference/discrepancy/kalman.py to the cache key of ``loglike_walkers``, so an edit there
-recompiles it instead of loading stale machine code.
+helpers it calls from other modules. ``numba_cache.depend_on`` adds the content of
+model/kernel.py and inference/discrepancy/kalman.py and lanes.py to the cache key of
+``loglike_walkers``, so an edit there recompiles it instead of loading stale machine code.
 """
 
 from __future__ import annotations
 
-import hashlib
 import math
-from pathlib import Path
-from types import ModuleType
 
 import numpy as np
 from numba import get_num_threads, njit, prange
 
-from bayes_dnlr.inference.discrepancy import kalman
+from bayes_dnlr.inference.discrepancy import kalman, lanes
 from bayes_dnlr.model import kernel, threads
+from bayes_dnlr.numba_cache import depend_on
 
 _LOG_2PI = math.log(2.0 * math.pi)
-_lane_group = kalman.lane_group
+_lane_group = lanes.lane_group
 _stress_into = kernel.stress_into
-_lanes = kalman.loglike_lanes
+_lanes = lanes.loglike_lanes
 
 
 @njit(cache=True)
@@ -90,7 +88,7 @@ def _group(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out, 
 @njit(cache=True, parallel=True)
 def loglike_walkers(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out, threads):
     """log-likelihood of every row of theta into ``out`` (k,); -inf where it is not defined.
-    Groups of walkers in parallel (numba threads; ``kalman.lane_group``).
+    Groups of walkers in parallel (numba threads; ``lanes.lane_group``).
 
     theta (k, 6): E, G, σ_inf, tau_max, tau_max_R, alpha (model units; tau_max_R is
     ignored without a relaxation phase, but must then be positive anyway; alpha is the
@@ -133,20 +131,5 @@ def evaluate(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out
         loglike_walkers_serial(theta, sig, amp, length, grid, y, idx, x, kind, gap, V, use_gp, out)
 
 
-def _file_digest(module: ModuleType) -> bytes:
-    return hashlib.sha256(Path(module.__file__).read_bytes()).digest()
-
-
-def _depend_on(dispatcher, *modules: ModuleType) -> None:
-    """Key the on-disk cache of ``dispatcher`` also on the source of ``modules`` (numba's cache
-    keys on the dispatcher's own file only). A no-op if numba's internals differ."""
-    try:
-        cache_file = dispatcher._cache._cache_file
-        cache_file._source_stamp = (cache_file._source_stamp,
-                                    *(_file_digest(m) for m in modules))
-    except (AttributeError, OSError, TypeError):   # pragma: no cover - another numba
-        pass
-
-
 for _f in (_group, loglike_walkers, loglike_walkers_serial):
-    _depend_on(_f, kernel, kalman)
+    depend_on(_f, kernel, kalman, lanes)

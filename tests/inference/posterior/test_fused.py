@@ -192,9 +192,9 @@ def test_the_wait_policy_spins_only_when_a_core_is_free(monkeypatch):
     from bayes_dnlr.model import threads
 
     monkeypatch.setattr(threads.os, "cpu_count", lambda: 2)
-    monkeypatch.setattr(threads, "_other_runnable", lambda: 0)
+    monkeypatch.setattr(threads, "other_runnable", lambda: 0)
     assert threads._wait_policy() == {"OMP_WAIT_POLICY": "ACTIVE", "GOMP_SPINCOUNT": "30000"}
-    monkeypatch.setattr(threads, "_other_runnable", lambda: 1)
+    monkeypatch.setattr(threads, "other_runnable", lambda: 1)
     assert threads._wait_policy() == {"OMP_WAIT_POLICY": "PASSIVE"}
 
 
