@@ -32,6 +32,7 @@ import numpy as np
 
 from bayes_dnlr.inference.discrepancy import kalman, lanes
 from bayes_dnlr.inference.discrepancy.kalman import KERNELS  # noqa: F401  (re-exported)
+from bayes_dnlr.model import threads
 
 # ------------------------------------------------------------------ Python API
 
@@ -117,8 +118,9 @@ def log_likelihood_batch(x: np.ndarray, R: np.ndarray, sigma0: np.ndarray, ampli
     hyper = [np.ascontiguousarray(np.broadcast_to(np.asarray(v, dtype=float), (k,)))
              for v in (sigma0, amplitude, length)]
     out = np.empty(k)
-    lanes.loglike_batch(x, Rt, *hyper, kernel_code(kind), _gap(x, start), _columns(V, x.size), out,
-                         numba.get_num_threads())
+    nthreads = numba.get_num_threads() if threads.parallel_allowed() else 1
+    lanes.loglike_groups(x, Rt, *hyper, kernel_code(kind), _gap(x, start), _columns(V, x.size), out,
+                         nthreads)
     return out
 
 

@@ -32,7 +32,10 @@ from bayes_dnlr.numba_cache import depend_on
 
 LANE_GROUP = 16      # the most walkers side by side in one filter (one thread)
 _NCF = 8             # per-sample lane coefficients of the orthogonal sums
-_LANES = dict(cache=True, fastmath={"contract", "nsz", "arcp"}, error_model="numpy")
+# no fast-math: with it, LLVM contracted or reordered the filter's arithmetic differently in the
+# parallel function and in the one-thread one (a forked child's), and their values differed in the
+# last bit; strict IEEE arithmetic gives the same value on every path
+_LANES = dict(cache=True, error_model="numpy")
 
 
 @njit(**_LANES)
@@ -79,8 +82,32 @@ def _columns_pairs(k, V, i, mv0, mp, ev, z0, D, N, pinned, u00):
                     N[j * p + q, w] += h * u00[w]
 
 
+# One compiled function per kernel, with or without the orthogonality columns: the kernel and the
+# columns are constants in each, so their branches fold out of the loops, and each is compiled
+# the first time it is used (a run needs one of the four: compiling all took 18-23 s).
+
 @njit(**_LANES)
-def loglike_lanes(x, Rt, lo, hi, sigma0, amplitude, length, kind, gap, V, out):
+def _lanes_exp(x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out):
+    _lanes(0, False, x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out)
+
+
+@njit(**_LANES)
+def _lanes_matern32(x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out):
+    _lanes(1, False, x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out)
+
+
+@njit(**_LANES)
+def _lanes_exp_columns(x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out):
+    _lanes(0, True, x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out)
+
+
+@njit(**_LANES)
+def _lanes_matern32_columns(x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out):
+    _lanes(1, True, x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out)
+
+
+@njit(inline="always", **_LANES)
+def _lanes(kind, cols, x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out):
     """``loglike`` of the walkers lo..hi-1 side by side, one SIMD lane each.
 
     Rt (n, k): residuals, one column per walker (time-major, so a step's lanes are contiguous);
@@ -93,20 +120,6 @@ def loglike_lanes(x, Rt, lo, hi, sigma0, amplitude, length, kind, gap, V, out):
     under- or overflows (innovation variances far from 1 for 64 samples, e.g. matern32 far above
     the white noise) is recomputed by ``loglike``, which rescales as it goes.
     """
-    cols = V.shape[1] > 0
-    if kind == 0:     # the kernel and the columns as constants: their branches fold out of the loops
-        if cols:
-            _lanes(0, True, x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out)
-        else:
-            _lanes(0, False, x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out)
-    elif cols:
-        _lanes(1, True, x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out)
-    else:
-        _lanes(1, False, x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out)
-
-
-@njit(inline="always", **_LANES)
-def _lanes(kind, cols, x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out):
     n = Rt.shape[0]
     k = hi - lo
     p = V.shape[1] if cols else 0
@@ -237,7 +250,6 @@ def _lanes(kind, cols, x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out):
         out[lo + w] = ll if ok[w] and math.isfinite(ll) else -np.inf
 
 
-@njit(cache=True)
 def lane_group(k: int, threads: int) -> int:
     """Walkers per group when k walkers are shared by ``threads`` threads: as many lanes as a
     thread gets, up to LANE_GROUP. The filter's steps are a chain of dependent operations (the
@@ -248,16 +260,57 @@ def lane_group(k: int, threads: int) -> int:
 
 
 @njit(cache=True, parallel=True)
-def loglike_batch(x, Rt, sigma0, amplitude, length, kind, gap, V, out, threads):
-    """``loglike_lanes`` over all columns of Rt, in groups (``lane_group``) over ``threads``
-    threads (numba's count, passed in: a function that reads it cannot be cached)."""
+def _groups_exp(x, Rt, sigma0, amplitude, length, gap, V, out, size):
+    for g in prange((Rt.shape[1] + size - 1) // size):
+        lo = g * size
+        _lanes_exp(x, Rt, lo, min(Rt.shape[1], lo + size), sigma0, amplitude, length, gap, V, out)
+
+
+@njit(cache=True, parallel=True)
+def _groups_matern32(x, Rt, sigma0, amplitude, length, gap, V, out, size):
+    for g in prange((Rt.shape[1] + size - 1) // size):
+        lo = g * size
+        _lanes_matern32(x, Rt, lo, min(Rt.shape[1], lo + size), sigma0, amplitude, length, gap, V,
+                        out)
+
+
+@njit(cache=True, parallel=True)
+def _groups_exp_columns(x, Rt, sigma0, amplitude, length, gap, V, out, size):
+    for g in prange((Rt.shape[1] + size - 1) // size):
+        lo = g * size
+        _lanes_exp_columns(x, Rt, lo, min(Rt.shape[1], lo + size), sigma0, amplitude, length, gap,
+                           V, out)
+
+
+@njit(cache=True, parallel=True)
+def _groups_matern32_columns(x, Rt, sigma0, amplitude, length, gap, V, out, size):
+    for g in prange((Rt.shape[1] + size - 1) // size):
+        lo = g * size
+        _lanes_matern32_columns(x, Rt, lo, min(Rt.shape[1], lo + size), sigma0, amplitude, length,
+                                gap, V, out)
+
+
+# (kernel code, with columns) -> (one group in this thread, groups over numba's threads)
+_VARIANTS = {(0, False): (_lanes_exp, _groups_exp), (1, False): (_lanes_matern32, _groups_matern32),
+             (0, True): (_lanes_exp_columns, _groups_exp_columns),
+             (1, True): (_lanes_matern32_columns, _groups_matern32_columns)}
+
+
+def loglike_groups(x, Rt, sigma0, amplitude, length, kind, gap, V, out, threads: int) -> None:
+    """``kalman.loglike`` of every column of Rt (n, k), with each walker's σ0, amplitude and length
+    (k,), into ``out`` (k,): groups of ``lane_group(k, threads)`` walkers side by side, over numba's
+    threads when ``threads`` > 1 (the caller says whether threads may run here:
+    ``model.threads.parallel_allowed``). -inf for invalid hyperparameters."""
+    one, groups = _VARIANTS[(int(kind), V.shape[1] > 0)]
     k = Rt.shape[1]
     size = lane_group(k, threads)
-    groups = (k + size - 1) // size
-    for g in prange(groups):
-        lo = g * size
-        loglike_lanes(x, Rt, lo, min(k, lo + size), sigma0, amplitude, length, kind, gap, V, out)
+    if threads > 1:         # also for one group: the other function need not be compiled
+        groups(x, Rt, sigma0, amplitude, length, gap, V, out, size)
+        return
+    for lo in range(0, k, size):
+        one(x, Rt, lo, min(k, lo + size), sigma0, amplitude, length, gap, V, out)
 
 
-for _f in (_columns_predict, _columns_observe, _columns_pairs, loglike_lanes, loglike_batch):
+for _f in (_columns_predict, _columns_observe, _columns_pairs, *(f for pair in _VARIANTS.values()
+                                                                 for f in pair)):
     depend_on(_f, kalman)
