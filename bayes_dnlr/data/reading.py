@@ -321,9 +321,10 @@ PLAIN_MAX_LINES = 200_000   # up to this many rows numpy's reader is tried befor
 def _parse_plain(src: Source, layout: Layout, first: int, last: int, cols: list[int]
                  ) -> dict[int, np.ndarray] | None:
     """The plain case of ``_parse`` without pandas (whose import costs 0.2-0.4 s, more than reading
-    a test of a few thousand rows): decimal point, every cell of ``cols`` a finite number, one row
-    per line. numpy's C reader (``np.loadtxt``); None whenever the file is anything else (a missing
-    value, a bad cell, thousands, inf, a quoted line break), and ``_parse`` reads it with pandas."""
+    a test of a few thousand rows): decimal point, every cell of ``cols`` a finite number or a
+    missing-value token, one row per line. numpy's C reader (``np.loadtxt``); None whenever the file
+    is anything else (an empty cell, a bad cell, thousands, inf, a quoted line break), and
+    ``_parse`` reads it with pandas."""
     n = last - first + 1
     if layout.decimal != "." or n > PLAIN_MAX_LINES or not cols:
         return None
@@ -336,8 +337,13 @@ def _parse_plain(src: Source, layout: Layout, first: int, last: int, cols: list[
                              delimiter=None if layout.delimiter == "whitespace" else layout.delimiter)
     except (ValueError, IndexError, UserWarning):
         return None
-    if arr.shape != (n, len(cols)) or not np.all(np.isfinite(arr)):
+    if arr.shape != (n, len(cols)) or np.isinf(arr).any():
         return None
+    # a NaN is a missing value (e.g. the padding rows of a shorter specimen) only when its cell is a
+    # missing-value token as the cell-by-cell reading knows them; numpy also reads '+nan' or 'nan(1)'
+    for i, k in zip(*np.nonzero(np.isnan(arr)), strict=True):
+        if src.cell(first + int(i), cols[k]) not in MISSING:
+            return None
     return {c: np.ascontiguousarray(arr[:, k]) for k, c in enumerate(cols)}
 
 
