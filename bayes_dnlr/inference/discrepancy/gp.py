@@ -115,7 +115,8 @@ def log_likelihood_batch(x: np.ndarray, R: np.ndarray, sigma0: np.ndarray, ampli
     x = _axis(x)
     Rt = np.ascontiguousarray(np.atleast_2d(R).T, dtype=float)
     k = Rt.shape[1]
-    hyper = [np.ascontiguousarray(np.broadcast_to(np.asarray(v, dtype=float), (k,)))
+    # writable copies: a read-only view (broadcast_to's) is another type to numba, compiled again
+    hyper = [np.array(np.broadcast_to(np.asarray(v, dtype=float), (k,)))
              for v in (sigma0, amplitude, length)]
     out = np.empty(k)
     nthreads = numba.get_num_threads() if threads.parallel_allowed() else 1

@@ -121,6 +121,9 @@ def _lanes(kind, cols, x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out):
     the white noise) is recomputed by ``loglike``, which rescales as it goes.
     """
     n = Rt.shape[0]
+    # the kernel code as a plain integer for the compiled functions called here: as the constant
+    # ``kind`` it would be a type of its own, and they would be compiled once more for it
+    code = np.int64(kind)
     k = hi - lo
     p = V.shape[1] if cols else 0
     lam = np.empty(k)
@@ -159,12 +162,12 @@ def _lanes(kind, cols, x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out):
     for w in range(k):
         ok[w] = valid(sigma0[lo + w], amplitude[lo + w], length[lo + w])
         ln = length[lo + w] if ok[w] else 1.0
-        lam[w] = rate(kind, ln)
+        lam[w] = rate(code, ln)
         s2[w] = sigma0[lo + w] ** 2 if ok[w] else 1.0
         q0[w] = amplitude[lo + w] ** 2 if ok[w] else 0.0
         q1[w] = q0[w] * lam[w] * lam[w]
-        p00[w], p01[w], p11[w] = initial_cov(kind, gap, lam[w], q0[w], q1[w])
-        u00[w], u01[w], u11[w] = initial_cov(kind, gap, lam[w], 1.0, lam[w] * lam[w])
+        p00[w], p01[w], p11[w] = initial_cov(code, gap, lam[w], q0[w], q1[w])
+        u00[w], u01[w], u11[w] = initial_cov(code, gap, lam[w], 1.0, lam[w] * lam[w])
     for i in range(n):
         if i > 0:
             d = x[i] - x[i - 1]
@@ -245,8 +248,9 @@ def _lanes(kind, cols, x, Rt, lo, hi, sigma0, amplitude, length, gap, V, out):
             ll = combine(quad[w], logdet[w] + math.log(prod[w]), n, Dw, muw, Mw, s2[w], q0[w],
                           A, M, zw)
         elif ok[w]:
-            ll = loglike(x, Rt[:, lo + w], V, sigma0[lo + w], amplitude[lo + w], length[lo + w],
-                          kind, gap)
+            # a contiguous copy: the residual's type is then the one gp.log_likelihood compiles
+            ll = loglike(x, np.ascontiguousarray(Rt[:, lo + w]), V, sigma0[lo + w],
+                         amplitude[lo + w], length[lo + w], code, gap)
         out[lo + w] = ll if ok[w] and math.isfinite(ll) else -np.inf
 
 
