@@ -1,0 +1,151 @@
+"""What a user waits for, from a file to a report, beside the reference job timed in the same run.
+
+1. A real curve: ``init`` on the real ETFE export (specimen 1, the config init writes), then from
+   an empty run folder ``sample`` (its fit included) and ``report``, each in a fresh process, as a
+   user types them. Skipped when the real curves are absent (they are not shipped:
+   ``BAYES_DNLR_REAL_DATA``, or ``shared/data/real`` beside or above the clone).
+2. The shipped example ``runs/hdpe-a-5e-3`` (copied; the shipped folder is not touched): ``sample``
+   from an empty run folder.
+
+Each command's wall time and CPU time (user + system of the process and its threads and children)
+is printed for every repeat, with the minimum and the median, and the sum of ``sample`` and
+``report`` in reference jobs (``../shared/tools/refjob.py``, run before and after; their mean is
+the unit). Warm numba cache: one unmeasured run first compiles or loads what the commands need.
+The load average is printed before and after: on a shared machine read the CPU times and the
+ratios, which do not depend on the other jobs as much as the wall time does.
+
+    .venv/bin/python benchmarks/user_workflow.py [--repeats 5] [--specimen 1] [--skip-shipped]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from reference_job import load, seconds  # benchmarks/ is the script's folder
+
+ROOT = Path(__file__).resolve().parents[1]
+ETFE = "ETFE_MD_CSR_0p1pct_per_s_T40C_3specimens.csv"
+OUTPUTS = ("fit.json", "chains.h5", "posterior.nc", "summary.json", "report.html", "figures",
+           ".cache", "config.resolved.yaml", "sample.lock")
+
+
+def real_data() -> Path | None:
+    """The folder of the real curves, or None."""
+    env = os.environ.get("BAYES_DNLR_REAL_DATA")
+    for path in ([Path(env)] if env else [ROOT.parent / "shared" / "data" / "real",
+                                          ROOT.parents[1] / "shared" / "data" / "real"]):
+        if (path / ETFE).is_file():
+            return path
+    return None
+
+
+def command(*args: str, cwd: Path | None = None) -> tuple[float, float]:
+    """(wall, CPU) seconds of ``python -m bayes_dnlr args`` in a fresh process."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    out = subprocess.run([sys.executable, "-m", "bayes_dnlr", *args], cwd=cwd, capture_output=True,
+                         text=True, check=False)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if out.returncode != 0:
+        sys.exit(f"`bayes_dnlr {' '.join(args)}` failed:\n{out.stdout}\n{out.stderr}")
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def empty(run: Path) -> None:
+    """The run folder as before the first command: its config (and data) only."""
+    for name in OUTPUTS:
+        p = run / name
+        if p.is_dir():
+            shutil.rmtree(p)
+        elif p.exists():
+            p.unlink()
+
+
+def summary(label: str, values: list[tuple[float, float]], unit: float | None) -> str:
+    walls, cpus = [v[0] for v in values], [v[1] for v in values]
+    text = (f"{label:34s} wall min {min(walls):6.2f} s, median {statistics.median(walls):6.2f} s; "
+            f"CPU min {min(cpus):6.2f} s, median {statistics.median(cpus):6.2f} s")
+    if unit:
+        text += (f"  = {min(walls) / unit:5.2f} (min) / {statistics.median(walls) / unit:5.2f} "
+                 "(median) ref. jobs")
+    return text
+
+
+def workflow(config: Path, steps: list[tuple[str, list[str]]], repeats: int
+             ) -> dict[str, list[tuple[float, float]]]:
+    """Every step of ``steps`` from an empty run folder, ``repeats`` times (after one unmeasured
+    round that warms numba's cache)."""
+    times: dict[str, list[tuple[float, float]]] = {name: [] for name, _ in steps}
+    for r in range(repeats + 1):
+        empty(config.parent)
+        row = []
+        for name, args in steps:
+            wall, cpu = command(*args)
+            if r:
+                times[name].append((wall, cpu))
+                row.append(f"{name} {wall:5.2f} s ({cpu:5.2f} s CPU)")
+        if r:
+            print(f"  run {r}: " + ", ".join(row), flush=True)
+    return times
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--specimen", type=int, default=1, help="ETFE specimen (1-3), as init numbers them")
+    ap.add_argument("--skip-shipped", action="store_true", help="only the real curve")
+    args = ap.parse_args()
+
+    print(load())
+    ref0 = seconds()
+    print(f"reference job: {ref0} s" if ref0 else "reference job: not found (no ratios)")
+    with tempfile.TemporaryDirectory(prefix="bd-workflow-") as tmp:
+        tmp = Path(tmp)
+        results: dict[str, dict[str, list[tuple[float, float]]]] = {}
+        real = real_data()
+        if real is None:
+            print("real curves absent: the real-curve workflow is skipped")
+        else:
+            config = tmp / "etfe" / "config.yaml"
+            command("init", str(real / ETFE), "--out", str(config))
+            if args.specimen != 1:
+                text = config.read_text().replace("specimen: 1 ", f"specimen: {args.specimen} ")
+                config.write_text(text)
+            print(f"real curve: {ETFE}, specimen {args.specimen} (the config init writes)")
+            results["real"] = workflow(config, [("sample", ["sample", str(config)]),
+                                                ("report", ["report", str(config.parent)])],
+                                       args.repeats)
+        if not args.skip_shipped:
+            run = tmp / "hdpe-a-5e-3"
+            shutil.copytree(ROOT / "runs" / "hdpe-a-5e-3", run,
+                            ignore=shutil.ignore_patterns(*OUTPUTS))
+            print("shipped example runs/hdpe-a-5e-3 (copy)")
+            results["shipped"] = workflow(run / "config.yaml",
+                                          [("sample", ["sample", str(run / "config.yaml")])],
+                                          args.repeats)
+    ref1 = seconds()
+    unit = (ref0 + ref1) / 2 if ref0 and ref1 else None
+    print(f"reference job after: {ref1} s; unit {unit:.3f} s" if unit else "no reference job")
+    print(load())
+    if "real" in results:
+        r = results["real"]
+        both = [(a[0] + b[0], a[1] + b[1]) for a, b in zip(r["sample"], r["report"], strict=True)]
+        print(summary("real curve: sample (fit included)", r["sample"], unit))
+        print(summary("real curve: report", r["report"], unit))
+        print(summary("real curve: sample + report", both, unit))
+    if "shipped" in results:
+        print(summary("shipped example: sample (empty)", results["shipped"]["sample"], unit))
+
+
+if __name__ == "__main__":
+    main()
