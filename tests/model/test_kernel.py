@@ -320,3 +320,39 @@ def test_simulate_cache_keeps_the_last_inputs_only():
     assert cached_model(np.linspace(0, 10, 30), np.linspace(0, 0.05, 30)) is not models[0]
     with pytest.raises(ValueError, match="increase strictly"):
         cached_model(np.array([0.0, 1.0, 1.0]), np.zeros(3))
+
+
+_FRESH_OR_CACHED = r"""
+import hashlib, sys
+import numpy as np
+from bayes_dnlr.model import DNLR
+rng = np.random.default_rng(3)
+for jitter, wiggle in ((0.0, 0.0), (0.0, 1e-4), (0.15, 1e-4)):
+    h = 0.95 * (1 + jitter * rng.uniform(-1, 1, 399))
+    t = np.concatenate([[0.0], np.cumsum(h)])
+    m = DNLR(t, 5e-3 * t + wiggle * np.sin(t / 7.0), 50, 6)
+    print(hashlib.sha256(m.stress({"E": 2854.0, "G": 2.32, "tau_max": 5.79}).tobytes()).hexdigest())
+"""
+
+
+@pytest.mark.slow
+def test_the_first_compile_and_the_cached_code_give_the_same_stress(tmp_path) -> None:
+    """The stress of a process that compiles the kernel and of one that loads it from numba's cache
+    are the same to the bit, on uniform and jittered grids (with fused multiply-adds allowed, the
+    two differed by 1 ulp on uniform grids, and so did the first run's chain from every later one)."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    runs = [subprocess.run([sys.executable, "-c", _FRESH_OR_CACHED], env=env, capture_output=True,
+                           text=True, check=True).stdout.split() for _ in range(2)]
+    assert any(tmp_path.rglob("*.nbi"))             # the second run loaded what the first compiled
+    assert len(runs[0]) == 3
+    assert runs[0] == runs[1]
+
+
+def test_the_kernel_does_not_contract_into_fused_multiply_adds() -> None:
+    """The cheap guard of the test above (which compiles the kernel afresh, minutes of the slow
+    suite): "contract" is what made compiled and cached code differ."""
+    assert "contract" not in kernel._FASTMATH
