@@ -47,7 +47,7 @@ def t_logpdf(x: np.ndarray, mean: np.ndarray, chol: np.ndarray, dof: float) -> n
 
 class ConditionalMove(_emcee.moves.RedBlueMove):
     """Independence proposal of the hyperparameters ``mapper.hyper`` (Student t of the complement)
-    and of the model block ``mapper.model`` given them (``mapper.place``, ``mapper.standardize``)."""
+    and of the model block ``mapper.model`` given them (``mapper.standardize_and_place``)."""
 
     def __init__(self, mapper: Any, dof: float = T_DOF, scale: float = T_SCALE) -> None:
         super().__init__()
@@ -70,10 +70,11 @@ class ConditionalMove(_emcee.moves.RedBlueMove):
             random.chisquare(self.dof, size=ns) / self.dof)[:, None]
         u_new = random.randn(ns, p) / np.sqrt(random.chisquare(self.dof, size=ns) / self.dof)[:, None]
         h_old = s[:, self.hyper]
-        u_old, ld_old = self.mapper.standardize(h_old, s[:, self.model])
+        u_old, ld_old, theta_new, ld_new = self.mapper.standardize_and_place(
+            h_old, s[:, self.model], h_new, u_new)
         q = s.copy()
         q[:, self.hyper] = h_new
-        q[:, self.model], ld_new = self.mapper.place(h_new, u_new)
+        q[:, self.model] = theta_new
         lt_h = t_logpdf(np.concatenate([h_old, h_new]), mean, chol, self.dof)
         lt_u = -0.5 * (self.dof + p) * np.log1p(np.sum(np.concatenate([u_old, u_new]) ** 2,
                                                        axis=1) / self.dof)

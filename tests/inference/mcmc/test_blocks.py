@@ -93,6 +93,20 @@ def test_the_map_is_invertible_and_its_jacobian_is_the_determinant() -> None:
         assert np.isclose(np.log(abs(np.linalg.det(jac))), log_jac[k], atol=1e-5)
 
 
+def test_one_interpolation_for_both_ends_of_the_move_gives_the_same_bits() -> None:
+    """The move interpolates the map once over its old and new rows: the same values, bit for bit,
+    as standardize and place called apart (the chain does not change)."""
+    m = _wrong_map()
+    rng = np.random.default_rng(5)
+    h, h_new = rng.uniform(-4, 4, (16, 2)), rng.uniform(-4, 4, (16, 2))
+    theta, u_new = rng.standard_normal((16, 2)), rng.standard_normal((16, 2))
+    u, ld, placed, ld_new = m.standardize_and_place(h, theta, h_new, u_new)
+    u_ref, ld_ref = m.standardize(h, theta)
+    placed_ref, ld_new_ref = m.place(h_new, u_new)
+    for got, ref in ((u, u_ref), (ld, ld_ref), (placed, placed_ref), (ld_new, ld_new_ref)):
+        assert np.array_equal(got, ref)
+
+
 def test_the_move_changes_both_blocks_and_rejects_what_it_cannot_place() -> None:
     rng = np.random.RandomState(4)
     s = rng.randn(16, 4)
