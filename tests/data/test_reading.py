@@ -271,3 +271,23 @@ def test_python_float_would_accept_what_the_reader_refuses():
     assert float("6_54.93") == 654.93 and float("５０") == 50.0
 
 
+
+
+@pytest.mark.parametrize("name", sorted(VARIANTS))
+def test_a_group_is_sampled_as_cell_by_cell(tmp_path, name, monkeypatch):
+    """Table.group_sample (the columns a hint compares) reads plain rows with numpy's reader: the
+    same values, NaN where a cell is not a number, as the parse of every cell."""
+    from bayes_dnlr.data.reading import Table, read_table
+
+    content, data = VARIANTS[name]
+    path = tmp_path / "test.csv"
+    path.write_bytes(content if isinstance(content, bytes) else content.encode("utf-8"))
+    raw = {"name": "t", "data": {"file": "test.csv", "columns": COLUMNS, **BASE, **data}}
+    table = read_table(path, parse_config(raw, source=tmp_path / "config.yaml").data)
+    rows_ = np.arange(table.lines.size)
+    fast = table.group_sample(rows_)
+    monkeypatch.setattr(Table, "_plain_group_sample", lambda self, rows: None)
+    slow = table.group_sample(rows_)
+    assert len(fast) == len(slow) == table.group[1] > 0
+    for a, b in zip(fast, slow, strict=True):
+        assert np.array_equal(a, b, equal_nan=True)
