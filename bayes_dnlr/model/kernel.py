@@ -57,10 +57,7 @@ X_RELAXED = 40.0        # exp(-40) = 4e-18: a mode this fast has no memory of th
 TINY = 1.0e-200         # states below this are flushed to zero (denormals are slow)
 DT, IDT, DE, DH, H1, RHO = 0, 1, 2, 3, 4, 5    # the columns of Grid.steps (model/grid.py)
 
-# reassociation (vectorised sums over the modes) and no signed zeros, but no contraction into fused
-# multiply-adds: with "contract", the code numba compiles in a process and the code it loads from
-# its cache fused different operations, and the first run after a change (or in a fresh clone)
-# gave stresses 1 ulp away from every later run (a different chain from the same seed)
+# no "contract" (FMA): compiled and cache-loaded code fused differently, so first runs were 1 ulp off
 _FASTMATH = {"reassoc", "nsz"}
 
 _LOG2E = 1.4426950408889634
@@ -573,8 +570,7 @@ def integrate(tau_max, tau_max_R, alpha, grid, want_grad, out, grad_t, grad_r, g
     if n_tensile > 0:
         tabs = _phase_tables(grid, p, tau_max, False, False)
         j0_t = tabs.j0
-        states = (A[j0_t:], B[j0_t:], C[j0_t:], gA[j0_t:], gB[j0_t:], gC[j0_t:], rA[j0_t:],
-                  rB[j0_t:])
+        states = (A[j0_t:], B[j0_t:], C[j0_t:], gA[j0_t:], gB[j0_t:], gC[j0_t:], rA[j0_t:], rB[j0_t:])
         _integrate_phase(grid, tabs, False, 0, n_tensile, p, cw, states, want_grad, out, grad_t,
                          grad_r, grad_a, av, omv)
 

@@ -23,7 +23,6 @@ from pathlib import Path
 
 from bayes_dnlr import __version__
 from bayes_dnlr.numbers import fmt
-from bayes_dnlr.report import model_error as rn
 from bayes_dnlr.report import run_sections as rs
 from bayes_dnlr.report import test_sections as ts
 from bayes_dnlr.report.across_tests import rate_question, rate_section, tables_3_5
@@ -32,6 +31,7 @@ from bayes_dnlr.report.figures import import_figure_modules
 from bayes_dnlr.report.headline import headline as _headline
 from bayes_dnlr.report.headline import warnings as _warnings
 from bayes_dnlr.report.page_parts import CSS, bullets, embed
+from bayes_dnlr.runs.curve_cache import report_curves
 from bayes_dnlr.runs.curves import model_curves, run_white_curve
 from bayes_dnlr.runs.folder import write_atomic
 from bayes_dnlr.runs.layout import (
@@ -138,16 +138,12 @@ def _part(run: RunResults, test: str) -> ts.Part:
 
     view = run.of_test(test)
     plain = run.layout.plain
-    curves = model_curves(view) if view.test is not None else None
+    curves, disc = report_curves(view, test) if view.test is not None else (None, None)
     part = ts.Part(test, view, curves, standard_results(view.test) if view.test is not None else None,
                    heading="" if plain else ts.rate_heading(test, view),
-                   suffix="" if plain else "-" + _slug(test))
-    if curves is not None:
-        centre = curves.median if curves.median is not None else curves.gn_curve
-        if centre is not None and view.uses_discrepancy:
-            part.discrepancy = rn.discrepancy_on_window(view, centre[curves.window])
-        if curves.gn_curve is not None:
-            part.white_curve = run_white_curve(view, curves)
+                   suffix="" if plain else "-" + _slug(test), discrepancy=disc)
+    if curves is not None and curves.gn_curve is not None:
+        part.white_curve = run_white_curve(view, curves)
     return part
 
 

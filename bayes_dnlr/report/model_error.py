@@ -5,14 +5,13 @@
   discrepancy (linearized GLS, and the posterior), with the paper's by-hand ±6.5 % as context;
 - the discrepancy's hyperparameters: maximum likelihood, prior, posterior;
 - the autocorrelation of the residuals (white fit, and whitened by the discrepancy);
-- the posterior mean of δ, drawn on the residual plot by html.py;
+- the posterior mean of δ (runs/curves.py), drawn on the residual plot by html.py;
 - the verdict of summary.json's ``noise`` block, in words.
 """
 
 from __future__ import annotations
 
 import html
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +21,7 @@ from bayes_dnlr.report import figures as figs
 from bayes_dnlr.report.figure_cache import drawn
 from bayes_dnlr.report.page_parts import img, para
 from bayes_dnlr.report.tables import Table
+from bayes_dnlr.runs.curves import Discrepancy
 from bayes_dnlr.runs.results import RunResults
 from bayes_dnlr.vocabulary import Z90
 
@@ -29,60 +29,6 @@ PAPER_BY_HAND = ("The paper widens Err(E) of A_// at 5e-3 1/s from the linearize
                  "by hand, \"changing E within ±ΔE so that the model curves flank the experimental "
                  "ones\", because its residuals show bias (section 4.1).")
 MAX_LAGS = 300
-
-
-@dataclass
-class Discrepancy:
-    """δ on the compared samples, at the posterior median (or the GLS estimate)."""
-
-    kernel: str
-    axis_name: str
-    axis: object              # inference.discrepancy.Axis
-    residuals: np.ndarray     # data - model on the window, window order
-    mean: np.ndarray          # E[δ | residuals], window order
-    whitened: np.ndarray      # L⁻¹ residuals, axis order
-    hyper: dict[str, float]   # sigma0, amplitude, length used
-
-
-def _hyper(run: RunResults) -> dict[str, float] | None:
-    s = run.summary or {}
-    noise = s.get("noise") or {}
-    if noise.get("model") != "discrepancy":
-        return None
-    out = {}
-    for key, name in (("sigma0", "sigma0"), ("amplitude", "amplitude"), ("length", "length")):
-        block = noise.get(name) or {}
-        v = block.get("mean", block.get("value"))
-        if v is None:
-            return None
-        out[key] = float(v)
-    return out
-
-
-def discrepancy_on_window(run: RunResults, model_window: np.ndarray) -> Discrepancy | None:
-    """δ's posterior mean and the whitened residuals, given the model on the window's samples."""
-    hyper = _hyper(run)
-    if hyper is None or run.test is None:
-        return None
-    from bayes_dnlr.inference.discrepancy.hyper import gp, test_axis
-
-    t = run.test
-    n = t.model_end
-    win = np.asarray(t.window[:n], bool)
-    noise = run.summary["noise"]
-    axis = test_axis(run.cfg.noise.discrepancy, t, win)
-    r = np.asarray(t.stress[:n], dtype=float)[win] - model_window
-    kind = noise.get("kernel", "exp")
-    amp = max(hyper["amplitude"], 0.0)
-    mean_sorted = gp.posterior_mean(axis.values, axis.sort(r), hyper["sigma0"], amp, hyper["length"], kind,
-                                    axis.origin)
-    mean = np.empty_like(mean_sorted)
-    if axis.order is None:
-        mean = mean_sorted
-    else:
-        mean[axis.order] = mean_sorted
-    white, _ = gp.whiten(axis.values, axis.sort(r), hyper["sigma0"], amp, hyper["length"], kind, axis.origin)
-    return Discrepancy(kind, axis.name, axis, r, mean, white, hyper)
 
 
 def autocorrelation(x: np.ndarray, max_lag: int) -> np.ndarray:

@@ -22,7 +22,7 @@ from bayes_dnlr.report import tables as tb
 from bayes_dnlr.report import views
 from bayes_dnlr.report.figure_cache import drawn
 from bayes_dnlr.report.page_parts import bullets, img, para
-from bayes_dnlr.runs.curves import N_DRAWS, Curves
+from bayes_dnlr.runs.curves import N_DRAWS, Curves, Discrepancy
 from bayes_dnlr.runs.results import RunResults
 
 
@@ -37,7 +37,7 @@ class Part:
     heading: str                         # "" for a run with one test (its sections are the run's)
     suffix: str                          # figure names: fit{suffix}.png
     white_curve: np.ndarray | None = None
-    discrepancy: rn.Discrepancy | None = None
+    discrepancy: Discrepancy | None = None
 
     def figure(self, figdir: Path, base: str) -> Path:
         return figdir / f"{base}{self.suffix}.png"

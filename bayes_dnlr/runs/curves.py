@@ -1,6 +1,7 @@
 """The model's curves of a run on its data grid, for the report's figures: the posterior median
-and 90 % bands (credible and predictive), the least-squares curve and the normalised sensitivities
-(eq. 37). Computed here, drawn by report/figures.py.
+and 90 % bands (credible and predictive), the least-squares curve, the normalised sensitivities
+(eq. 37) and, under the discrepancy likelihood, δ's posterior mean and the whitened residuals.
+Computed here (runs/curve_cache.py keeps them), drawn by report/figures.py.
 """
 
 from __future__ import annotations
@@ -9,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bayes_dnlr.inference.discrepancy.axis import Axis
 from bayes_dnlr.runs.results import RunResults
 from bayes_dnlr.vocabulary import SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT, Z90
 
@@ -128,3 +130,69 @@ def model_curves(run: RunResults, n_draws: int = N_DRAWS, seed: int = 0) -> Curv
         plo, phi = mean - half, mean + half
         c.predictive = (plo, phi)
     return c
+
+
+@dataclass
+class Discrepancy:
+    """δ on the compared samples, at the posterior median (or the GLS estimate)."""
+
+    kernel: str
+    axis_name: str
+    axis: Axis
+    residuals: np.ndarray     # data - model on the window, window order
+    mean: np.ndarray          # E[δ | residuals], window order
+    whitened: np.ndarray      # L⁻¹ residuals, axis order
+    hyper: dict[str, float]   # sigma0, amplitude, length used
+
+
+def _hyper(run: RunResults) -> dict[str, float] | None:
+    s = run.summary or {}
+    noise = s.get("noise") or {}
+    if noise.get("model") != "discrepancy":
+        return None
+    out = {}
+    for key, name in (("sigma0", "sigma0"), ("amplitude", "amplitude"), ("length", "length")):
+        block = noise.get(name) or {}
+        v = block.get("mean", block.get("value"))
+        if v is None:
+            return None
+        out[key] = float(v)
+    return out
+
+
+def discrepancy_on_window(run: RunResults, model_window: np.ndarray) -> Discrepancy | None:
+    """δ's posterior mean and the whitened residuals, given the model on the window's samples."""
+    hyper = _hyper(run)
+    if hyper is None or run.test is None:
+        return None
+    from bayes_dnlr.inference.discrepancy import gp
+    from bayes_dnlr.inference.discrepancy.axis import test_axis
+
+    t = run.test
+    n = t.model_end
+    win = np.asarray(t.window[:n], bool)
+    noise = run.summary["noise"]
+    axis = test_axis(run.cfg.noise.discrepancy, t, win)
+    r = np.asarray(t.stress[:n], dtype=float)[win] - model_window
+    kind = noise.get("kernel", "exp")
+    amp = max(hyper["amplitude"], 0.0)
+    mean_sorted = gp.posterior_mean(axis.values, axis.sort(r), hyper["sigma0"], amp, hyper["length"], kind,
+                                    axis.origin)
+    mean = np.empty_like(mean_sorted)
+    if axis.order is None:
+        mean = mean_sorted
+    else:
+        mean[axis.order] = mean_sorted
+    white, _ = gp.whiten(axis.values, axis.sort(r), hyper["sigma0"], amp, hyper["length"], kind, axis.origin)
+    return Discrepancy(kind, axis.name, axis, r, mean, white, hyper)
+
+
+def compute_curves(view: RunResults) -> tuple[Curves, Discrepancy | None]:
+    """A test's curves (``model_curves``) and, under the discrepancy likelihood, δ given the model
+    at its centre (the posterior median, else the least-squares curve)."""
+    curves = model_curves(view)
+    centre = curves.median if curves.median is not None else curves.gn_curve
+    disc = None
+    if centre is not None and view.uses_discrepancy:
+        disc = discrepancy_on_window(view, centre[curves.window])
+    return curves, disc

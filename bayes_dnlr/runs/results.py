@@ -8,7 +8,7 @@ in ``problems``, so that a report can always say what it lacks.
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -41,6 +41,7 @@ class RunResults:
     fit_record: FitRecord | None = None          # fit.json, typed (read from ``fit`` on first use)
     run_noise: str | None = None                 # a test's view: the noise model of the run's posterior
     _tests: dict[str, RunResults] = field(default_factory=dict, repr=False)
+    _loaded: dict[str, Any] = field(default_factory=dict, repr=False)   # tests' data read already
 
     @property
     def name(self) -> str:
@@ -151,7 +152,8 @@ class RunResults:
         if self.draws is not None:
             draws = {k: self.draws[g] for k, g in own.items() if g in self.draws}
         view = RunResults(run_dir=self.run_dir, cfg=cfg, summary=summary, draws=draws, fit_record=record,
-                          run_noise=((self.summary or {}).get("noise") or {}).get("model"))
+                          run_noise=((self.summary or {}).get("noise") or {}).get("model"),
+                          _loaded={test: self._loaded[test]} if test in self._loaded else {})
         attach_test(view, cfg)
         self._tests[test] = view
         return view
@@ -302,10 +304,12 @@ def _read_draws_xarray(path: Path, names: Sequence[str] | None) -> dict[str, np.
     return out
 
 
-def load_run(run_dir: Path | str, load_data: bool = True, source: Path | str | None = None) -> RunResults:
+def load_run(run_dir: Path | str, load_data: bool = True, source: Path | str | None = None,
+             tests: Mapping[str, Any] | None = None) -> RunResults:
     """Read a run directory. Missing pieces are None; what went wrong is listed in ``problems``;
     results made from another config or data than the current ones (``source``: the user's config
-    when known, see ``runs.provenance``) are listed in ``stale``."""
+    when known, see ``runs.provenance``) are listed in ``stale``. ``tests``: the tests' data by
+    name, when the caller has read them already (``sample``)."""
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
         from bayes_dnlr.errors import RunError
@@ -319,7 +323,7 @@ def load_run(run_dir: Path | str, load_data: bool = True, source: Path | str | N
         raise RunError(f"{err} (run `python -m bayes_dnlr fit <config.yaml>` first)") from None
     cfg = load_config(cfg_path)
     problems: list[str] = []
-    run = RunResults(run_dir=run_dir, cfg=cfg, problems=problems)
+    run = RunResults(run_dir=run_dir, cfg=cfg, problems=problems, _loaded=dict(tests or {}))
     run.fit = _read_json(run_dir / FIT_FILE, problems)
     run.summary = _read_json(run_dir / SUMMARY_FILE, problems)
     nc = run_dir / POSTERIOR_FILE
@@ -338,6 +342,9 @@ def load_run(run_dir: Path | str, load_data: bool = True, source: Path | str | N
 
 def attach_test(run: RunResults, cfg: Config) -> None:
     """The run's data into ``run.test``; when it cannot be read, why into ``run.data_error``."""
+    if len(run._loaded) == 1 and cfg.test_names == list(run._loaded):
+        run.test = next(iter(run._loaded.values()))
+        return
     try:
         from bayes_dnlr.data import load_test
 

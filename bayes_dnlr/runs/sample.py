@@ -128,12 +128,13 @@ def _remove_outputs(run_dir: Path) -> None:
 # ---------------------------------------------------------------- sampling
 
 def sample(cfg: Config, *, restart: bool = False, progress: bool = True,
-           threads: int | None = None) -> Posterior:
+           threads: int | None = None, report_curves: bool = True) -> Posterior:
     """Sample the posterior of ``cfg`` to convergence (or max_steps); resumable. See the module doc.
 
     ``threads``: threads of the compiled likelihood, instead of config ``sampler.threads``; both
     are capped by NUMBA_NUM_THREADS and OMP_NUM_THREADS (``model.threads.use_threads``). The chain
-    does not depend on it."""
+    does not depend on it. ``report_curves``: after sampling, compute and keep the report's curves
+    while the compiled model is loaded (runs/curve_cache.py), so that ``report`` need not load it."""
     from bayes_dnlr.model.threads import use_threads
 
     t0 = time.perf_counter()
@@ -146,7 +147,8 @@ def sample(cfg: Config, *, restart: bool = False, progress: bool = True,
     created = make_dir(cfg.run_dir)
     try:
         with _run_lock(cfg.run_dir):
-            post = _sample(cfg, test, restart=restart, progress=progress, before=before)
+            post = _sample(cfg, test, restart=restart, progress=progress, before=before,
+                           report_curves=report_curves)
     except BaseException:
         if created:
             discard_if_empty(cfg.run_dir)   # nothing half-made is left by a failed first command
@@ -187,7 +189,8 @@ def _current_fit(cfg: Config, test, *, replace: bool, progress: bool) -> dict[st
     return load_fit(cfg.run_dir)
 
 
-def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before=None) -> Posterior:
+def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before=None,
+            report_curves: bool = True) -> Posterior:
     run_dir = cfg.run_dir
     chains = run_dir / CHAINS_FILE
     parts = fingerprint_parts(cfg, test.sha256)
@@ -295,12 +298,28 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
     post = _write_result(cfg, run, fit, conv, reason, fp, test, sigma0_source,
                          wall_time=elapsed, store_time=store_time, evals=evals0 + out.evals,
                          check_time=out.check_time, record=record)
+    t_out = time.perf_counter() - t_out + t_finish
+    t_curves = time.perf_counter()
+    if report_curves:
+        _keep_report_curves(cfg, test)
     # where a call's time went (benchmarks/sample_command.py): the fit (or reading fit.json), the
-    # sampling loop, and the outputs (finishing chains.h5, statistics, posterior.nc, summary.json)
+    # sampling loop, the outputs (finishing chains.h5, statistics, posterior.nc, summary.json) and
+    # the report's curves
     post.extras["timing"] = {"fit_s": t_fit, "loop_s": out.sampling_time,
                              "loop_cpu_s": out.cpu_time, "loop_steps": int(out.chain.shape[0]),
-                             "output_s": time.perf_counter() - t_out + t_finish}
+                             "output_s": t_out, "report_curves_s": time.perf_counter() - t_curves}
     return post
+
+
+def _keep_report_curves(cfg: Config, test: TestSet) -> None:
+    """The report's curves of the run just sampled (runs/curve_cache.py). Only a head start for
+    ``report``: where they cannot be made here, the report makes them and says what it lacks."""
+    from bayes_dnlr.runs.curve_cache import keep_report_curves
+
+    try:
+        keep_report_curves(cfg.run_dir, test.tests)
+    except (BayesDnlrError, OSError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+        pass
 
 
 def _json_attr(v: Any) -> Any:

@@ -30,6 +30,7 @@ import numpy as np
 
 from bayes_dnlr.config import Config, SampledNoise
 from bayes_dnlr.inference.discrepancy import gp, orthogonal
+from bayes_dnlr.inference.discrepancy.axis import test_axis
 from bayes_dnlr.inference.discrepancy.hyper import (
     AMPLITUDE,
     AMPLITUDE_FLOOR,
@@ -42,7 +43,6 @@ from bayes_dnlr.inference.discrepancy.hyper import (
     restricted_likelihood,
     restricted_log_likelihood,
     search_priors,
-    test_axis,
     whitener,
 )
 from bayes_dnlr.inference.lsq import optimize

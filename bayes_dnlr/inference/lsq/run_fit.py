@@ -24,7 +24,8 @@ import numpy as np
 from bayes_dnlr.config import Config
 from bayes_dnlr.digests import jsonable
 from bayes_dnlr.errors import BayesDnlrError
-from bayes_dnlr.inference.discrepancy.hyper import Hyper, discrepancy_priors, is_white, test_axis, whitener
+from bayes_dnlr.inference.discrepancy.axis import test_axis
+from bayes_dnlr.inference.discrepancy.hyper import Hyper, discrepancy_priors, is_white, whitener
 from bayes_dnlr.inference.layout import Layout, test_of
 from bayes_dnlr.inference.lsq.identify import FitResult, fit_test
 from bayes_dnlr.inference.lsq.optimize import run_minimiser

@@ -28,7 +28,8 @@ import numpy as np
 
 from bayes_dnlr.config import Config, ParameterSpec
 from bayes_dnlr.data import TestData
-from bayes_dnlr.inference.discrepancy.hyper import AMPLITUDE, LENGTH, Axis, gp, is_white, test_axis
+from bayes_dnlr.inference.discrepancy.axis import Axis, test_axis
+from bayes_dnlr.inference.discrepancy.hyper import AMPLITUDE, LENGTH, gp, is_white
 from bayes_dnlr.inference.posterior import fused as fused_kernel
 from bayes_dnlr.model import DNLR
 from bayes_dnlr.vocabulary import (

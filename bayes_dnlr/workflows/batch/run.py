@@ -128,12 +128,13 @@ def run_job(job: Job, report: Reporter | None = None) -> dict[str, Any]:
             from bayes_dnlr.runs.sample import sample
 
             cfg = job.config()
+            curves = report is not None      # the report's curves while the model is loaded
             try:
-                sample(cfg, progress=False)
+                sample(cfg, progress=False, report_curves=curves)
             except StaleRunError:
                 if not job.restart:
                     raise
-                sample(cfg, progress=False, restart=True)   # batch --restart: only stale runs
+                sample(cfg, progress=False, restart=True, report_curves=curves)   # only stale runs
             if report is not None and _stale_report(cfg.run_dir):
                 report(cfg.run_dir)
             row.update(result_row(job, cfg))

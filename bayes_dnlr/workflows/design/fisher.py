@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bayes_dnlr.inference.discrepancy import gp
-from bayes_dnlr.inference.discrepancy.hyper import make_axis
+from bayes_dnlr.inference.discrepancy.axis import make_axis
 from bayes_dnlr.inference.lsq.sensitivity import correlation, covariance, sensitivity_matrix
 from bayes_dnlr.model import DNLR
 from bayes_dnlr.vocabulary import RELAXATION_PARAMETERS, UNIVERSAL_EXPONENT

@@ -8,11 +8,11 @@ import pytest
 
 from bayes_dnlr.config import DiscrepancyConfig
 from bayes_dnlr.inference.discrepancy import gp
+from bayes_dnlr.inference.discrepancy.axis import make_axis
 from bayes_dnlr.inference.discrepancy.hyper import (
     Hyper,
     amplitude_prior,
     hyper_fit,
-    make_axis,
     restricted_likelihood,
     restricted_log_likelihood,
     search_priors,
