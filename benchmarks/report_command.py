@@ -14,8 +14,11 @@ included).
 4. ``--refjob SCRIPT``: a reference job (a script printing its own seconds), run before and after,
    and the report's times as ratios to it.
 
-The run directory is copied to a temporary folder (the shipped one is not touched); it must hold a
-finished ``sample`` (run ``python -m bayes_dnlr sample runs/hdpe-a-5e-3/config.yaml`` first).
+The run directory is copied to a temporary folder beside it (the shipped one is not touched): at
+the same depth, so that the relative data path of its config.resolved.yaml still reaches the data
+(a copy elsewhere reported a real curve without its data, and without the figures that need it).
+It must hold a finished ``sample`` (run ``python -m bayes_dnlr sample runs/hdpe-a-5e-3/config.yaml``
+first).
 
     .venv/bin/python benchmarks/report_command.py [runs/hdpe-a-5e-3] [--repeats 5] [--refjob job.py]
 """
@@ -115,9 +118,10 @@ def main() -> None:
     print(f"load: {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} {os.getloadavg()[2]:.2f} "
           f"(1/5/15 min), {os.cpu_count()} CPUs")
     ref = [_refjob(args.refjob)]
-    with tempfile.TemporaryDirectory() as tmp:
-        run = Path(tmp) / src.name
-        shutil.copytree(src, run, ignore=shutil.ignore_patterns("figures", "report.html"))
+    with tempfile.TemporaryDirectory(dir=src.resolve().parent, prefix=f".{src.name}-bench-") as tmp:
+        run = Path(tmp)
+        shutil.copytree(src, run, ignore=shutil.ignore_patterns("figures", "report.html"),
+                        dirs_exist_ok=True)
         env = {**os.environ, "MPLBACKEND": "Agg"}
         cmd = [sys.executable, "-m", "bayes_dnlr", "report", "--force", str(run)]
         subprocess.run(cmd, check=True, capture_output=True, env=env, cwd=ROOT)    # warm caches

@@ -9,25 +9,24 @@
 - ``rank_plot``: ArviZ's rank plot (Δ-ECDF of fractional ranks and the multi-chain uniformity test),
   computed by report/rank.py.
 
-Figures are rendered once (``save_figure`` crops the canvas instead of savefig's second, measuring
-rendering for bbox_inches="tight"); neither ArviZ nor xarray is imported (docs/report.md).
 - ``acf_plot``: autocorrelation of the residuals (white fit, and whitened by the discrepancy).
+
+Each figure is a ``Figure`` of its own, not pyplot's, rendered once (report/canvas.py); neither
+ArviZ nor xarray is imported (docs/report.md).
 """
 
 from __future__ import annotations
 
 import math
-import os
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
 
-from bayes_dnlr.report.figure_cache import png_metadata
+from bayes_dnlr.report.canvas import new_figure, save_figure
 from bayes_dnlr.vocabulary import QUANTITIES
 
-DPI = 110
 SYMBOLS = {k: q.symbol for k, q in QUANTITIES.items()}
 # axis labels: the symbol and its unit (the discrepancy's length is in s or in strain, by its axis)
 LABELS = {k: q.symbol if k == "disc_length" else f"{q.symbol} (spectrum exponent)" if q.unit == "-"
@@ -66,8 +65,8 @@ def _corner_impl():
 
 
 def import_figure_modules() -> None:
-    """matplotlib's pyplot and corner, imported ahead of the first figure."""
-    pyplot()
+    """matplotlib (its Figure, the Agg canvas) and corner, imported ahead of the first figure."""
+    new_figure()
     _corner_impl()
 
 
@@ -75,37 +74,6 @@ def _arviz_corner(*args, **kwargs):
     from corner.arviz_corner import arviz_corner
 
     return arviz_corner(*args, **kwargs)
-
-
-PAD_INCHES = 0.1      # matplotlib's pad around a bbox_inches="tight" figure
-
-
-def save_figure(fig, path: Path) -> Path:
-    """Write the figure as PNG, cropped to its content plus PAD_INCHES like bbox_inches="tight",
-    from a single rendering: savefig(bbox_inches="tight") renders the figure twice (once to measure
-    it). Content reaching beyond the canvas (the crop could not hold it) falls back to savefig."""
-    import matplotlib.image as mimage
-
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.set_dpi(DPI)
-    fig.canvas.draw()
-    renderer = fig.canvas.get_renderer()
-    bbox = fig.get_tightbbox(renderer)
-    w, h = fig.canvas.get_width_height()
-    x0, x1 = (bbox.x0 - PAD_INCHES) * DPI, (bbox.x1 + PAD_INCHES) * DPI
-    y0, y1 = (bbox.y0 - PAD_INCHES) * DPI, (bbox.y1 + PAD_INCHES) * DPI
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")   # replaced in one step: never half a PNG
-    if x0 >= 0 and y0 >= 0 and x1 <= w and y1 <= h:
-        rgba = np.asarray(renderer.buffer_rgba())
-        top, bottom = int(math.floor(h - y1)), int(math.ceil(h - y0))
-        crop = rgba[max(top, 0):min(bottom, h), max(int(math.floor(x0)), 0):min(int(math.ceil(x1)), w)]
-        mimage.imsave(tmp, crop, format="png", dpi=DPI, metadata=png_metadata())
-    else:
-        fig.savefig(tmp, dpi=DPI, bbox_inches="tight", format="png", metadata=png_metadata())
-    os.replace(tmp, path)
-    pyplot().close(fig)
-    return path
 
 
 def ellipse_xy(mean: Sequence[float], cov: np.ndarray, k: float, n: int = 200) -> np.ndarray:
@@ -142,7 +110,6 @@ def corner_plot(samples: np.ndarray, names: Sequence[str], path: Path,
     posterior contour on top of its ellipse means the linearization holds.
     """
     corner_impl = _corner_impl()
-    plt = pyplot()
     samples = np.asarray(samples, dtype=float)
     p = samples.shape[1]
     est = None if gn_estimate is None else np.asarray(gn_estimate, dtype=float)
@@ -151,7 +118,7 @@ def corner_plot(samples: np.ndarray, names: Sequence[str], path: Path,
     has_truth = truths is not None and any(t is not None for t in truths)
     ranges = _ranges(samples, est, sd, truths if has_truth else None)
     levels = (1 - math.exp(-0.5), 1 - math.exp(-2.0))
-    fig = plt.figure(figsize=(2.3 * p + 1.0, 2.3 * p + 1.0))
+    fig = new_figure(figsize=(2.3 * p + 1.0, 2.3 * p + 1.0))
     corner_impl(samples, fig=fig, labels=[LABELS.get(n, n) for n in names], range=ranges,
                   truths=[t if t is not None else None for t in truths] if has_truth else None,
                   truth_color=C_TRUTH, levels=levels, color="0.2", bins=30, smooth=1.0,
@@ -264,12 +231,11 @@ def fit_plot(x: np.ndarray, data: np.ndarray, path: Path, *, window: np.ndarray,
     ``inset_xmax``: a zoom on x <= inset_xmax, placed where it hides no data (the legend too).
     discrepancy: the posterior mean of the model discrepancy δ on the window (drawn on the residuals).
     """
-    plt = pyplot()
     x, data = np.asarray(x), np.asarray(data)
     window = np.asarray(window, bool)
     centre = median if median is not None else gn_curve
-    fig, (ax, axr) = plt.subplots(2, 1, figsize=(9.0, 7.0), sharex=True,
-                                  gridspec_kw={"height_ratios": [2.2, 1.0], "hspace": 0.06})
+    fig = new_figure(figsize=(9.0, 7.0))
+    ax, axr = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [2.2, 1.0], "hspace": 0.06})
     ax.plot(x[window], data[window], ".", color=C_DATA, ms=2.5, label="data (identification window)",
             zorder=3)
     if (~window).any():
@@ -335,8 +301,8 @@ def acf_plot(lags: np.ndarray, series: Mapping[str, np.ndarray], n: int, path: P
     """Autocorrelation of residual series against the lag, with the ±1.96/√n band of white noise.
 
     series: label -> autocorrelation at ``lags`` (the same length)."""
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(9.0, 3.4))
+    fig = new_figure(figsize=(9.0, 3.4))
+    ax = fig.subplots()
     colors = (C_DATA, C_TRUTH, C_MODEL)
     for (label, acf), c in zip(series.items(), colors, strict=False):
         ax.plot(lags, acf, color=c, lw=1.3, label=label)
@@ -355,8 +321,8 @@ def sensitivity_plot(strain: np.ndarray, sens: Mapping[str, np.ndarray], path: P
                      window: np.ndarray | None = None,
                      xlabel: str = r"true strain $\varepsilon_{11}$") -> Path:
     """Normalised sensitivities X̃_j = β_j ∂σ/∂β_j in MPa (eq. 37) against strain (Fig. 11)."""
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(9.0, 4.8))
+    fig = new_figure(figsize=(9.0, 4.8))
+    ax = fig.subplots()
     for name, s in sens.items():
         ax.plot(strain, s, lw=1.4, label=rf"$\tilde X$({SYMBOLS.get(name, name)})")
     if window is not None and not np.all(window):
@@ -379,7 +345,6 @@ def sensitivity_xy_plot(x_tau: np.ndarray, x_e: np.ndarray, colour: np.ndarray, 
     through the origin would mean E and tau_max cannot be told apart. The sample ``mark`` (an
     index) is circled; a right panel zooms on the samples where ``zoom`` is True (the paper's
     insert: the part of the test where the two sensitivities part), when it holds 3 or more."""
-    plt = pyplot()
     from matplotlib.colors import LogNorm, Normalize
 
     x_tau, x_e, colour = (np.asarray(v, dtype=float) for v in (x_tau, x_e, colour))
@@ -391,8 +356,8 @@ def sensitivity_xy_plot(x_tau: np.ndarray, x_e: np.ndarray, colour: np.ndarray, 
     panels = [(np.ones(n, bool), "whole window" if zoom is not None else "")]
     if zoom is not None and int(np.count_nonzero(zoom)) >= 3:
         panels.append((np.asarray(zoom, bool), zoom_title))
-    fig, axes = plt.subplots(1, len(panels), figsize=(5.25 * len(panels), 4.4),
-                             gridspec_kw={"wspace": 0.45}, squeeze=False)
+    fig = new_figure(figsize=(5.25 * len(panels), 4.4))
+    axes = fig.subplots(1, len(panels), gridspec_kw={"wspace": 0.45}, squeeze=False)
     for k, (ax, (sel, title)) in enumerate(zip(axes[0], panels, strict=True)):
         lo, hi = float(np.min(colour[sel])), float(np.max(colour[sel]))
         norm = (LogNorm if log_colour else Normalize)(lo, hi if hi > lo else lo * 2.0 + 1.0)
@@ -444,13 +409,14 @@ def trace_plot(draws: Mapping[str, np.ndarray], path: Path, max_draws: int = 100
     (thin lines): groups that disagree mean the chain is not converged. Right: each walker's kept
     draws against the step after burn-in (thinned to at most ``max_draws`` per walker; ``step``:
     steps between stored draws)."""
-    plt = pyplot()
+    from matplotlib import colormaps
     from matplotlib.collections import LineCollection
 
     names = list(draws)
-    fig, axes = plt.subplots(len(names), 2, figsize=(11.0, 2.3 * len(names) + 0.6), squeeze=False,
-                             gridspec_kw={"width_ratios": [1.0, 1.6], "hspace": 0.55, "wspace": 0.22})
-    cmap = plt.get_cmap("tab10")
+    fig = new_figure(figsize=(11.0, 2.3 * len(names) + 0.6))
+    axes = fig.subplots(len(names), 2, squeeze=False,
+                        gridspec_kw={"width_ratios": [1.0, 1.6], "hspace": 0.55, "wspace": 0.22})
+    cmap = colormaps["tab10"]
     for row, name in zip(axes, names, strict=True):
         v = np.asarray(draws[name], dtype=float)          # (walker, draw)
         label = LABELS.get(name, name)
@@ -495,16 +461,17 @@ def rank_plot(draws: Mapping[str, np.ndarray], path: Path, groups: int = 8, max_
     uniformity test (its p-value against α, and the ranks that deviate most marked). Walkers are
     thinned by ``thin`` (pass the autocorrelation time), pooled into ``groups`` groups, and at most
     ``max_draws`` draws per group are kept."""
+    from matplotlib import colormaps
+
     from bayes_dnlr.report import rank
 
-    plt = pyplot()
     pooled = _pooled(draws, groups, max_draws, thin)
     names = list(pooled)
     cols = min(4, len(names))
     rows = math.ceil(len(names) / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 2.9 * rows + 0.3), squeeze=False,
-                             sharex=True)
-    cmap = plt.get_cmap("tab10")
+    fig = new_figure(figsize=(3.6 * cols, 2.9 * rows + 0.3))
+    axes = fig.subplots(rows, cols, squeeze=False, sharex=True)
+    cmap = colormaps["tab10"]
     alpha = 1.0 - rank.ENVELOPE_PROB
     for ax, name in zip(axes.ravel(), names, strict=False):
         ranks = rank.fractional_ranks(pooled[name])

@@ -26,7 +26,7 @@ from bayes_dnlr.numbers import fmt
 from bayes_dnlr.report import run_sections as rs
 from bayes_dnlr.report import test_sections as ts
 from bayes_dnlr.report.across_tests import rate_question, rate_section, tables_3_5
-from bayes_dnlr.report.figure_cache import figure_session
+from bayes_dnlr.report.figure_cache import figure_session, keep_long_lived
 from bayes_dnlr.report.figures import import_figure_modules
 from bayes_dnlr.report.headline import headline as _headline
 from bayes_dnlr.report.headline import warnings as _warnings
@@ -138,6 +138,7 @@ def _part(run: RunResults, test: str) -> ts.Part:
 
     view = run.of_test(test)
     plain = run.layout.plain
+    keep_long_lived()            # numba's first call (curves not kept) makes tens of thousands of objects
     curves, disc = report_curves(view, test) if view.test is not None else (None, None)
     part = ts.Part(test, view, curves, standard_results(view.test) if view.test is not None else None,
                    heading="" if plain else ts.rate_heading(test, view),

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -24,8 +23,13 @@ from bayes_dnlr.runs.folder import (
     resolved_config_path,
     write_json,
 )
+from bayes_dnlr.runs.identity import fit_is_current
 from bayes_dnlr.runs.layout import FIT_FILE
 from bayes_dnlr.runs.testset import load_tests, sections
+
+# fit_is_current lives with the other staleness checks (runs/identity.py), where the report reads it
+# without importing the fitting code; it stays part of this module's API (docs/fit.md)
+__all__ = ["RunFit", "fit", "fit_is_current", "load_fit"]
 
 
 def _fit_path(run_dir: Path) -> Path:
@@ -41,37 +45,6 @@ def load_fit(run_dir: str | Path) -> dict[str, Any]:
         return json.loads(path.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise RunError(f"{path}: not a readable fit.json ({err}); run `fit --force` to redo it") from None
-
-
-def _stale_reason(saved: Mapping[str, Any], cfg: Config, sha256: str) -> str | None:
-    """Why a saved fit.json does not belong to this config and data (None when it does)."""
-    return identity.fit_stale_reason(saved, cfg, sections(cfg), sha256, cfg.run_dir)
-
-
-def fit_is_current(cfg: Config, data_sha256: str | None = None) -> bool:
-    """True when ``cfg.run_dir/fit.json`` exists and was made from this config and data file
-    (``data_sha256``: the data file's hash when the caller already has it)."""
-    path = _fit_path(cfg.run_dir)
-    sha = data_sha256 or identity.data_sha(cfg)
-    if not path.is_file() or sha is None:
-        return False
-    try:
-        saved = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError, OSError):
-        return False
-    return _stale_reason(saved, cfg, sha) is None
-
-
-def stale_fit_reason(cfg: Config, data_sha256: str) -> str | None:
-    """Why an existing ``cfg.run_dir/fit.json`` does not belong to this config and data (None when
-    there is none or it does)."""
-    path = _fit_path(cfg.run_dir)
-    if not path.exists():
-        return None
-    try:
-        return _stale_reason(json.loads(path.read_text()), cfg, data_sha256)
-    except (json.JSONDecodeError, UnicodeDecodeError) as err:
-        return f"an unreadable file ({err})"
 
 
 def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) -> RunFit:
@@ -90,7 +63,7 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
         test = load_tests(cfg)
     path = _fit_path(cfg.run_dir)
     if write and not overwrite and path.exists():
-        reason = stale_fit_reason(cfg, test.sha256)
+        reason = identity.stale_fit_reason(cfg, test.sha256)
         if reason is not None:
             config = cfg.source if cfg.source is not None else "<config.yaml>"
             raise RunError(f"{path} exists and was made from {reason}; `python -m bayes_dnlr fit "

@@ -31,7 +31,7 @@ import yaml
 
 from bayes_dnlr.config import Config
 from bayes_dnlr.digests import digest, file_sha256
-from bayes_dnlr.runs.layout import CHAINS_FILE
+from bayes_dnlr.runs.layout import CHAINS_FILE, FIT_FILE
 from bayes_dnlr.runs.testset import plain_names, sections
 
 FORM = 2                                           # the identity form this version writes
@@ -379,6 +379,34 @@ def fit_stale_reason(saved: Mapping[str, Any], cfg: Config, secs: tuple[str, ...
         reasons.append(_data_words(cfg, _known_files(saved)).replace("the data file changed",
                                                                       "a different data file"))
     return " and ".join(reasons) or None
+
+
+def fit_is_current(cfg: Config, data_sha256: str | None = None) -> bool:
+    """True when ``cfg.run_dir/fit.json`` exists and was made from this config and data file
+    (``data_sha256``: the data file's hash when the caller already has it)."""
+    path = Path(cfg.run_dir) / FIT_FILE
+    sha = data_sha256 or data_sha(cfg)
+    if not path.is_file() or sha is None:
+        return False
+    try:
+        saved = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError, OSError):
+        return False
+    return fit_stale_reason(saved, cfg, sections(cfg), sha, cfg.run_dir) is None
+
+
+def stale_fit_reason(cfg: Config, data_sha256: str) -> str | None:
+    """Why an existing ``cfg.run_dir/fit.json`` does not belong to this config and data (None when
+    there is none or it does). Here, not in runs/fit.py, so that a report checks a fit.json without
+    importing the fitting code."""
+    path = Path(cfg.run_dir) / FIT_FILE
+    if not path.exists():
+        return None
+    try:
+        return fit_stale_reason(json.loads(path.read_text()), cfg, sections(cfg), data_sha256,
+                                cfg.run_dir)
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        return f"an unreadable file ({err})"
 
 
 def chain_fingerprint(cfg: Config, run_dir: Path, data_sha256: str,

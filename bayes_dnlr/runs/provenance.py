@@ -48,8 +48,6 @@ def stale_results(run_dir: Path, cfg: Config, fit: Mapping[str, Any] | None,
                   summary: Mapping[str, Any] | None, source: Path | str | None = None) -> list[str]:
     """One sentence per result of the folder made from another config or data than the current
     ones (empty when they match, or when it cannot be told)."""
-    from bayes_dnlr.runs.fit import stale_fit_reason
-
     run_dir = Path(run_dir)
     path = user_config(run_dir, source)
     try:
@@ -64,7 +62,7 @@ def stale_results(run_dir: Path, cfg: Config, fit: Mapping[str, Any] | None,
     if fit is not None:
         record = FitRecord.from_dict(fit, current.test_names)
         if user is not None:
-            reason = stale_fit_reason(user, sha or record.data_sha256 or "")
+            reason = identity.stale_fit_reason(user, sha or record.data_sha256 or "")
         else:
             reason = (None if sha is None or record.data_sha256 == sha
                       else "a different data file (sha256 differs)")

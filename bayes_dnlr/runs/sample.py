@@ -169,10 +169,10 @@ def _current_fit(cfg: Config, test, *, replace: bool, progress: bool) -> dict[st
     """fit.json for this config and data, running the fit when it is missing. A fit.json made from
     another config or data is replaced only when ``replace`` (sample --restart): never silently."""
     from bayes_dnlr.runs.fit import fit as run_fit
-    from bayes_dnlr.runs.fit import fit_is_current, load_fit, stale_fit_reason
+    from bayes_dnlr.runs.fit import load_fit
 
-    if not fit_is_current(cfg, test.sha256):
-        reason = None if replace else stale_fit_reason(cfg, test.sha256)
+    if not identity.fit_is_current(cfg, test.sha256):
+        reason = None if replace else identity.stale_fit_reason(cfg, test.sha256)
         if reason is not None:
             path = cfg.run_dir / FIT_FILE
             config = cfg.source if cfg.source is not None else "<config.yaml>"

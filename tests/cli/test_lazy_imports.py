@@ -1,5 +1,6 @@
-"""`fit` and `sample` import no plotting and none of the heavy modules they do not use:
-each command runs in a fresh process, then the process lists what it imported."""
+"""`fit` and `sample` import no plotting and none of the heavy modules they do not use, `report`
+not the fitting code: each command runs in a fresh process, then the process lists what it
+imported."""
 
 from __future__ import annotations
 
@@ -13,6 +14,9 @@ from support.sampling import write_case
 HEAVY = ("matplotlib", "arviz", "arviz_plots", "arviz_stats", "scipy.stats", "distributed", "corner",
          "xarray", "pandas", "scipy.optimize", "scipy.special")
 FIT_NEEDS = ("scipy.optimize", "scipy.special")     # the fit optimises; sample reads fit.json
+# what a report of a finished run does not use: the fitting code, the sampler, ArviZ
+NOT_IN_REPORT = ("bayes_dnlr.inference.lsq.run_fit", "bayes_dnlr.inference.lsq.optimize",
+                 "scipy.optimize", "emcee", "arviz", "xarray")
 RUN = ("import json, sys\n"
        "from bayes_dnlr.cli import main\n"
        "status = main(sys.argv[1:])\n"
@@ -20,8 +24,8 @@ RUN = ("import json, sys\n"
        "                  'heavy': sorted(m for m in HEAVY if m in sys.modules)}))\n")
 
 
-def _run(*args: str) -> dict:
-    out = subprocess.run([sys.executable, "-c", f"HEAVY = {HEAVY!r}\n" + RUN, *args],
+def _run(*args: str, heavy: tuple[str, ...] = HEAVY) -> dict:
+    out = subprocess.run([sys.executable, "-c", f"HEAVY = {heavy!r}\n" + RUN, *args],
                          capture_output=True, text=True, timeout=600)
     assert out.returncode == 0, out.stderr
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -40,6 +44,9 @@ def test_fit_and_sample_import_no_plotting(tmp_path, discrepancy) -> None:
     assert (cfg.parent / "posterior.nc").is_file()
     summary = json.loads((cfg.parent / "summary.json").read_text())
     assert summary["noise"]["model"] == ("white" if discrepancy == "none" else "discrepancy")
+    report = _run("report", str(cfg.parent), heavy=NOT_IN_REPORT)
+    assert report["status"] == 0 and (cfg.parent / "report.html").is_file()
+    assert report["heavy"] == []
 
 
 def test_emcee_without_scipy_stats_keeps_every_move() -> None:

@@ -127,7 +127,8 @@ def e_figure(rows: list[dict[str, Any]], path: Path) -> Path | None:
     ok = [r for r in rows if r.get("status") == "ok" and r.get("E_mean") is not None]
     if not ok:
         return None
-    from bayes_dnlr.report.figures import pyplot, save_figure
+    from bayes_dnlr.report.canvas import save_figure
+    from bayes_dnlr.report.figures import pyplot
 
     plt = pyplot()
     forest = len(ok) <= FOREST_MAX

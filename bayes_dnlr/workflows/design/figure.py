@@ -7,7 +7,8 @@ import math
 from pathlib import Path
 
 from bayes_dnlr.fileset import publishing
-from bayes_dnlr.report.figures import pyplot, save_figure
+from bayes_dnlr.report.canvas import save_figure
+from bayes_dnlr.report.figures import pyplot
 from bayes_dnlr.workflows.design.config import DesignConfig
 from bayes_dnlr.workflows.design.run import (
     FIGURE_FILE,

@@ -62,7 +62,8 @@ def markdown(pr: PopulationRun) -> str:
 def figure(pr: PopulationRun, path: Path) -> Path:
     """Left: each specimen's own and shrunk estimate (90 % intervals) with μ's HDI; right: the
     posterior of (μ, s) on the grid."""
-    from bayes_dnlr.report.figures import pyplot, save_figure
+    from bayes_dnlr.report.canvas import save_figure
+    from bayes_dnlr.report.figures import pyplot
 
     plt = pyplot()
     r = pr.result
