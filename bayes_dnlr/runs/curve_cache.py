@@ -156,7 +156,7 @@ def keep_report_curves(run_dir: Path, tests: Mapping[str, Any] | None = None) ->
     compiled model is loaded); ``tests``: the tests' data already read, by name."""
     from bayes_dnlr.runs.results import load_run
 
-    run = load_run(run_dir, tests=tests)
+    run = load_run(run_dir, tests=tests, provenance=False)
     for name, view in run.tests.items():
         if view.test is not None:
             report_curves(view, name)

@@ -305,11 +305,12 @@ def _read_draws_xarray(path: Path, names: Sequence[str] | None) -> dict[str, np.
 
 
 def load_run(run_dir: Path | str, load_data: bool = True, source: Path | str | None = None,
-             tests: Mapping[str, Any] | None = None) -> RunResults:
+             tests: Mapping[str, Any] | None = None, provenance: bool = True) -> RunResults:
     """Read a run directory. Missing pieces are None; what went wrong is listed in ``problems``;
     results made from another config or data than the current ones (``source``: the user's config
-    when known, see ``runs.provenance``) are listed in ``stale``. ``tests``: the tests' data by
-    name, when the caller has read them already (``sample``)."""
+    when known, see ``runs.provenance``) are listed in ``stale``, unless ``provenance`` is False
+    (``sample``, which has just made them). ``tests``: the tests' data by name, when the caller
+    has read them already."""
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
         from bayes_dnlr.errors import RunError
@@ -334,9 +335,10 @@ def load_run(run_dir: Path | str, load_data: bool = True, source: Path | str | N
             problems.append(f"posterior.nc could not be read: {err}")
     if load_data and plain_names(cfg):     # a run with several tests: each by its view
         attach_test(run, cfg)
-    from bayes_dnlr.runs.provenance import stale_results
+    if provenance:
+        from bayes_dnlr.runs.provenance import stale_results
 
-    run.stale = stale_results(run_dir, cfg, run.fit, run.summary, source)
+        run.stale = stale_results(run_dir, cfg, run.fit, run.summary, source)
     return run
 
 
