@@ -20,6 +20,7 @@ import numpy as np
 
 from bayes_dnlr.config import Config
 from bayes_dnlr.errors import BayesDnlrError
+from bayes_dnlr.inference.lsq.bounded import bounded_lstsq
 from bayes_dnlr.inference.lsq.sensitivity import derivative, log_sensitivity
 from bayes_dnlr.model import DNLR, Basis
 from bayes_dnlr.vocabulary import (
@@ -189,15 +190,3 @@ class LsqProblem(LogCoordinates):
         out = dict(params)
         out.update(zip(self.linear, (float(x) for x in c), strict=True))
         return out
-
-
-def bounded_lstsq(A: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """argmin |A c - b| within lo <= c <= hi (columns scaled for conditioning)."""
-    scale = np.linalg.norm(A, axis=0)
-    scale[scale == 0] = 1.0
-    c = np.linalg.lstsq(A / scale, b, rcond=None)[0] / scale
-    if np.any(c < lo) or np.any(c > hi):
-        from scipy.optimize import lsq_linear  # here: scipy costs `sample` 0.2-0.5 s to import
-
-        c = lsq_linear(A / scale, b, bounds=(lo * scale, hi * scale)).x / scale
-    return c

@@ -13,7 +13,8 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 
 from bayes_dnlr.inference.layout import Layout
-from bayes_dnlr.inference.lsq.problem import LogCoordinates, LsqProblem, bounded_lstsq
+from bayes_dnlr.inference.lsq.bounded import bounded_lstsq
+from bayes_dnlr.inference.lsq.problem import LogCoordinates, LsqProblem
 from bayes_dnlr.vocabulary import LINEAR_COLUMN, NONLINEAR, TIME_CONSTANTS, base_name
 
 
