@@ -152,7 +152,7 @@ def _code_key() -> str:
 
     here = Path(__file__).parent
     h = hashlib.sha256(f"{__version__} {matplotlib.__version__}".encode())
-    for name in ("figures.py", "rank.py", "canvas.py", "figure_cache.py"):
+    for name in ("figures.py", "rank.py", "canvas.py", "corner_loader.py", "figure_cache.py"):
         h.update((here / name).read_bytes())
     return h.hexdigest()
 
