@@ -355,6 +355,19 @@ def sensitivity_xy_plot(x_tau: np.ndarray, x_e: np.ndarray, colour: np.ndarray, 
     return save_figure(fig, path)
 
 
+def stairs(ax, values: np.ndarray, edges: np.ndarray, fill: bool = False, **kwargs):
+    """``ax.stairs(values, edges, **kwargs)`` down to a baseline at 0 (call ``ax.autoscale_view``
+    after the last one). The same StepPatch, added without Axes.stairs' bounding of its path
+    segment by segment as Bézier curves (10 ms a patch, a third of the trace plot's building):
+    its box is the edges by 0 and the highest value."""
+    from matplotlib.patches import StepPatch
+
+    patch = ax.add_artist(StepPatch(values, edges, baseline=0.0, fill=fill, **kwargs))
+    patch.sticky_edges.y.append(0.0)
+    ax.update_datalim([(edges[0], 0.0), (edges[-1], float(np.max(np.nan_to_num(values), initial=0.0)))])
+    return patch
+
+
 def _pooled(draws: Mapping[str, np.ndarray], max_chains: int | None, max_draws: int,
             thin: int = 1) -> dict[str, np.ndarray]:
     """{name: (chain, draw)} arrays for the rank plot from {name: (walker, draw)} arrays.
@@ -405,10 +418,11 @@ def trace_plot(draws: Mapping[str, np.ndarray], path: Path, max_draws: int = 100
         bins = int(np.clip(np.sqrt(per_group), 8, 40))       # a group's histogram is not all noise
         edges = np.linspace(lo, hi, bins + 1)
         h, _ = np.histogram(flat, bins=edges, density=True)     # one filled outline, not a bar each
-        ad.stairs(h, edges, fill=True, color="0.8", label="all walkers")
+        stairs(ad, h, edges, fill=True, facecolor="0.8", lw=0, label="all walkers")
         for g, idx in enumerate(parts):
             h, _ = np.histogram(v[idx].ravel(), bins=edges, density=True)
-            ad.stairs(h, edges, color=cmap(g % 10), lw=0.9, alpha=0.9)
+            stairs(ad, h, edges, edgecolor=cmap(g % 10), lw=0.9, alpha=0.9)
+        ad.autoscale_view()
         ad.set_xlabel(label)
         ad.set_ylabel(f"density (1/{unit})" if unit else "density")
         ad.grid(alpha=0.3)
