@@ -119,7 +119,12 @@ SECTIONS = (
 )
 
 
-FIRST = ("corner", "sampler")     # the worker process draws their figures, and Fig. 12 of each test
+# the order in which the sections are written (the page keeps SECTIONS' order): first those whose
+# figures the worker process draws (corner, trace, rank: no model curve needed, so it draws them
+# while this process pushes the draws through the model), then, once the curves are there, the
+# sensitivities, whose Fig. 12 goes to the worker before this process draws the fit
+FIRST = ("corner", "sampler")
+AFTER_CURVES = ("sensitivities",)
 
 
 def _h2(page: Page, key: str) -> str:
@@ -195,8 +200,6 @@ def page_html(run: RunResults, figdir: Path, t0: float) -> str:
             n += 1
             numbers[s.key] = n
     page = Page(run, {}, rate_question(run), figdir, numbers)
-    # the run's own figures first (corner, trace, rank): they need no model curve, so the worker
-    # process draws them while this one pushes the draws through the model for each test's part
     bodies = {s.key: s.body(page) for s in SECTIONS if s.key in FIRST and s.key in numbers}
     page.parts.update({t: _part(run, t) for t in run.cfg.test_names})
     sec = _top(run)
@@ -213,7 +216,7 @@ def page_html(run: RunResults, figdir: Path, t0: float) -> str:
     warns = _warnings(run)
     if warns:
         sec.append('<div class="box warn"><b>Warnings</b>' + bullets(warns) + "</div>")
-    for s in SECTIONS:
+    for s in sorted(SECTIONS, key=lambda s: s.key not in AFTER_CURVES):
         if s.key in numbers and s.key not in bodies:
             bodies[s.key] = s.body(page)
     for s in SECTIONS:
