@@ -237,14 +237,15 @@ def page_html(run: RunResults, figdir: Path, t0: float) -> str:
 
 
 def build_report(run_dir: Path | str, source: Path | str | None = None,
-                 on_stale: Callable[[str], None] | None = None) -> Path:
+                 on_stale: Callable[[str], None] | None = None, aside: bool = True) -> Path:
     """Write run_dir/report.html and run_dir/figures/*.png; return the path of report.html.
     ``source``: the user's config file, when known (the results are checked against it);
-    ``on_stale``: called with each result made from another config or data (also on the page)."""
+    ``on_stale``: called with each result made from another config or data (also on the page);
+    ``aside``: figures may be drawn by a worker process (when a core is free)."""
     t0 = time.perf_counter()
     run_dir = Path(run_dir)
     # a figure drawn from the same inputs as before is kept
-    with figure_session(warm=import_figure_modules) as used:
+    with figure_session(aside=aside, warm=import_figure_modules) as used:
         run = load_run(run_dir, source=source)
         for note in run.stale if on_stale is not None else []:
             on_stale(note)
