@@ -2,4 +2,4 @@
 
 from bayes_dnlr.cli import exit_now, main
 
-exit_now(main())
+exit_now(main(ends_process=True))

@@ -25,13 +25,14 @@ def build_report(run_dir: Path | str, source: Path | str | None = None,
     (``source``: the user's config file, when known: the results are checked against it;
     ``on_stale`` is called with each result that does not belong to it, besides the page's box)."""
     from bayes_dnlr.fileset import publishing
-    from bayes_dnlr.report.current import REPORT_SET
+    from bayes_dnlr.report.current import REPORT_SET, figures_current
     from bayes_dnlr.report.html import build_report as _build
 
     if not Path(run_dir).is_dir():
         return _build(run_dir, source=source, on_stale=on_stale)      # says what is wrong
+    aside = not figures_current(Path(run_dir))
     with publishing(Path(run_dir), "report", REPORT_SET):
-        return _build(run_dir, source=source, on_stale=on_stale)
+        return _build(run_dir, source=source, on_stale=on_stale, aside=aside)
 
 
 __all__ = ["build_report"]

@@ -44,3 +44,9 @@ def stale_inputs(run_dir: Path) -> list[Path] | None:
         return None
     built = report.stat().st_mtime_ns
     return [p for p in inputs if p.stat().st_mtime_ns >= built]
+
+
+def figures_current(run_dir: Path) -> bool:
+    """report.html is current and its figures are there: a rebuild (``report --force``) most
+    likely keeps every figure, and draws none beside the page (no worker process)."""
+    return stale_inputs(run_dir) == [] and any((Path(run_dir) / FIGURES_DIR).glob("*.png"))

@@ -119,7 +119,12 @@ SECTIONS = (
 )
 
 
-FIRST = ("corner", "sampler")     # the worker process draws their figures, and Fig. 12 of each test
+# the order in which the sections are written (the page keeps SECTIONS' order): first those whose
+# figures the worker process draws (corner, trace, rank: no model curve needed, so it draws them
+# while this process pushes the draws through the model), then, once the curves are there, the
+# sensitivities, whose Fig. 12 goes to the worker before this process draws the fit
+FIRST = ("corner", "sampler")
+AFTER_CURVES = ("sensitivities",)
 
 
 def _h2(page: Page, key: str) -> str:
@@ -191,8 +196,6 @@ def page_html(run: RunResults, figdir: Path, t0: float) -> str:
             n += 1
             numbers[s.key] = n
     page = Page(run, {}, rate_question(run), figdir, numbers)
-    # the run's own figures first (corner, trace, rank): they need no model curve, so the worker
-    # process draws them while this one pushes the draws through the model for each test's part
     bodies = {s.key: s.body(page) for s in SECTIONS if s.key in FIRST and s.key in numbers}
     page.parts.update({t: _part(run, t) for t in run.cfg.test_names})
     sec = _top(run)
@@ -209,7 +212,7 @@ def page_html(run: RunResults, figdir: Path, t0: float) -> str:
     warns = _warnings(run)
     if warns:
         sec.append('<div class="box warn"><b>Warnings</b>' + bullets(warns) + "</div>")
-    for s in SECTIONS:
+    for s in sorted(SECTIONS, key=lambda s: s.key not in AFTER_CURVES):
         if s.key in numbers and s.key not in bodies:
             bodies[s.key] = s.body(page)
     for s in SECTIONS:
@@ -230,14 +233,15 @@ def page_html(run: RunResults, figdir: Path, t0: float) -> str:
 
 
 def build_report(run_dir: Path | str, source: Path | str | None = None,
-                 on_stale: Callable[[str], None] | None = None) -> Path:
+                 on_stale: Callable[[str], None] | None = None, aside: bool = True) -> Path:
     """Write run_dir/report.html and run_dir/figures/*.png; return the path of report.html.
     ``source``: the user's config file, when known (the results are checked against it);
-    ``on_stale``: called with each result made from another config or data (also on the page)."""
+    ``on_stale``: called with each result made from another config or data (also on the page);
+    ``aside``: figures may be drawn by a worker process (when a core is free)."""
     t0 = time.perf_counter()
     run_dir = Path(run_dir)
     # a figure drawn from the same inputs as before is kept
-    with figure_session(warm=import_figure_modules) as used:
+    with figure_session(aside=aside, warm=import_figure_modules) as used:
         run = load_run(run_dir, source=source)
         for note in run.stale if on_stale is not None else []:
             on_stale(note)

@@ -96,6 +96,12 @@ def sensitivity_section(part: Part, figdir: Path) -> list[str]:
     run, curves = part.view, part.curves
     if curves is None or not curves.sensitivities:
         return []
+    # Fig. 12 first: the worker process draws it while this one draws Fig. 11
+    view = views.xy_view(curves.sensitivities, curves.strain, run.test.time, run.test.relaxation_start)
+    xy = None if view is None else drawn(
+        figs.sensitivity_xy_plot, view.x_tau, view.x_e, view.colour, part.figure(figdir, "sensitivity_xy"),
+        colour_label=view.colour_label, zoom=view.zoom, zoom_title=view.zoom_title, mark=view.mark,
+        mark_label=view.mark_label, log_colour=view.log_colour, aside=True)
     sec = _head(part)
     p = drawn(figs.sensitivity_plot, curves.x, curves.sensitivities, part.figure(figdir, "sensitivity"),
               window=curves.window, xlabel=curves.xlabel)
@@ -103,13 +109,8 @@ def sensitivity_section(part: Part, figdir: Path) -> list[str]:
         "Normalised sensitivities X̃<sub>j</sub> = β<sub>j</sub> ∂σ/∂β<sub>j</sub> (eq. 37, MPa) at the "
         "least-squares estimate (paper Fig. 11). Parameters are identifiable where their curves differ "
         "in shape; proportional curves mean correlated parameters.")))
-    view = views.xy_view(curves.sensitivities, curves.strain, run.test.time, run.test.relaxation_start)
-    if view is not None:
-        p = drawn(figs.sensitivity_xy_plot, view.x_tau, view.x_e, view.colour,
-                  part.figure(figdir, "sensitivity_xy"), colour_label=view.colour_label, zoom=view.zoom,
-                  zoom_title=view.zoom_title, mark=view.mark, mark_label=view.mark_label,
-                  log_colour=view.log_colour, aside=True)
-        sec.append(img(p, "X(E) against X(tau_max)", view.caption))
+    if xy is not None:
+        sec.append(img(xy, "X(E) against X(tau_max)", view.caption))
     return sec
 
 
