@@ -4,13 +4,15 @@ included).
 1. The command itself from a fresh process, min (and median) of ``--repeats`` runs: the first build
    (no figures from an earlier report) and the rebuild ``report --force`` (every figure kept whose
    inputs are the same).
-2. The split of a first build, in one more fresh process: imports, loading the run (config, data,
-   fit.json, summary.json, posterior.nc), the model curves (posterior draws through the model), and
-   each figure (every ``report.figures`` function timed where it is called), the rest of the page.
+2. The split of a first build, in one more fresh process drawing every figure itself: imports,
+   loading the run (config, fit.json, summary.json, posterior.nc), reading the data, the model
+   curves (posterior draws through the model), and each figure (every ``report.figures`` function
+   timed where it is called), the rest of the page.
 3. The two processes of a first build, in one more fresh process with the figure worker forced on
-   (the report uses it only when the last minute's load leaves a core free): the CPU of this
-   process and of the worker. On an idle machine with two cores the wall time is about the larger
-   of the two plus the start; on a loaded one, about their sum (then the report draws alone).
+   (the report forks it only when a core is idle at its start, and not to rebuild a current
+   report): the CPU of this process and of the worker. On an idle machine with two cores the wall
+   time is about the larger of the two plus the start; on a loaded one, about their sum (then the
+   report draws alone).
 4. ``--refjob SCRIPT``: a reference job (a script printing its own seconds), run before and after,
    and the report's times as ratios to it.
 
@@ -41,8 +43,9 @@ ROOT = Path(__file__).resolve().parents[1]
 SPLIT = r"""
 import json, sys, time
 t0 = time.perf_counter()
-from bayes_dnlr.report import figures, html, tables
-import matplotlib.pyplot  # noqa: F401  (the figures' import, counted here)
+from bayes_dnlr.report import figure_cache, figures, html, tables
+figures.import_figure_modules()       # the figures' imports (matplotlib, corner), counted here
+figure_cache._free_core = lambda: False       # every figure drawn and timed in this process
 t_imp = time.perf_counter() - t0
 split = {}
 
@@ -61,7 +64,8 @@ def timed(label, f):
 for name in dir(figures):
     if name.endswith("_plot"):
         setattr(figures, name, timed("figure " + name, getattr(figures, name)))
-html.load_run = timed("load run (config, data, fit, summary, posterior.nc)", html.load_run)
+html.load_run = timed("load run (config, fit, summary, posterior.nc)", html.load_run)
+html.attach_data = timed("read the data", html.attach_data)
 html.model_curves = timed("model curves (posterior draws through the model)", html.model_curves)  # noqa: E501
 t1, c1 = time.perf_counter(), time.process_time()
 html.build_report(sys.argv[1])   # a first build: the caller removed the figures

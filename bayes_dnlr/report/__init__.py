@@ -8,7 +8,8 @@ imports ``runs`` and below, computes no model, and reads fit.json through ``runs
   across tests, each test's, and the top of the page;
 - ``tables``, ``model_error``, ``views``: tables, the model-error words, what each figure shows;
 - ``figures``, ``rank``, ``figure_cache``: the figures, the rank plot's statistics, drawing only
-  when inputs change (and in a worker process); ``page_parts``: the page's pieces;
+  when inputs change (and in a worker process); ``canvas``: a figure rendered once into its PNG;
+  ``corner_loader``: corner without ArviZ and scipy.ndimage; ``page_parts``: the page's pieces;
 - ``current``: whether report.html is up to date; ``compare``: Tables 3/5 across runs.
 """
 

@@ -458,10 +458,17 @@ def rank_plot(draws: Mapping[str, np.ndarray], path: Path, groups: int = 8, max_
     cols = min(4, len(names))
     rows = math.ceil(len(names) / cols)
     fig = new_figure(figsize=(3.6 * cols, 2.9 * rows + 0.3))
-    axes = fig.subplots(rows, cols, squeeze=False, sharex=True)
+    grid = fig.add_gridspec(rows, cols)
+    axes = []
+    for i in range(len(names)):      # no axes for the empty places of the grid: they cost as much
+        ax = fig.add_subplot(grid[i // cols, i % cols], sharex=axes[0] if axes else None)
+        if i // cols < rows - 1:     # as subplots(sharex=True): x tick labels on the bottom row only
+            ax.tick_params(axis="x", which="both", labelbottom=False)
+            ax.xaxis.offsetText.set_visible(False)
+        axes.append(ax)
     cmap = colormaps["tab10"]
     alpha = 1.0 - rank.ENVELOPE_PROB
-    for ax, name in zip(axes.ravel(), names, strict=False):
+    for ax, name in zip(axes, names, strict=True):
         ranks = rank.fractional_ranks(pooled[name])
         n = ranks.shape[1]
         x, d = rank.delta_ecdf(ranks, n)
@@ -478,6 +485,4 @@ def rank_plot(draws: Mapping[str, np.ndarray], path: Path, groups: int = 8, max_
         ax.set_title(name, fontsize=10)
         ax.set_xlabel("Fractional ranks")
         ax.grid(alpha=0.3)
-    for ax in axes.ravel()[len(names):]:
-        ax.set_visible(False)
     return save_figure(fig, path)

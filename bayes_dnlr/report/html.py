@@ -43,7 +43,7 @@ from bayes_dnlr.runs.layout import (
     RESOLVED_CONFIG,
     SUMMARY_FILE,
 )
-from bayes_dnlr.runs.results import RunResults, load_run
+from bayes_dnlr.runs.results import RunResults, attach_data, load_run
 from bayes_dnlr.vocabulary import base_name
 
 __all__ = ["build_report", "load_run", "model_curves"]
@@ -120,9 +120,10 @@ SECTIONS = (
 
 
 # the order in which the sections are written (the page keeps SECTIONS' order): first those whose
-# figures the worker process draws (corner, trace, rank: no model curve needed, so it draws them
-# while this process pushes the draws through the model), then, once the curves are there, the
-# sensitivities, whose Fig. 12 goes to the worker before this process draws the fit
+# figures the worker process draws (corner, trace, rank: they need neither the data nor a model
+# curve, so it draws them while this process reads the data and pushes the draws through the
+# model), then, once the curves are there, the sensitivities, whose Fig. 12 goes to the worker
+# before this process draws the fit
 FIRST = ("corner", "sampler")
 AFTER_CURVES = ("sensitivities",)
 
@@ -197,6 +198,7 @@ def page_html(run: RunResults, figdir: Path, t0: float) -> str:
             numbers[s.key] = n
     page = Page(run, {}, rate_question(run), figdir, numbers)
     bodies = {s.key: s.body(page) for s in SECTIONS if s.key in FIRST and s.key in numbers}
+    attach_data(run)
     page.parts.update({t: _part(run, t) for t in run.cfg.test_names})
     sec = _top(run)
     sec.append(_headline(run, {t: p.standards for t, p in page.parts.items()}, page.rate))
@@ -242,7 +244,7 @@ def build_report(run_dir: Path | str, source: Path | str | None = None,
     run_dir = Path(run_dir)
     # a figure drawn from the same inputs as before is kept
     with figure_session(aside=aside, warm=import_figure_modules) as used:
-        run = load_run(run_dir, source=source)
+        run = load_run(run_dir, source=source, load_data=False)     # the data: page_html
         for note in run.stale if on_stale is not None else []:
             on_stale(note)
         figdir = run_dir / FIGURES_DIR

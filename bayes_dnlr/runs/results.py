@@ -333,13 +333,20 @@ def load_run(run_dir: Path | str, load_data: bool = True, source: Path | str | N
             run.draws = read_draws(nc) or None
         except Exception as err:  # noqa: BLE001 - any reader failure becomes a note in the report
             problems.append(f"posterior.nc could not be read: {err}")
-    if load_data and plain_names(cfg):     # a run with several tests: each by its view
-        attach_test(run, cfg)
+    if load_data:
+        attach_data(run)
     if provenance:
         from bayes_dnlr.runs.provenance import stale_results
 
         run.stale = stale_results(run_dir, cfg, run.fit, run.summary, source)
     return run
+
+
+def attach_data(run: RunResults) -> None:
+    """The data of a run with one test into ``run.test`` (``load_run`` does it unless told not
+    to); a run with several tests reads each test's data with its view (``of_test``)."""
+    if plain_names(run.cfg) and run.test is None and run.data_error is None:
+        attach_test(run, run.cfg)
 
 
 def attach_test(run: RunResults, cfg: Config) -> None:
