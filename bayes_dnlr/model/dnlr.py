@@ -176,8 +176,9 @@ class DNLR:
         """Stress for many parameter sets: theta (k, p) in the order ``names`` -> (k, q); alpha
         (the spectrum exponent) is ½ unless it is one of the names.
 
-        Compiled and parallel over the sets (``bayes_dnlr.model.set_threads``); each set is
-        computed on its own, so the result does not depend on the thread count.
+        Compiled and parallel over the sets (``bayes_dnlr.model.set_threads``; in one thread in a
+        forked child, ``threads.parallel_allowed``); each set is computed on its own, so the result
+        does not depend on the thread count.
         """
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         names = list(names)
@@ -196,8 +197,13 @@ class DNLR:
             k = int(np.flatnonzero(bad)[0])
             raise ValueError(f"row {k} of theta: alpha must be a finite number, got {sets[k, 5]}")
         out = np.empty((theta.shape[0], self.n_points))
-        threads.ensure_configured()
-        kernel.stress_batch_into(sets, self._kernel_args, out)
+        if threads.parallel_allowed():
+            kernel.stress_batch_into(sets, self._kernel_args, out)
+        else:
+            # one thread, or a forked child that numba would terminate at a parallel region: the
+            # same compiled row function, row by row, so the same values
+            for r, row in enumerate(sets):
+                kernel.stress_into(*row, self._kernel_args, out[r])
         return out
 
 
