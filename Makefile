@@ -9,12 +9,18 @@ export PYTHON
 
 install: $(VENV)/.installed
 
+# The dependencies' bytecode is written by compileall, not by pip: pip compiles every file it
+# installs, and 2800 of the 7100 are the dependencies' own test suites, which nothing imports
+# (install 73 -> 44 s of CPU). The rest is compiled once here: where PYTHONDONTWRITEBYTECODE is set,
+# a module without it would be compiled again by every process that imports it.
 $(VENV)/.installed: pyproject.toml scripts/find-python
 	@py=$$(sh scripts/find-python) || exit 1; \
 	echo "using $$py ($$($$py --version 2>&1))"; \
 	[ -x $(PY) ] || $$py -m venv $(VENV) || exit 1; \
 	$(PY) -m pip install --quiet --upgrade pip && \
-	$(PY) -m pip install --quiet -e '.[test]' && touch $@
+	$(PY) -m pip install --quiet --no-compile -e '.[test]' && \
+	$(PY) -m compileall -qq -x '/tests?/' "$$($(PY) -c 'import sysconfig; print(sysconfig.get_path("purelib"))')" && \
+	touch $@
 
 # The package's bytecode, brought up to date before each command (0.1 s when it is): pip writes it
 # for an installed package but not for this editable one, and where PYTHONDONTWRITEBYTECODE is set

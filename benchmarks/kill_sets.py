@@ -48,7 +48,7 @@ def main() -> None:
                 print(f"  {m}")
         if args.only in (None, "batch"):
             t0 = time.monotonic()
-            folder, batch_args = campaign(root / "campaign", args.tests)
+            folder, batch_args, _ = campaign(root / "campaign", args.tests)
             tally = batch_kills(folder, batch_args, root / "batch", args.instants)
             dt = time.monotonic() - t0
             print(tally.line(f"batch of {args.tests} tests with reports") + f"; {dt:.0f} s"

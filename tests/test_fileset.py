@@ -41,15 +41,16 @@ def test_killed_export_at_20_instants(finished_run: Path, tmp_path: Path) -> Non
 
 
 def test_killed_batch_leaves_every_set_old_or_new(tmp_path: Path) -> None:
-    folder, args = campaign(tmp_path / "campaign", 1)
-    tally = batch_kills(folder, args, tmp_path / "work", instants=1, points=("fileset.written",))
+    folder, args, seconds = campaign(tmp_path / "campaign", 1)
+    tally = batch_kills(folder, args, tmp_path / "work", instants=1, points=("fileset.written",),
+                        duration=seconds)
     assert tally.kills == 2 and not tally.mixed, tally.mixed
     assert tally.left_after_next_run == []
 
 
 @pytest.mark.slow
 def test_killed_batch_at_20_instants(tmp_path: Path) -> None:
-    folder, args = campaign(tmp_path / "campaign", 3)
+    folder, args, _ = campaign(tmp_path / "campaign", 3)
     tally = batch_kills(folder, args, tmp_path / "work", instants=20)
     assert tally.kills == 20 and not tally.mixed and tally.left_after_next_run == []
 

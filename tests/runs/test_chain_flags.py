@@ -6,6 +6,7 @@ refuses a changed config), and the commands that take a run folder. A live write
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -24,14 +25,22 @@ from bayes_dnlr.runs.lock import run_lock
 SAMPLER = {"walkers": 8, "max_steps": 60, "target_ess": 1.0e9, "checkpoint_every": 20}
 
 
-@pytest.fixture
-def killed(tmp_path: Path) -> Path:
+@pytest.fixture(scope="module")
+def killed_once(tmp_path_factory) -> Path:
     """A run whose `sample` was killed after its second commit (40 steps): chains.h5 flagged."""
-    config = write_case(tmp_path, "syn", n=200, sampler=SAMPLER)
+    config = write_case(tmp_path_factory.mktemp("killed"), "syn", n=200, sampler=SAMPLER)
     env = {**os.environ, KILL_ENV: "append.flushed@2"}
     proc = subprocess.run([sys.executable, "-m", "bayes_dnlr", "sample", "--quiet", str(config)],
                           env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == -9, proc.stderr
+    return config.parent
+
+
+@pytest.fixture
+def killed(killed_once: Path, tmp_path: Path) -> Path:
+    """A copy of the killed run for each test (the bytes of chains.h5, flags included): one killed
+    `sample` for the module."""
+    config = Path(shutil.copytree(killed_once, tmp_path / "syn")) / "config.yaml"
     chains = config.parent / "chains.h5"
     assert write_flags(chains), "the killed writer left no flags: nothing to test"
     with pytest.raises(OSError, match="already open for write"):

@@ -101,9 +101,9 @@ def test_the_rerun_of_one_batch_test(tmp_path: Path, capsys) -> None:
     code, text = _sample(config, capsys)
     assert code == 0 and "finished earlier" in text, text
     assert chains.stat().st_mtime_ns == before
-    # and raising max_steps there continues that test's chain
-    _edit(config, sampler__max_steps=2000, sampler__target_ess=1e9)
+    # and raising max_steps there continues that test's chain (100 steps past where it stopped)
     steps = read_run(chains).steps
+    _edit(config, sampler__max_steps=steps + 100, sampler__target_ess=1e9)
     code, text = _sample(config, capsys)
     assert code == 0, text
     assert read_run(chains).steps > steps

@@ -15,12 +15,15 @@ from support.sampling import write_case
 
 from bayes_dnlr.runs.chains import read_run
 
-# never converges (target_ess huge): stops at max_steps; checkpoints every 50 steps. Long enough
-# that the signal, sent once 150 steps are committed, arrives mid-run: the compiled all-walker
-# likelihood did 1000 steps of 2000 points in under a second, before the signal. The
-# steps count for that, not the points: 500 points make each run a quarter as dear.
-SAMPLER = {"max_steps": 4000, "target_ess": 1.0e9, "checkpoint_every": 50, "walkers": 32}
+# never converges (target_ess huge): stops at max_steps; checkpoints every 50 steps. The signal is
+# sent once 150 steps are committed and must arrive mid-run: the compiled all-walker likelihood
+# did 1000 steps of 2000 points in under a second, so the interrupted run is paced (PACE after
+# each of the two evaluations of a step: at least 1.7 s from step 150 to the end, in sleep, not
+# CPU). The reference and the resumed run go at full speed; 4000 unpaced steps cost 10-13 s of CPU
+# per run here.
+SAMPLER = {"max_steps": 1000, "target_ess": 1.0e9, "checkpoint_every": 50, "walkers": 32}
 POINTS = 500
+PACE = 0.001
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +69,7 @@ def test_interrupted_run_resumes_the_same_chain(tmp_path: Path, reference, zygot
     path = write_case(tmp_path, n=POINTS, sampler=SAMPLER)
     chains = path.parent / "chains.h5"
     log = path.parent / "interrupted.log"
-    pid = zygote.start(path, log=log)
+    pid = zygote.start(path, log=log, pace=PACE)
     seen = _wait_for_steps(pid, chains, 150)
     os.kill(pid, sig)
     code = zygote.wait()

@@ -37,18 +37,26 @@ class Zygote:
         self.proc.stdin.close()
         self.proc.wait(timeout=60)
 
-    def sample(self, config: Path, *, kill: str = "", log: Path, precheck: bool = True) -> int:
+    def sample(self, config: Path, *, kill: str = "", log: Path, precheck: bool = True,
+               pace: float = 0.0) -> int:
         """Run `sample config --quiet` in a forked child; its return code (negative: the signal).
 
         ``precheck=False``: the store's free-space check before each write is switched off, so a
-        full disk is met by HDF5's own writes."""
-        self.start(config, kill=kill, log=log, precheck=precheck)
+        full disk is met by HDF5's own writes. ``pace``: seconds the child sleeps after each
+        evaluation of the log-posterior (``start``)."""
+        self.start(config, kill=kill, log=log, precheck=precheck, pace=pace)
         return self.wait()
 
-    def start(self, config: Path, *, kill: str = "", log: Path, precheck: bool = True) -> int:
+    def start(self, config: Path, *, kill: str = "", log: Path, precheck: bool = True,
+              pace: float = 0.0) -> int:
         """Fork `sample config --quiet` and return at once with the child's pid (to signal it);
-        ``wait`` gives its return code. One child at a time."""
-        job = {"config": str(config), "kill": kill, "log": str(log), "precheck": precheck}
+        ``wait`` gives its return code. One child at a time.
+
+        ``pace`` > 0: the child sleeps that long after each evaluation of the log-posterior, so
+        that a signal sent from outside meets it mid-run however fast the machine is, at the cost
+        of wall time, not of CPU (the chain is the same)."""
+        job = {"config": str(config), "kill": kill, "log": str(log), "precheck": precheck,
+               "pace": pace}
         self.proc.stdin.write(json.dumps(job) + "\n")
         self.proc.stdin.flush()
         return self._read()
@@ -80,6 +88,22 @@ def _warm_up() -> None:
             assert cli.main(["sample", str(path), "--quiet"]) == 0
 
 
+def _pace(seconds: float) -> None:
+    """Every evaluation of the log-posterior in this process followed by a sleep of ``seconds``."""
+    import time
+
+    from bayes_dnlr.inference.posterior.density import LogPosterior
+
+    evaluate = LogPosterior.__call__
+
+    def paced(self, z):
+        out = evaluate(self, z)
+        time.sleep(seconds)
+        return out
+
+    LogPosterior.__call__ = paced
+
+
 def _serve() -> None:
     import bayes_dnlr.cli as cli
     from bayes_dnlr import diskio
@@ -103,6 +127,8 @@ def _serve() -> None:
                 from bayes_dnlr.runs import chains as store
 
                 store.ensure_free = lambda *args, **kwargs: None
+            if job["pace"] > 0:
+                _pace(job["pace"])
             raise SystemExit(cli.main(["sample", job["config"], "--quiet"]))
         print(pid, flush=True)
         _, status = os.waitpid(pid, 0)

@@ -185,20 +185,24 @@ def _sets(out: Path) -> dict[str, dict[str, bytes]]:
 
 
 def batch_kills(campaign: Path, batch_args: list[str], work: Path, instants: int,
-                points: tuple[str, ...] = ()) -> Tally:
+                points: tuple[str, ...] = (), duration: float | None = None) -> Tally:
     """``campaign``: a folder whose batch (``batch_args``, --out inside it) has run once (the old
     sets) and whose inputs then changed. Kill the batch at ``instants`` instants of its duration and
     at ``points``, each time from a fresh copy of ``campaign``; judge every set (the batch's and
-    each test's report) old or whole new; run the batch again and find nothing temporary."""
+    each test's report) old or whole new; run the batch again and find nothing temporary.
+
+    ``duration``: the seconds a whole run takes (the campaign's first run is as long: the same
+    tests, fit, sample and reports); None: a run on a copy measures it first."""
     out_rel = Path(batch_args[batch_args.index("--out") + 1]).relative_to(campaign)
 
     def args_in(root: Path) -> list[str]:
         return [a.replace(str(campaign), str(root)) for a in batch_args]
 
-    probe = work / "probe"
-    shutil.copytree(campaign, probe)
-    duration = run(command(*args_in(probe)))
-    shutil.rmtree(probe)
+    if duration is None:
+        probe = work / "probe"
+        shutil.copytree(campaign, probe)
+        duration = run(command(*args_in(probe)))
+        shutil.rmtree(probe)
     old = _sets(campaign / out_rel)
     tally = Tally()
     cases = [(duration * (i + 0.5) / instants, None) for i in range(instants)]
@@ -228,12 +232,15 @@ def batch_kills(campaign: Path, batch_args: list[str], work: Path, instants: int
     return tally
 
 
-def campaign(folder: Path, tests: int) -> tuple[Path, list[str]]:
-    """A manifest batch with reports, run once; then new seeds (the runs' inputs changed)."""
+def campaign(folder: Path, tests: int) -> tuple[Path, list[str], float]:
+    """A manifest batch with reports, run once; then new seeds (the runs' inputs changed). The
+    folder, the arguments of the next run and the seconds the first one took."""
     template, manifest = tiny_campaign(folder, tests, points=150)
     args = ["batch", str(template), "--manifest", str(manifest), "--out", str(folder / "out"),
             "--jobs", str(min(tests, 2)), "--quiet", "--no-population"]
+    t0 = time.monotonic()
     subprocess.run([sys.executable, "-m", "bayes_dnlr", *args], check=True, capture_output=True, timeout=900)
+    seconds = time.monotonic() - t0
     rows = list(csv.DictReader(open(manifest)))
     for r in rows:
         r["sampler.seed"] = str(int(r["sampler.seed"]) + 10)
@@ -241,4 +248,4 @@ def campaign(folder: Path, tests: int) -> tuple[Path, list[str]]:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    return folder, [*args, "--restart"]
+    return folder, [*args, "--restart"], seconds
