@@ -6,6 +6,7 @@ their ratios."""
 from __future__ import annotations
 
 import os
+import statistics
 import subprocess
 import sys
 from pathlib import Path
@@ -25,16 +26,21 @@ def script() -> Path | None:
     return None
 
 
-def seconds() -> float | None:
-    """The seconds the reference job prints, or None without it (or when it prints no number)."""
+def seconds(repeats: int = 1) -> float | None:
+    """The seconds the reference job prints (the median of ``repeats`` runs: one run on a shared
+    machine can take half as long again), or None without it (or when it prints no number)."""
     path = script()
     if path is None:
         return None
-    out = subprocess.run([sys.executable, str(path)], capture_output=True, text=True, check=False)
-    try:
-        return float(out.stdout.strip().split()[-1])
-    except (ValueError, IndexError):
-        return None
+    times = []
+    for _ in range(repeats):
+        out = subprocess.run([sys.executable, str(path)], capture_output=True, text=True,
+                             check=False)
+        try:
+            times.append(float(out.stdout.strip().split()[-1]))
+        except (ValueError, IndexError):
+            return None
+    return statistics.median(times)
 
 
 def load() -> str:

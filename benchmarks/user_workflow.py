@@ -9,10 +9,10 @@
 
 Each command's wall time and CPU time (user + system of the process and its threads and children)
 is printed for every repeat, with the minimum and the median, and the sum of ``sample`` and
-``report`` in reference jobs (``../shared/tools/refjob.py``, run before and after; their mean is
-the unit). Warm numba cache: one unmeasured run first compiles or loads what the commands need.
-The load average is printed before and after: on a shared machine read the CPU times and the
-ratios, which do not depend on the other jobs as much as the wall time does.
+``report`` in reference jobs (``../shared/tools/refjob.py``, the median of 3 runs before and of 3
+after; their mean is the unit). Warm numba cache: one unmeasured run first compiles or loads what
+the commands need. The load average is printed before and after: on a shared machine read the CPU
+times and the ratios, which do not depend on the other jobs as much as the wall time does.
 
     .venv/bin/python benchmarks/user_workflow.py [--repeats 5] [--specimen 1] [--skip-shipped]
 """
@@ -107,7 +107,7 @@ def main() -> None:
     args = ap.parse_args()
 
     print(load())
-    ref0 = seconds()
+    ref0 = seconds(3)
     print(f"reference job: {ref0} s" if ref0 else "reference job: not found (no ratios)")
     with tempfile.TemporaryDirectory(prefix="bd-workflow-") as tmp:
         tmp = Path(tmp)
@@ -133,7 +133,7 @@ def main() -> None:
             results["shipped"] = workflow(run / "config.yaml",
                                           [("sample", ["sample", str(run / "config.yaml")])],
                                           args.repeats)
-    ref1 = seconds()
+    ref1 = seconds(3)
     unit = (ref0 + ref1) / 2 if ref0 and ref1 else None
     print(f"reference job after: {ref1} s; unit {unit:.3f} s" if unit else "no reference job")
     print(load())
