@@ -29,6 +29,8 @@ from typing import Any
 import numpy as np
 from numba import njit, prange
 
+from bayes_dnlr.model import threads
+
 MIN_EFFECTIVE = 50.0
 MAX_LOG_L_VARIANCE = 1.0
 N_MU, N_S = 120, 100
@@ -95,27 +97,49 @@ def _weighted_stats(x: np.ndarray, w: np.ndarray) -> dict[str, Any]:
             "interval_90": [float(lo), float(hi)]}
 
 
-@njit(cache=True, parallel=True)
-def add_log_mean_weight(x, logpi, mu_grid, s_grid, logL):
-    """logL[i, j] += ln (1/N) Σ_n N(x_n | μ_i, s_j) / π(x_n): one specimen's factor of L(μ, s), by
-    the log-sum-exp of its draws (compiled: no (N_MU, N) temporaries, threads over μ)."""
+@njit(cache=True)
+def _add_mu_row(i, x, logpi, mu_grid, s_grid, logL):
+    """Row i of ``add_log_mean_weight``: every s at μ = mu_grid[i]."""
     n = x.size
     half_log_2pi = 0.5 * math.log(2.0 * math.pi)
+    mu = mu_grid[i]
+    v = np.empty(n)
+    for j in range(s_grid.size):
+        s = s_grid[j]
+        c = -math.log(s) - half_log_2pi
+        m = -np.inf
+        for t in range(n):
+            z = (x[t] - mu) / s
+            v[t] = -0.5 * z * z + c - logpi[t]
+            m = max(m, v[t])
+        acc = 0.0
+        for t in range(n):
+            acc += math.exp(v[t] - m)
+        logL[i, j] += m + math.log(acc / n)
+
+
+@njit(cache=True, parallel=True)
+def _add_rows_threads(x, logpi, mu_grid, s_grid, logL):
     for i in prange(mu_grid.size):
-        mu = mu_grid[i]
-        v = np.empty(n)
-        for j in range(s_grid.size):
-            s = s_grid[j]
-            c = -math.log(s) - half_log_2pi
-            m = -np.inf
-            for t in range(n):
-                z = (x[t] - mu) / s
-                v[t] = -0.5 * z * z + c - logpi[t]
-                m = max(m, v[t])
-            acc = 0.0
-            for t in range(n):
-                acc += math.exp(v[t] - m)
-            logL[i, j] += m + math.log(acc / n)
+        _add_mu_row(i, x, logpi, mu_grid, s_grid, logL)
+
+
+@njit(cache=True)
+def _add_rows_serial(x, logpi, mu_grid, s_grid, logL):
+    for i in range(mu_grid.size):
+        _add_mu_row(i, x, logpi, mu_grid, s_grid, logL)
+
+
+def add_log_mean_weight(x: np.ndarray, logpi: np.ndarray, mu_grid: np.ndarray, s_grid: np.ndarray,
+                        logL: np.ndarray) -> None:
+    """logL[i, j] += ln (1/N) Σ_n N(x_n | μ_i, s_j) / π(x_n): one specimen's factor of L(μ, s), by
+    the log-sum-exp of its draws (compiled: no (N_MU, N) temporaries). Threads over μ where
+    ``model.threads.parallel_allowed`` (not in a forked child, which numba would terminate); each
+    row is computed on its own, so the values do not depend on it."""
+    if threads.parallel_allowed():
+        _add_rows_threads(x, logpi, mu_grid, s_grid, logL)
+    else:
+        _add_rows_serial(x, logpi, mu_grid, s_grid, logL)
 
 
 def _grid_posterior(x: Mapping[str, np.ndarray], logpi: Mapping[str, np.ndarray], mu_grid: np.ndarray,

@@ -47,6 +47,46 @@ def test_monte_carlo_check_fails_with_too_few_draws():
     assert min(pop.effective_draws.values()) < 60
 
 
+@pytest.mark.filterwarnings("ignore:This process .* is multi-threaded:DeprecationWarning")
+def test_a_forked_child_computes_the_grid_in_one_thread_with_the_same_values():
+    """numba terminates a forked child that starts a parallel region when its parent used GNU
+    OpenMP (a batch forked by a fork server warms this function up): after a threaded call here,
+    a forked child takes the serial driver and gets the same grid."""
+    import os
+    import pickle
+
+    from bayes_dnlr.inference.analyses.population import add_log_mean_weight
+    from bayes_dnlr.model import set_threads
+
+    rng = np.random.default_rng(4)
+    x, logpi = rng.normal(MU, 50.0, 300), np.full(300, -7.0)
+    mu_grid, s_grid = np.linspace(MU - 300, MU + 300, 40), np.linspace(5.0, 200.0, 30)
+
+    def grid() -> np.ndarray:
+        logL = np.zeros((mu_grid.size, s_grid.size))
+        add_log_mean_weight(x, logpi, mu_grid, s_grid, logL)
+        return logL
+
+    try:
+        set_threads(2)
+        parent = grid()                                   # the threaded driver, in this process
+        r, w = os.pipe()
+        pid = os.fork()
+        if pid == 0:                                      # pragma: no cover - the child
+            try:
+                os.write(w, pickle.dumps(grid()))
+            finally:
+                os._exit(0)
+        os.close(w)
+        with os.fdopen(r, "rb") as f:
+            child = pickle.loads(f.read())
+        _, status = os.waitpid(pid, 0)
+    finally:
+        set_threads(None)
+    assert os.waitstatus_to_exitcode(status) == 0
+    np.testing.assert_array_equal(child, parent)
+
+
 def test_grid_posterior_of_s_matches_the_exact_one():
     """Normal specimens (own sd 25 MPa, flat prior): L(μ, s) = Π N(c_k | μ, s² + 25²) exactly. The
     grid's posterior mean and HDI of s agree with that posterior's on a fine uniform grid (the
