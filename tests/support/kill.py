@@ -5,6 +5,7 @@ Used by tests/test_fileset.py (a few instants) and benchmarks/kill_sets.py (20 e
 from __future__ import annotations
 
 import base64
+import contextlib
 import csv
 import io
 import os
@@ -53,6 +54,19 @@ def run(cmd: list[str], env: dict[str, str] | None = None, timeout: float = 900)
     if proc.returncode not in (0, 1):
         raise AssertionError(f"{' '.join(cmd)}: exit {proc.returncode}\n{proc.stderr[-2000:]}")
     return time.monotonic() - t0
+
+
+def run_here(args: list[str]) -> None:
+    """Run the command ``args`` to its end by the CLI's main in this process (what
+    ``python -m bayes_dnlr`` runs): the next run after a kill, and the old set, which nothing
+    times. A fresh interpreter cost each 4-5 s of CPU in imports."""
+    from bayes_dnlr.cli import main
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(out):
+        code = main(args)
+    if code not in (0, 1):
+        raise AssertionError(f"{' '.join(args)}: exit {code}\n{out.getvalue()[-2000:]}")
 
 
 def kill_after(cmd: list[str], seconds: float, env: dict[str, str] | None = None) -> int | None:
@@ -136,9 +150,13 @@ class Tally:
 
 # ---------------------------------------------------------------- export
 
+def export_args(run_dir: Path, out: Path, seed: int, draws: int) -> list[str]:
+    return ["export", str(run_dir), "--format", "abaqus", "--nu", "0.45", "--draws", str(draws),
+            "--seed", str(seed), "--out", str(out), "--force"]
+
+
 def export_cmd(run_dir: Path, out: Path, seed: int, draws: int) -> list[str]:
-    return command("export", str(run_dir), "--format", "abaqus", "--nu", "0.45", "--draws", str(draws),
-                   "--seed", str(seed), "--out", str(out), "--force")
+    return command(*export_args(run_dir, out, seed, draws))
 
 
 def export_kills(run_dir: Path, work: Path, draws: int, instants: int,
@@ -148,8 +166,8 @@ def export_kills(run_dir: Path, work: Path, draws: int, instants: int,
     the new one, and after the next export no temporary is left."""
     target = work / "cards"
     ref_old, ref_new = work / "ref-old", work / "ref-new"
-    run(export_cmd(run_dir, ref_old, 0, draws))
-    duration = run(export_cmd(run_dir, ref_new, 1, draws))
+    run_here(export_args(run_dir, ref_old, 0, draws))
+    duration = run(export_cmd(run_dir, ref_new, 1, draws))        # a process as long as the killed
     old, new = files(ref_old), files(ref_new)
     assert old != new
     tally = Tally()
@@ -169,7 +187,7 @@ def export_kills(run_dir: Path, work: Path, draws: int, instants: int,
             tally.new += 1
         else:
             tally.mixed.append(f"{point or f'{seconds:.2f} s'}: {len(now)} files")
-        run(export_cmd(run_dir, target, 1, draws))
+        run_here(export_args(run_dir, target, 1, draws))
         assert files(target) == new
         tally.left_after_next_run += leftovers(work)
     return tally
@@ -225,7 +243,7 @@ def batch_kills(campaign: Path, batch_args: list[str], work: Path, instants: int
                 tally.new += 1
             else:
                 tally.mixed.append(f"{point or f'{seconds:.1f} s'}: {name}")
-        run(command(*args_in(root)))
+        run_here(args_in(root))
         assert batch_consistent(out)
         tally.left_after_next_run += leftovers(root)
         shutil.rmtree(root)
