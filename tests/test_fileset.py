@@ -24,9 +24,12 @@ def finished_run(tmp_path_factory) -> Path:
     return make_finished_run(tmp_path_factory.mktemp("runs"))
 
 
-def test_killed_export_leaves_the_old_cards_or_the_new(finished_run: Path, tmp_path: Path) -> None:
+def test_killed_export_leaves_the_old_cards_or_the_new(finished_run: Path, tmp_path: Path,
+                                                      zygote) -> None:
+    # the timed and the killed exports are forked from the session's zygote (support/crash.py):
+    # a fresh interpreter cost each 3-4 s of CPU in imports, and its instants fell in them
     tally = export_kills(finished_run, tmp_path, draws=100, instants=2,
-                         points=("fileset.folder.exchanged",))
+                         points=("fileset.folder.exchanged",), zygote=zygote)
     assert tally.kills == 3 and not tally.mixed, tally.mixed
     assert tally.old >= 1 and tally.new >= 1                  # both outcomes seen
     assert tally.left_after_next_run == []
@@ -40,10 +43,12 @@ def test_killed_export_at_20_instants(finished_run: Path, tmp_path: Path) -> Non
 
 
 
-def test_killed_batch_leaves_every_set_old_or_new(tmp_path: Path) -> None:
-    folder, args, seconds = campaign(tmp_path / "campaign", 1)
+def test_killed_batch_leaves_every_set_old_or_new(tmp_path: Path, zygote) -> None:
+    # the first and the killed batches are forked from the session's zygote, as the exports above
+    folder, args, seconds = campaign(tmp_path / "campaign", 1, zygote)
+    (tmp_path / "work").mkdir()
     tally = batch_kills(folder, args, tmp_path / "work", instants=1, points=("fileset.written",),
-                        duration=seconds)
+                        duration=seconds, zygote=zygote)
     assert tally.kills == 2 and not tally.mixed, tally.mixed
     assert tally.left_after_next_run == []
 

@@ -45,12 +45,13 @@ def _case_id(case: tuple[str | None, str]) -> str:
 
 
 @pytest.fixture(scope="module")
-def template(tmp_path_factory) -> tuple[Path, store.StoredRun]:
-    """A run directory with fit.json, and its uninterrupted chain (`python -m bayes_dnlr sample`)."""
+def template(tmp_path_factory, zygote) -> tuple[Path, store.StoredRun]:
+    """A run directory with fit.json, and its uninterrupted chain (a `sample` forked from the
+    zygote, as the killed runs are; the last test's real `python -m bayes_dnlr sample` finishes
+    this very chain too). A fresh interpreter cost the reference 4-5 s of CPU in imports."""
     path = write_case(tmp_path_factory.mktemp("crash"), n=300, sampler=SAMPLER)
-    out = subprocess.run([sys.executable, "-m", "bayes_dnlr", "sample", str(path), "--quiet"],
-                         capture_output=True, text=True, timeout=300)
-    assert out.returncode == 0, out.stderr
+    log = path.parent / "reference.log"
+    assert zygote.sample(path, log=log) == 0, log.read_text()
     ref = read_run(path.parent / "chains.h5")
     assert ref.finished and ref.steps == SAMPLER["max_steps"]
     return path.parent, ref

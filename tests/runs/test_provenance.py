@@ -5,8 +5,7 @@ CLI's words for replacing them are its own (``--force``, ``--restart``)."""
 from __future__ import annotations
 
 import shutil
-import subprocess
-import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
@@ -29,8 +28,24 @@ def run(finished, tmp_path) -> Path:
         "report.html", "figures")))
 
 
-def cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "bayes_dnlr", *args], capture_output=True, text=True)
+@dataclass
+class Ran:
+    returncode: int
+    stderr: str
+
+
+@pytest.fixture
+def cli(capsys):
+    """cli(*args): the command run by the CLI's main in this process (what `python -m bayes_dnlr`
+    runs; a fresh interpreter cost each call 3-5 s of CPU in imports); its exit status and stderr."""
+    from bayes_dnlr.cli import main
+
+    def run(*args: str) -> Ran:
+        capsys.readouterr()
+        code = main(list(args))
+        return Ran(code, capsys.readouterr().err)
+
+    return run
 
 
 def _edit_data(run: Path) -> None:
@@ -53,7 +68,7 @@ def test_current_results_are_not_marked(run):
     assert STALE_BOX not in build_report(run).read_text()
 
 
-def test_an_edited_config_marks_the_fit_and_the_chain(run):
+def test_an_edited_config_marks_the_fit_and_the_chain(run, cli):
     _edit_model(run)
     r = cli("report", str(run))
     assert r.returncode == 0, r.stderr
@@ -87,7 +102,7 @@ def test_a_folder_with_only_its_resolved_config(run):
     assert notes and all("data file" in n for n in notes) and not any("config (" in n for n in notes)
 
 
-def test_the_fit_refusal_speaks_cli(run):
+def test_the_fit_refusal_speaks_cli(run, cli):
     _edit_model(run)
     r = cli("fit", str(run / "config.yaml"))
     assert r.returncode == 2

@@ -8,6 +8,7 @@ interpreter costs seconds of imports.
         code = z.sample(config, kill="append.step@2", log=tmp / "run.log")   # -9: killed there
         pid = z.start(config, log=tmp / "run.log")     # running: signal it, then
         code = z.wait()
+        pid = z.start_command(["export", ...], log=tmp / "export.log")   # any command, then wait
 """
 
 from __future__ import annotations
@@ -57,6 +58,21 @@ class Zygote:
         of wall time, not of CPU (the chain is the same)."""
         job = {"config": str(config), "kill": kill, "log": str(log), "precheck": precheck,
                "pace": pace}
+        self.proc.stdin.write(json.dumps(job) + "\n")
+        self.proc.stdin.flush()
+        return self._read()
+
+    def start_command(self, args: list[str], *, kill: str = "", log: Path) -> int:
+        """Fork ``python -m bayes_dnlr <args>`` (the CLI's main) in a session of its own, so that a
+        kill of its process group takes the worker processes it starts with it (as
+        ``start_new_session`` does for a subprocess), and return at once with its pid; ``wait``
+        gives its return code. One child at a time.
+
+        A command that runs in worker processes does not run here: a `batch --jobs 2` forked from
+        the zygote ended at once with numba's "fork() called from a process already using GNU
+        OpenMP, this is unsafe" (the warm-up ran the model's parallel code); one job runs."""
+        job = {"argv": list(args), "kill": kill, "log": str(log), "precheck": True, "pace": 0.0,
+               "session": True}
         self.proc.stdin.write(json.dumps(job) + "\n")
         self.proc.stdin.flush()
         return self._read()
@@ -129,7 +145,9 @@ def _serve() -> None:
                 store.ensure_free = lambda *args, **kwargs: None
             if job["pace"] > 0:
                 _pace(job["pace"])
-            raise SystemExit(cli.main(["sample", job["config"], "--quiet"]))
+            if job.get("session"):
+                os.setsid()
+            raise SystemExit(cli.main(job.get("argv") or ["sample", job["config"], "--quiet"]))
         print(pid, flush=True)
         _, status = os.waitpid(pid, 0)
         print(os.waitstatus_to_exitcode(status), flush=True)

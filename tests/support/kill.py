@@ -5,6 +5,7 @@ Used by tests/test_fileset.py (a few instants) and benchmarks/kill_sets.py (20 e
 from __future__ import annotations
 
 import base64
+import contextlib
 import csv
 import io
 import os
@@ -46,13 +47,27 @@ def leftovers(root: Path) -> list[str]:
     return sorted(str(p.relative_to(root)) for p in root.rglob("*") if LEFTOVER.search(p.name))
 
 
-def run(cmd: list[str], env: dict[str, str] | None = None, timeout: float = 900) -> float:
-    """Run ``cmd`` to its end; its wall time."""
+def run(cmd: list[str], env: dict[str, str] | None = None, timeout: float = 900,
+        ok: tuple[int, ...] = (0, 1)) -> float:
+    """Run ``cmd`` to its end (``ok``: the exit statuses accepted); its wall time."""
     t0 = time.monotonic()
     proc = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=timeout)
-    if proc.returncode not in (0, 1):
+    if proc.returncode not in ok:
         raise AssertionError(f"{' '.join(cmd)}: exit {proc.returncode}\n{proc.stderr[-2000:]}")
     return time.monotonic() - t0
+
+
+def run_here(args: list[str]) -> None:
+    """Run the command ``args`` to its end by the CLI's main in this process (what
+    ``python -m bayes_dnlr`` runs): the next run after a kill, and the old set, which nothing
+    times. A fresh interpreter cost each 4-5 s of CPU in imports."""
+    from bayes_dnlr.cli import main
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(out):
+        code = main(args)
+    if code not in (0, 1):
+        raise AssertionError(f"{' '.join(args)}: exit {code}\n{out.getvalue()[-2000:]}")
 
 
 def kill_after(cmd: list[str], seconds: float, env: dict[str, str] | None = None) -> int | None:
@@ -83,6 +98,53 @@ def _reap(pgid: int) -> None:
         except ProcessLookupError:
             return
         time.sleep(0.05)
+
+
+def _alive(pid: int) -> bool:
+    """True while the forked child runs (the zygote reaps it as soon as it has ended)."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+def timed(args: list[str], zygote=None, log: Path | None = None, ok: tuple[int, ...] = (0, 1)) -> float:
+    """Run the command ``args`` to its end, in a fresh interpreter or, with ``zygote``
+    (support/crash.py), in a process forked from it (``log``: its output); its wall time.
+    ``ok``: the exit statuses accepted."""
+    if zygote is None:
+        return run(command(*args), ok=ok)
+    t0 = time.monotonic()
+    zygote.start_command(args, log=log)
+    code = zygote.wait()
+    if code not in ok:
+        raise AssertionError(f"{' '.join(args)}: exit {code}\n{log.read_text()[-2000:]}")
+    return time.monotonic() - t0
+
+
+def kill_at(args: list[str], seconds: float, point: str | None, zygote=None,
+            log: Path | None = None) -> int | None:
+    """``kill_after`` for the command ``args`` (``point``: its named kill point, or None); with
+    ``zygote``, the command is a process forked from it in a session of its own, which is killed
+    with its whole group as a fresh interpreter is. The exit status, None if it ended first."""
+    if zygote is None:
+        return kill_after(command(*args), seconds, kill_env(point) if point else None)
+    pid = zygote.start_command(args, kill=point or "", log=log)
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline and _alive(pid):
+        time.sleep(0.01)
+    killed = _alive(pid)
+    if killed:
+        try:
+            os.killpg(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    code = zygote.wait()
+    if killed:
+        _reap(pid)
+        return -9
+    return code if code != 0 else None
 
 
 def kill_env(point: str) -> dict[str, str]:
@@ -136,30 +198,35 @@ class Tally:
 
 # ---------------------------------------------------------------- export
 
+def export_args(run_dir: Path, out: Path, seed: int, draws: int) -> list[str]:
+    return ["export", str(run_dir), "--format", "abaqus", "--nu", "0.45", "--draws", str(draws),
+            "--seed", str(seed), "--out", str(out), "--force"]
+
+
 def export_cmd(run_dir: Path, out: Path, seed: int, draws: int) -> list[str]:
-    return command("export", str(run_dir), "--format", "abaqus", "--nu", "0.45", "--draws", str(draws),
-                   "--seed", str(seed), "--out", str(out), "--force")
+    return command(*export_args(run_dir, out, seed, draws))
 
 
 def export_kills(run_dir: Path, work: Path, draws: int, instants: int,
-                 points: tuple[str, ...] = ()) -> Tally:
+                 points: tuple[str, ...] = (), zygote=None) -> Tally:
     """Kill `export --draws` (new seed) over an old card set at ``instants`` evenly spread instants
     of its duration and at the named ``points``; after each kill the folder holds the old set or
-    the new one, and after the next export no temporary is left."""
+    the new one, and after the next export no temporary is left. ``zygote``: the timed and the
+    killed exports are forked from it (support/crash.py), not fresh interpreters."""
     target = work / "cards"
     ref_old, ref_new = work / "ref-old", work / "ref-new"
-    run(export_cmd(run_dir, ref_old, 0, draws))
-    duration = run(export_cmd(run_dir, ref_new, 1, draws))
+    run_here(export_args(run_dir, ref_old, 0, draws))
+    duration = timed(export_args(run_dir, ref_new, 1, draws), zygote, work / "ref-new.log")
     old, new = files(ref_old), files(ref_new)
     assert old != new
     tally = Tally()
     cases = [(duration * (i + 0.5) / instants, None) for i in range(instants)]
     cases += [(duration * 3, p) for p in points]
-    for seconds, point in cases:
+    for k, (seconds, point) in enumerate(cases):
         if target.exists():
             shutil.rmtree(target)
         shutil.copytree(ref_old, target)
-        kill_after(export_cmd(run_dir, target, 1, draws), seconds, kill_env(point) if point else None)
+        kill_at(export_args(run_dir, target, 1, draws), seconds, point, zygote, work / f"kill{k}.log")
         tally.kills += 1
         recover_folder(target)                 # what the next export (or a reader) does first
         now = files(target) if target.is_dir() else {}
@@ -169,7 +236,7 @@ def export_kills(run_dir: Path, work: Path, draws: int, instants: int,
             tally.new += 1
         else:
             tally.mixed.append(f"{point or f'{seconds:.2f} s'}: {len(now)} files")
-        run(export_cmd(run_dir, target, 1, draws))
+        run_here(export_args(run_dir, target, 1, draws))
         assert files(target) == new
         tally.left_after_next_run += leftovers(work)
     return tally
@@ -185,14 +252,16 @@ def _sets(out: Path) -> dict[str, dict[str, bytes]]:
 
 
 def batch_kills(campaign: Path, batch_args: list[str], work: Path, instants: int,
-                points: tuple[str, ...] = (), duration: float | None = None) -> Tally:
+                points: tuple[str, ...] = (), duration: float | None = None, zygote=None) -> Tally:
     """``campaign``: a folder whose batch (``batch_args``, --out inside it) has run once (the old
     sets) and whose inputs then changed. Kill the batch at ``instants`` instants of its duration and
     at ``points``, each time from a fresh copy of ``campaign``; judge every set (the batch's and
     each test's report) old or whole new; run the batch again and find nothing temporary.
 
     ``duration``: the seconds a whole run takes (the campaign's first run is as long: the same
-    tests, fit, sample and reports); None: a run on a copy measures it first."""
+    tests, fit, sample and reports, run the same way); None: a run on a copy measures it first.
+    ``zygote``: the killed batches are forked from it (support/crash.py), not fresh interpreters
+    (a batch of one job only: Zygote.start_command)."""
     out_rel = Path(batch_args[batch_args.index("--out") + 1]).relative_to(campaign)
 
     def args_in(root: Path) -> list[str]:
@@ -201,7 +270,7 @@ def batch_kills(campaign: Path, batch_args: list[str], work: Path, instants: int
     if duration is None:
         probe = work / "probe"
         shutil.copytree(campaign, probe)
-        duration = run(command(*args_in(probe)))
+        duration = timed(args_in(probe), zygote, work / "probe.log")
         shutil.rmtree(probe)
     old = _sets(campaign / out_rel)
     tally = Tally()
@@ -211,7 +280,7 @@ def batch_kills(campaign: Path, batch_args: list[str], work: Path, instants: int
         root = work / f"kill{k}"
         shutil.copytree(campaign, root)
         out = root / out_rel
-        kill_after(command(*args_in(root)), seconds, kill_env(point) if point else None)
+        kill_at(args_in(root), seconds, point, zygote, work / f"kill{k}.log")
         tally.kills += 1
         recover(out, "batch", BATCH_SET)          # what the next batch (or a reader) does first
         for run_dir in (out / "runs").iterdir():
@@ -225,22 +294,21 @@ def batch_kills(campaign: Path, batch_args: list[str], work: Path, instants: int
                 tally.new += 1
             else:
                 tally.mixed.append(f"{point or f'{seconds:.1f} s'}: {name}")
-        run(command(*args_in(root)))
+        run_here(args_in(root))
         assert batch_consistent(out)
         tally.left_after_next_run += leftovers(root)
         shutil.rmtree(root)
     return tally
 
 
-def campaign(folder: Path, tests: int) -> tuple[Path, list[str], float]:
-    """A manifest batch with reports, run once; then new seeds (the runs' inputs changed). The
-    folder, the arguments of the next run and the seconds the first one took."""
+def campaign(folder: Path, tests: int, zygote=None) -> tuple[Path, list[str], float]:
+    """A manifest batch with reports, run once (``zygote``: in a process forked from it); then new
+    seeds (the runs' inputs changed). The folder, the arguments of the next run and the seconds
+    the first one took."""
     template, manifest = tiny_campaign(folder, tests, points=150)
     args = ["batch", str(template), "--manifest", str(manifest), "--out", str(folder / "out"),
             "--jobs", str(min(tests, 2)), "--quiet", "--no-population"]
-    t0 = time.monotonic()
-    subprocess.run([sys.executable, "-m", "bayes_dnlr", *args], check=True, capture_output=True, timeout=900)
-    seconds = time.monotonic() - t0
+    seconds = timed(args, zygote, folder.parent / f"{folder.name}.log", ok=(0,))
     rows = list(csv.DictReader(open(manifest)))
     for r in rows:
         r["sampler.seed"] = str(int(r["sampler.seed"]) + 10)

@@ -4,8 +4,7 @@ finished runs, its named errors, and (slow) the coverage of mu_E and s_E."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
+from dataclasses import dataclass
 
 import numpy as np
 import pytest
@@ -15,8 +14,24 @@ from support.runs import make_run, ramp_truth
 E_SPECIMENS = (2700.0, 2850.0, 3000.0)
 
 
-def cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "bayes_dnlr", *args], capture_output=True, text=True)
+@dataclass
+class Ran:
+    returncode: int
+    stderr: str
+
+
+@pytest.fixture
+def cli(capsys):
+    """cli(*args): the command run by the CLI's main in this process (what `python -m bayes_dnlr`
+    runs; a fresh interpreter cost each call 3-5 s of CPU in imports); its exit status and stderr."""
+    from bayes_dnlr.cli import main
+
+    def run(*args: str) -> Ran:
+        capsys.readouterr()
+        code = main(list(args))
+        return Ran(code, capsys.readouterr().err)
+
+    return run
 
 
 def test_two_stage_recovers_a_known_population_and_shrinks():
@@ -155,7 +170,7 @@ def specimens(tmp_path_factory):
     return root, dirs
 
 
-def test_population_command_writes_json_md_and_figure(specimens):
+def test_population_command_writes_json_md_and_figure(specimens, cli):
     root, dirs = specimens
     r = cli("population", *map(str, dirs))
     assert r.returncode == 0, r.stderr
@@ -175,14 +190,14 @@ def test_population_command_writes_json_md_and_figure(specimens):
     assert cli("population", *map(str, dirs)).returncode == 0
 
 
-def _one_error(r: subprocess.CompletedProcess) -> str:
+def _one_error(r: Ran) -> str:
     assert r.returncode == 2, r.stderr
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: "), r.stderr
     return lines[0]
 
 
-def test_population_never_replaces_a_result_from_other_runs(specimens, tmp_path):
+def test_population_never_replaces_a_result_from_other_runs(specimens, tmp_path, cli):
     root, dirs = specimens
     out = tmp_path / "out"
     assert cli("population", *map(str, dirs), "--out", str(out)).returncode == 0
@@ -194,7 +209,7 @@ def test_population_never_replaces_a_result_from_other_runs(specimens, tmp_path)
     assert json.loads((out / "population.json").read_text())["specimens"] == ["spec-1", "spec-2"]
 
 
-def test_population_errors_name_the_run(specimens, tmp_path):
+def test_population_errors_name_the_run(specimens, tmp_path, cli):
     root, dirs = specimens
     assert "at least two" in _one_error(cli("population", str(dirs[0]), "--out", str(tmp_path)))
     assert "given twice" in _one_error(cli("population", str(dirs[0]), str(dirs[0]),
