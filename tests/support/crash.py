@@ -66,11 +66,8 @@ class Zygote:
         """Fork ``python -m bayes_dnlr <args>`` (the CLI's main) in a session of its own, so that a
         kill of its process group takes the worker processes it starts with it (as
         ``start_new_session`` does for a subprocess), and return at once with its pid; ``wait``
-        gives its return code. One child at a time.
-
-        A command that runs in worker processes does not run here: a `batch --jobs 2` forked from
-        the zygote ended at once with numba's "fork() called from a process already using GNU
-        OpenMP, this is unsafe" (the warm-up ran the model's parallel code); one job runs."""
+        gives its return code. One child at a time. A forked child computes in one thread
+        (``model.threads.parallel_allowed``); a `batch --jobs 2` starts its workers afresh (loky)."""
         job = {"argv": list(args), "kill": kill, "log": str(log), "precheck": True, "pace": 0.0,
                "session": True}
         self.proc.stdin.write(json.dumps(job) + "\n")

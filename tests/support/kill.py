@@ -261,7 +261,7 @@ def batch_kills(campaign: Path, batch_args: list[str], work: Path, instants: int
     ``duration``: the seconds a whole run takes (the campaign's first run is as long: the same
     tests, fit, sample and reports, run the same way); None: a run on a copy measures it first.
     ``zygote``: the killed batches are forked from it (support/crash.py), not fresh interpreters
-    (a batch of one job only: Zygote.start_command)."""
+    (Zygote.start_command)."""
     out_rel = Path(batch_args[batch_args.index("--out") + 1]).relative_to(campaign)
 
     def args_in(root: Path) -> list[str]:
