@@ -8,24 +8,32 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 TESTS = Path(__file__).resolve().parent
 
 
-def _pytest(env_folder: str, *args: str) -> str:
-    env = {**os.environ, "BAYES_DNLR_REAL_DATA": env_folder}
-    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *args],
+@pytest.fixture(scope="module")
+def absent(tmp_path_factory) -> tuple[Path, str]:
+    """A folder named by BAYES_DNLR_REAL_DATA that holds no curves, and what pytest printed for the
+    real-data tests with it (one pytest for both tests: ``-rs`` adds nothing to the project's -ra)."""
+    folder = tmp_path_factory.mktemp("real") / "elsewhere"
+    env = {**os.environ, "BAYES_DNLR_REAL_DATA": str(folder)}
+    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-rs",
+                           "tests/runs/test_real_data.py"],
                           cwd=TESTS.parent, env=env, capture_output=True, text=True, timeout=300)
-    return done.stdout
+    return folder, done.stdout
 
 
-def test_absent_real_curves_are_counted_in_the_summary_line(tmp_path):
-    out = _pytest(str(tmp_path / "nowhere"), "tests/runs/test_real_data.py")
+def test_absent_real_curves_are_counted_in_the_summary_line(absent):
+    _, out = absent
     last = out.strip().splitlines()[-1]
     assert "real-data tests skipped (curves absent)" in last, out
-    assert "real data: absent" in out and "BAYES_DNLR_REAL_DATA" in out
+    [line] = [x for x in out.splitlines() if x.startswith("real data: absent")]
+    assert "BAYES_DNLR_REAL_DATA" in line, out
 
 
-def test_the_folder_comes_from_the_environment(tmp_path):
+def test_the_folder_comes_from_the_environment(absent):
     """BAYES_DNLR_REAL_DATA names the folder (a copy elsewhere): the skip reason names it."""
-    out = _pytest(str(tmp_path / "elsewhere"), "-rs", "tests/runs/test_real_data.py")
-    assert str(tmp_path / "elsewhere") in out
+    folder, out = absent
+    assert str(folder) in out

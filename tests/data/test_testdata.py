@@ -420,17 +420,25 @@ def test_state_space_spline_is_scipys_smoothing_spline_and_gcv_is_exact():
     np.testing.assert_allclose(fit, make_smoothing_spline(x, y, lam=lam)(x), rtol=0, atol=1e-9)
     assert gcv_lambda(x, y) == pytest.approx(lam, rel=1e-12)
 
-    def exact_gcv(lam_):
+    def hat(lam_):
+        """The dense hat matrix: column j is the spline of the unit vector e_j at x. A scipy that takes
+        a 2-D y smooths every column in one call (the same matrix, bit for bit, 150x faster)."""
+        eye = np.eye(x.size)
+        try:
+            return make_smoothing_spline(x, eye, lam=lam_)(x)
+        except ValueError:                  # scipy before y of shape (n, ...): a vector at a time
+            return np.column_stack([make_smoothing_spline(x, e, lam=lam_)(x) for e in eye])
+
+    def exact_gcv(H):
         n = x.size
-        H = np.column_stack([make_smoothing_spline(x, e, lam=lam_)(x) for e in np.eye(n)])
         r = y - H @ y
         return n * (r @ r) / (n - np.trace(H)) ** 2
 
-    assert exact_gcv(lam) <= min(exact_gcv(lam * 0.97), exact_gcv(lam * 1.03))
+    H = hat(lam)
+    assert exact_gcv(H) <= min(exact_gcv(hat(lam * 0.97)), exact_gcv(hat(lam * 1.03)))
     h = np.median(np.diff(x))
     u = (x - x[0]) / h
     tr = _kernel()(u, np.zeros_like(u), h**3 / lam, PRIOR_VAR, np.empty_like(u))
-    H = np.column_stack([make_smoothing_spline(x, e, lam=lam)(x) for e in np.eye(x.size)])
     assert tr == pytest.approx(np.trace(H), rel=1e-8)
     ref = make_smoothing_spline(x, y)(x)
     assert np.abs(fit - ref).max() < 1e-6          # scipy's choice: the same spline to 1 % of the noise
