@@ -1,17 +1,21 @@
 """Writing files that survive a full disk and a SIGKILL: free-space checks, clean errors, fsync of a
 directory, temporaries of killed writers, and the kill points of the crash tests.
 
-Used by rundir.write_atomic (every JSON/YAML/netCDF output) and runs/chains.py (chains.h5).
+Used by rundir.write_atomic (every JSON/YAML/netCDF output), runs/chains.py (chains.h5) and the
+.npz caches of the run folder (smoothed strains, the report's curves).
 """
 
 from __future__ import annotations
 
 import errno
+import io
 import os
 import re
 import signal
 from collections import Counter
 from pathlib import Path
+
+import numpy as np
 
 from bayes_dnlr.errors import DiskFullError, StorageError
 
@@ -87,6 +91,22 @@ def fsync_dir(folder: Path) -> None:
 def temp_path(path: Path) -> Path:
     """The temporary a writer of ``path`` in this process uses: ``.<name>.<pid>.tmp`` beside it."""
     return path.with_name(f".{path.name}.{os.getpid()}.tmp")
+
+
+def keep_cache_arrays(path: Path, **arrays) -> bool:
+    """Write ``arrays`` as the .npz file ``path`` in one step (a temporary, then a rename); False
+    when it cannot be written, which is no error for a cache: the next command computes them again."""
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    tmp = temp_path(path)
+    try:
+        path.parent.mkdir(exist_ok=True)
+        tmp.write_bytes(buf.getvalue())
+        os.replace(tmp, path)
+    except OSError:
+        tmp.unlink(missing_ok=True)
+        return False
+    return True
 
 
 def process_alive(pid: int) -> bool:

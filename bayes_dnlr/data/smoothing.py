@@ -17,16 +17,14 @@ dense stretch's, which would let the spline follow the noise between sparse samp
 from __future__ import annotations
 
 import hashlib
-import io
 import math
-import os
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from bayes_dnlr.data.brent import fminbound
-from bayes_dnlr.diskio import temp_path
+from bayes_dnlr.diskio import keep_cache_arrays
 
 SMOOTH_MIN_POINTS = 5       # fewer samples: a least-squares line (2: the samples themselves)
 LOG_LAMBDA = (-3.0, 14.0)   # GCV search range of log10 λ, λ in (median step)³
@@ -225,15 +223,7 @@ def _cached(path: Path) -> tuple[np.ndarray, list[float]] | None:
 def _store(path: Path, fit: np.ndarray, lams: list[float]) -> None:
     """Keep a smoothing for the next command (replaced in one step; a cache that cannot be written
     is no error: the next command smooths again)."""
-    buf = io.BytesIO()
-    np.savez(buf, strain=fit, lams=np.asarray(lams, dtype=float))
-    tmp = temp_path(path)
-    try:
-        path.parent.mkdir(exist_ok=True)
-        tmp.write_bytes(buf.getvalue())
-        os.replace(tmp, path)
-    except OSError:
-        tmp.unlink(missing_ok=True)
+    keep_cache_arrays(path, strain=fit, lams=np.asarray(lams, dtype=float))
 
 
 def smooth_strain(time: np.ndarray, strain: np.ndarray, breaks: Sequence[int] = (),

@@ -15,9 +15,7 @@ results or another computation than the report would make.
 from __future__ import annotations
 
 import hashlib
-import io
 import json
-import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -25,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.digests import file_sha256
-from bayes_dnlr.diskio import temp_path
+from bayes_dnlr.diskio import keep_cache_arrays
 from bayes_dnlr.inference.discrepancy.axis import test_axis
 from bayes_dnlr.runs.curves import N_DRAWS, Curves, Discrepancy, compute_curves
 from bayes_dnlr.runs.layout import FIT_FILE, POSTERIOR_FILE, SMOOTHING_CACHE, SUMMARY_FILE
@@ -122,15 +120,7 @@ def _store(run_dir: Path, test: str, digest: str, curves: Curves, disc: Discrepa
     """Keep a test's curves, replacing the ones it had (a cache that cannot be written is no error:
     the next report computes them)."""
     path = _file(run_dir, test, digest)
-    buf = io.BytesIO()
-    np.savez(buf, **_arrays(curves, disc))
-    tmp = temp_path(path)
-    try:
-        path.parent.mkdir(exist_ok=True)
-        tmp.write_bytes(buf.getvalue())
-        os.replace(tmp, path)
-    except OSError:
-        tmp.unlink(missing_ok=True)
+    if not keep_cache_arrays(path, **_arrays(curves, disc)):
         return
     for old in path.parent.glob(_file(run_dir, test).name):
         if old != path:
