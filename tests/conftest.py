@@ -19,6 +19,7 @@ if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -108,3 +109,25 @@ def pytest_terminal_summary(terminalreporter) -> None:
         text = f"real data: absent, {len(skipped)} tests skipped (set {ENV} to the folder of the real curves)"
         terminalreporter.stats["real-data tests skipped (curves absent)"] = list(skipped)
     terminalreporter.write_line(text, yellow=not PRESENT, bold=True)
+
+
+@dataclass
+class Ran:
+    """What ``cli_here`` returns: the command's exit status and its stderr."""
+    returncode: int
+    stderr: str
+
+
+@pytest.fixture
+def cli_here(capsys) -> Callable[..., Ran]:
+    """cli_here(*args): the command run by the CLI's main in this process (what `python -m
+    bayes_dnlr` runs; a fresh interpreter costs each call 3-5 s of CPU in imports); its exit
+    status and stderr."""
+    from bayes_dnlr.cli import main
+
+    def run(*args: str) -> Ran:
+        capsys.readouterr()
+        code = main(list(args))
+        return Ran(code, capsys.readouterr().err)
+
+    return run

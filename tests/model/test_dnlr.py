@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from support.forking import in_parent_and_forked_child
 from support.model import RELAX, TABLE3_5E3, ramp, reference, rel_err
 
 import bayes_dnlr as bd
@@ -140,37 +141,15 @@ def test_batch_equals_single_evaluations():
         np.testing.assert_array_equal(batch[k], m.stress(dict(zip(names, theta[k], strict=True))))
 
 
-@pytest.mark.filterwarnings("ignore:This process .* is multi-threaded:DeprecationWarning")
 def test_a_forked_child_computes_a_batch_in_one_thread_with_the_same_values():
     """numba terminates a forked child that starts a parallel region when its parent used GNU
     OpenMP: after a parallel batch here, a forked child (multiprocessing's fork, the crash tests'
     zygote) computes the batch row by row, and gets the same stress."""
-    import os
-    import pickle
-
-    from bayes_dnlr.model import set_threads
-
     t, e = ramp(5e-3, 2.0, 200, hold=100.0, n_hold=50)
     m = DNLR(t, e, relaxation_start=400.0)
     names = ["E", "G", "tau_max", "sigma_inf", "tau_max_R"]
     theta = np.tile([2500.0, 2.0, 5.0, 70.0, 20.0], (7, 1)) * np.linspace(0.9, 1.1, 7)[:, None]
-    try:
-        set_threads(2)
-        parent = m.stress_batch(theta, names)            # the parallel function, in this process
-        r, w = os.pipe()
-        pid = os.fork()
-        if pid == 0:                                      # pragma: no cover - the child
-            try:
-                os.write(w, pickle.dumps(m.stress_batch(theta, names)))
-            finally:
-                os._exit(0)
-        os.close(w)
-        with os.fdopen(r, "rb") as f:
-            child = pickle.loads(f.read())
-        _, status = os.waitpid(pid, 0)
-    finally:
-        set_threads(None)
-    assert os.waitstatus_to_exitcode(status) == 0
+    parent, child = in_parent_and_forked_child(lambda: m.stress_batch(theta, names))
     np.testing.assert_array_equal(child, parent)
 
 

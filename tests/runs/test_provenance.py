@@ -5,7 +5,6 @@ CLI's words for replacing them are its own (``--force``, ``--restart``)."""
 from __future__ import annotations
 
 import shutil
-from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
@@ -28,25 +27,6 @@ def run(finished, tmp_path) -> Path:
         "report.html", "figures")))
 
 
-@dataclass
-class Ran:
-    returncode: int
-    stderr: str
-
-
-@pytest.fixture
-def cli(capsys):
-    """cli(*args): the command run by the CLI's main in this process (what `python -m bayes_dnlr`
-    runs; a fresh interpreter cost each call 3-5 s of CPU in imports); its exit status and stderr."""
-    from bayes_dnlr.cli import main
-
-    def run(*args: str) -> Ran:
-        capsys.readouterr()
-        code = main(list(args))
-        return Ran(code, capsys.readouterr().err)
-
-    return run
-
 
 def _edit_data(run: Path) -> None:
     """One stress value of the data file changed by 0.01 MPa."""
@@ -68,9 +48,9 @@ def test_current_results_are_not_marked(run):
     assert STALE_BOX not in build_report(run).read_text()
 
 
-def test_an_edited_config_marks_the_fit_and_the_chain(run, cli):
+def test_an_edited_config_marks_the_fit_and_the_chain(run, cli_here):
     _edit_model(run)
-    r = cli("report", str(run))
+    r = cli_here("report", str(run))
     assert r.returncode == 0, r.stderr
     lines = [x for x in r.stderr.splitlines() if x.startswith("warning: ")]
     assert any("fit.json was made from a different config (sections model" in x for x in lines), r.stderr
@@ -102,9 +82,9 @@ def test_a_folder_with_only_its_resolved_config(run):
     assert notes and all("data file" in n for n in notes) and not any("config (" in n for n in notes)
 
 
-def test_the_fit_refusal_speaks_cli(run, cli):
+def test_the_fit_refusal_speaks_cli(run, cli_here):
     _edit_model(run)
-    r = cli("fit", str(run / "config.yaml"))
+    r = cli_here("fit", str(run / "config.yaml"))
     assert r.returncode == 2
     assert "overwrite=True" not in r.stderr and "(restart=True)" not in r.stderr
     assert f"`python -m bayes_dnlr fit --force {run / 'config.yaml'}` replaces it" in r.stderr

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from support.crash import child_running
 from support.sampling import write_case
 
 from bayes_dnlr.runs.chains import read_run
@@ -39,20 +40,11 @@ def reference(tmp_path_factory, zygote):
     return read_run(path.parent / "chains.h5")
 
 
-def _alive(pid: int) -> bool:
-    """True while the child runs (the zygote reaps it only when it has ended)."""
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
-    except FileNotFoundError:
-        return False
-
-
 def _wait_for_steps(pid: int, chains: Path, at_least: int, timeout: float = 120.0) -> int:
     """Poll the file (a concurrent SWMR reader) until the writer has committed ``at_least`` steps."""
     t0 = time.monotonic()
     while time.monotonic() - t0 < timeout:
-        assert _alive(pid), "the sampler ended before the signal"
+        assert child_running(pid), "the sampler ended before the signal"
         if chains.exists():
             try:
                 n = read_run(chains).steps

@@ -84,6 +84,16 @@ class Zygote:
         return int(line)
 
 
+def child_running(pid: int) -> bool:
+    """True while a child the zygote forked runs (the zygote reaps it only when it has ended, so an
+    ended child is a zombie until then)."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
 def _warm_up() -> None:
     """One whole `sample` of a tiny case: every lazy import and numba's cache loaded before forking
     (no HDF5 file stays open)."""

@@ -23,6 +23,7 @@ from bayes_dnlr.fileset import recover, recover_folder
 from bayes_dnlr.report.current import REPORT_SET
 from bayes_dnlr.workflows.batch.run import BATCH_SET
 from support.batch import tiny_campaign
+from support.crash import child_running
 
 LEFTOVER = re.compile(r"(\.tmp|\.before|\.publishing|\.old)$")
 _IMG = re.compile(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"')
@@ -100,15 +101,6 @@ def _reap(pgid: int) -> None:
         time.sleep(0.05)
 
 
-def _alive(pid: int) -> bool:
-    """True while the forked child runs (the zygote reaps it as soon as it has ended)."""
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
-    except FileNotFoundError:
-        return False
-
-
 def timed(args: list[str], zygote=None, log: Path | None = None, ok: tuple[int, ...] = (0, 1)) -> float:
     """Run the command ``args`` to its end, in a fresh interpreter or, with ``zygote``
     (support/crash.py), in a process forked from it (``log``: its output); its wall time.
@@ -132,9 +124,9 @@ def kill_at(args: list[str], seconds: float, point: str | None, zygote=None,
         return kill_after(command(*args), seconds, kill_env(point) if point else None)
     pid = zygote.start_command(args, kill=point or "", log=log)
     deadline = time.monotonic() + seconds
-    while time.monotonic() < deadline and _alive(pid):
+    while time.monotonic() < deadline and child_running(pid):
         time.sleep(0.01)
-    killed = _alive(pid)
+    killed = child_running(pid)
     if killed:
         try:
             os.killpg(pid, signal.SIGKILL)

@@ -4,34 +4,15 @@ finished runs, its named errors, and (slow) the coverage of mu_E and s_E."""
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
 
 import numpy as np
 import pytest
+from support.forking import in_parent_and_forked_child
 from support.population import MU, PRIOR, S, coverage, draw_population
 from support.runs import make_run, ramp_truth
 
 E_SPECIMENS = (2700.0, 2850.0, 3000.0)
 
-
-@dataclass
-class Ran:
-    returncode: int
-    stderr: str
-
-
-@pytest.fixture
-def cli(capsys):
-    """cli(*args): the command run by the CLI's main in this process (what `python -m bayes_dnlr`
-    runs; a fresh interpreter cost each call 3-5 s of CPU in imports); its exit status and stderr."""
-    from bayes_dnlr.cli import main
-
-    def run(*args: str) -> Ran:
-        capsys.readouterr()
-        code = main(list(args))
-        return Ran(code, capsys.readouterr().err)
-
-    return run
 
 
 def test_two_stage_recovers_a_known_population_and_shrinks():
@@ -62,16 +43,11 @@ def test_monte_carlo_check_fails_with_too_few_draws():
     assert min(pop.effective_draws.values()) < 60
 
 
-@pytest.mark.filterwarnings("ignore:This process .* is multi-threaded:DeprecationWarning")
 def test_a_forked_child_computes_the_grid_in_one_thread_with_the_same_values():
     """numba terminates a forked child that starts a parallel region when its parent used GNU
     OpenMP (a batch forked by a fork server warms this function up): after a threaded call here,
     a forked child takes the serial driver and gets the same grid."""
-    import os
-    import pickle
-
     from bayes_dnlr.inference.analyses.population import add_log_mean_weight
-    from bayes_dnlr.model import set_threads
 
     rng = np.random.default_rng(4)
     x, logpi = rng.normal(MU, 50.0, 300), np.full(300, -7.0)
@@ -82,23 +58,7 @@ def test_a_forked_child_computes_the_grid_in_one_thread_with_the_same_values():
         add_log_mean_weight(x, logpi, mu_grid, s_grid, logL)
         return logL
 
-    try:
-        set_threads(2)
-        parent = grid()                                   # the threaded driver, in this process
-        r, w = os.pipe()
-        pid = os.fork()
-        if pid == 0:                                      # pragma: no cover - the child
-            try:
-                os.write(w, pickle.dumps(grid()))
-            finally:
-                os._exit(0)
-        os.close(w)
-        with os.fdopen(r, "rb") as f:
-            child = pickle.loads(f.read())
-        _, status = os.waitpid(pid, 0)
-    finally:
-        set_threads(None)
-    assert os.waitstatus_to_exitcode(status) == 0
+    parent, child = in_parent_and_forked_child(grid)
     np.testing.assert_array_equal(child, parent)
 
 
@@ -170,9 +130,9 @@ def specimens(tmp_path_factory):
     return root, dirs
 
 
-def test_population_command_writes_json_md_and_figure(specimens, cli):
+def test_population_command_writes_json_md_and_figure(specimens, cli_here):
     root, dirs = specimens
-    r = cli("population", *map(str, dirs))
+    r = cli_here("population", *map(str, dirs))
     assert r.returncode == 0, r.stderr
     data = json.loads((root / "population.json").read_text())
     assert data["specimens"] == ["spec-1", "spec-2", "spec-3"]
@@ -187,35 +147,35 @@ def test_population_command_writes_json_md_and_figure(specimens, cli):
     md = (root / "population.md").read_text()
     assert "E of the material" in md and "Monte Carlo check: passed" in md
     # the same runs again: the same file, no refusal
-    assert cli("population", *map(str, dirs)).returncode == 0
+    assert cli_here("population", *map(str, dirs)).returncode == 0
 
 
-def _one_error(r: Ran) -> str:
+def _one_error(r) -> str:
     assert r.returncode == 2, r.stderr
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: "), r.stderr
     return lines[0]
 
 
-def test_population_never_replaces_a_result_from_other_runs(specimens, tmp_path, cli):
+def test_population_never_replaces_a_result_from_other_runs(specimens, tmp_path, cli_here):
     root, dirs = specimens
     out = tmp_path / "out"
-    assert cli("population", *map(str, dirs), "--out", str(out)).returncode == 0
+    assert cli_here("population", *map(str, dirs), "--out", str(out)).returncode == 0
     before = (out / "population.json").read_text()
-    line = _one_error(cli("population", *map(str, dirs[:2]), "--out", str(out)))
+    line = _one_error(cli_here("population", *map(str, dirs[:2]), "--out", str(out)))
     assert "population.json exists and was made from other runs" in line and "--force" in line
     assert (out / "population.json").read_text() == before
-    assert cli("population", *map(str, dirs[:2]), "--out", str(out), "--force").returncode == 0
+    assert cli_here("population", *map(str, dirs[:2]), "--out", str(out), "--force").returncode == 0
     assert json.loads((out / "population.json").read_text())["specimens"] == ["spec-1", "spec-2"]
 
 
-def test_population_errors_name_the_run(specimens, tmp_path, cli):
+def test_population_errors_name_the_run(specimens, tmp_path, cli_here):
     root, dirs = specimens
-    assert "at least two" in _one_error(cli("population", str(dirs[0]), "--out", str(tmp_path)))
-    assert "given twice" in _one_error(cli("population", str(dirs[0]), str(dirs[0]),
+    assert "at least two" in _one_error(cli_here("population", str(dirs[0]), "--out", str(tmp_path)))
+    assert "given twice" in _one_error(cli_here("population", str(dirs[0]), str(dirs[0]),
                                            "--out", str(tmp_path)))
     unfinished = make_run(tmp_path, "raw", ramp_truth(0.5, n_points=150)).parent
-    line = _one_error(cli("population", str(dirs[0]), str(unfinished), "--out", str(tmp_path)))
+    line = _one_error(cli_here("population", str(dirs[0]), str(unfinished), "--out", str(tmp_path)))
     assert str(unfinished) in line and "not a finished run" in line
     assert not (tmp_path / "population.json").exists()
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from support.forking import in_parent_and_forked_child
 from support.likelihood import discrepancy_config, discrepancy_priors, white_config, wobbly
 from support.sampling import TRUTH, TRUTH_RELAX, make_test
 
@@ -155,34 +156,14 @@ def test_thread_setting_in_config_and_cli() -> None:
     assert exc.value.code == 2
 
 
-@pytest.mark.filterwarnings("ignore:This process .* is multi-threaded:DeprecationWarning")
 def test_a_forked_child_computes_in_one_thread_with_the_same_values() -> None:
     """numba terminates a forked child that starts a parallel region when the parent used GNU
     OpenMP: the child takes the serial driver (the zygote of the crash tests forks like this)."""
-    import os
-    import pickle
-
     test = make_test(n=400, seed=2)
     post = build_log_posterior(discrepancy_config("exp", "time"), test, sigma0=0.3,
                                discrepancy_priors=discrepancy_priors(1e3))
     th = _spread(np.array([2854.0, 2.32, 5.79, 0.5, 12.0]), np.full(5, 0.01), 20)
-    try:
-        set_threads(2)
-        parent = post.log_likelihood(th)                  # the parallel driver, in this process
-        r, w = os.pipe()
-        pid = os.fork()
-        if pid == 0:                                      # pragma: no cover - the child
-            try:
-                os.write(w, pickle.dumps(post.log_likelihood(th)))
-            finally:
-                os._exit(0)
-        os.close(w)
-        with os.fdopen(r, "rb") as f:
-            child = pickle.loads(f.read())
-        _, status = os.waitpid(pid, 0)
-    finally:
-        set_threads(None)
-    assert os.waitstatus_to_exitcode(status) == 0
+    parent, child = in_parent_and_forked_child(lambda: post.log_likelihood(th))
     np.testing.assert_array_equal(child, parent)
 
 
