@@ -8,8 +8,9 @@
 - When a core is free (two or more, and one of them idle now), a worker process
   forked when the report starts (before this process runs any other Python thread) imports
   matplotlib while the run is loaded, then draws the figures handed to it (``aside=True``) while
-  this process draws the others. ``figure_session`` waits for them at its end; the page embeds
-  every PNG after that (``page_parts.embed``). Under load the figures are drawn here, one by one.
+  this process draws the others. At the session's end this process draws those the worker has not
+  started yet, then waits for the rest; the page embeds every PNG after that
+  (``page_parts.embed``). Under load the figures are drawn here, one by one.
 - During a session what is already loaded (the modules, the run, the model) is kept out of the
   garbage collector's full passes (``gc.freeze``, again before each figure and before the model
   curves: ``keep_long_lived``): each full pass walked all of it, 0.1-0.45 s, five times in a first
@@ -91,7 +92,15 @@ def figure_session(aside: bool = True, warm: Callable[[], None] | None = None) -
     token = _session.set(session)
     try:
         yield session.used
+        # This process is done with its own figures: it draws those the worker has not started
+        # yet, the last handed over first (the worker takes them in order), so that the two
+        # finish about together whatever the figures cost on this run.
+        for future, again in reversed(session.pending):
+            if future.cancel():
+                again()
         for future, again in session.pending:
+            if future.cancelled():
+                continue
             try:
                 future.result()
             except Exception as err:  # noqa: BLE001 - a lost worker: draw here; a figure's own error again

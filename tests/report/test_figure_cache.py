@@ -4,11 +4,13 @@ some of them beside the page gives the same page and the same PNGs as drawing th
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
 from pathlib import Path
 
 import pytest
+from support.drawing import busy_worker, pid_figure
 from support.finished_run import make_finished_run
 
 from bayes_dnlr.report import build_report, figure_cache
@@ -81,6 +83,23 @@ def test_the_worker_draws_the_same_page(run, tmp_path, monkeypatch):
         "report.html", "figures")))
     assert _text(build_report(alone)).replace(str(alone), str(run)) == aside
     assert {k: v[1] for k, v in _pngs(alone).items()} == pngs
+
+
+@pytest.mark.filterwarnings("ignore:This process .* is multi-threaded:DeprecationWarning")
+def test_figures_the_worker_has_not_started_are_drawn_here(tmp_path, monkeypatch):
+    """At the session's end this process draws what the busy worker has not started, the last
+    handed over first; what the worker took is drawn once, by the worker."""
+    monkeypatch.setattr(figure_cache, "_free_core", lambda: True)
+    monkeypatch.setattr(figure_cache, "_single_threaded", lambda: True)
+    paths = [tmp_path / f"{name}.png" for name in "abcd"]
+    with figure_cache.figure_session(warm=busy_worker):
+        for path in paths:
+            figure_cache.drawn(pid_figure, path, aside=True)
+    drew = [int(p.read_text()) for p in paths]
+    here = os.getpid()
+    assert drew[0] != here                    # the worker had taken it before the session's end
+    assert drew[-1] == here and drew[-2] == here
+    assert all(d != here for d in drew[:drew.index(here)])     # the worker's, then this process's
 
 
 def test_the_worker_waits_for_a_core_idle_now(monkeypatch):
