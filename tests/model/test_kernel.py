@@ -12,6 +12,7 @@ from support.model import RELAX, TABLE3_5E3, jittered, ramp, reference, rel_err
 import bayes_dnlr as bd
 from bayes_dnlr.model import DNLR, cached_model, default_threads, get_threads, grid, kernel, set_threads
 from bayes_dnlr.model import threads as threads_module
+from bayes_dnlr.numba_cache import depend_on
 
 NAMES = ["E", "G", "tau_max", "sigma_inf", "tau_max_R"]
 
@@ -191,7 +192,9 @@ def test_gradients_on_quantized_levels_match_finite_differences(monkeypatch):
 
 # ----------------------------------------------------------------- the calling convention
 
-@njit
+# cached on disk as the package's compiled functions are (3 s of compiling in every session), and
+# keyed also on the kernel's source, which it compiles into itself (numba_cache.depend_on)
+@njit(cache=True)
 def _loop_over_sets(theta, prepared, out):
     # theta columns in NAMES order (E, G, tau_max, sigma_inf, tau_max_R); stress_into takes
     # (E, G, sigma_inf, tau_max, tau_max_R, alpha)
@@ -200,6 +203,9 @@ def _loop_over_sets(theta, prepared, out):
         ok += kernel.stress_into(theta[r, 0], theta[r, 1], theta[r, 3], theta[r, 2], theta[r, 4],
                                  0.5, prepared, out[r])
     return ok
+
+
+depend_on(_loop_over_sets, kernel)
 
 
 def sets(k: int, seed: int = 2) -> np.ndarray:

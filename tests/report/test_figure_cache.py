@@ -52,7 +52,8 @@ def test_a_rebuild_keeps_every_figure_and_redraws_what_changed(run):
     assert figure_cache.stored_key(run / "figures" / "fit.png") is not None
 
 
-def test_a_figure_no_longer_drawn_is_removed(run):
+def test_a_figure_no_longer_drawn_is_removed(tmp_path):
+    run = make_finished_run(tmp_path, figures=True)     # the figures of its report: none drawn here
     build_report(run)
     stray = run / "figures" / "old-figure.png"
     shutil.copy(run / "figures" / "fit.png", stray)

@@ -61,7 +61,7 @@ def test_the_checks_verdict_sits_under_the_headline(tmp_path):
 
     from support.finished_run import make_finished_run
 
-    run = make_finished_run(tmp_path)
+    run = make_finished_run(tmp_path, figures=True)        # its figures drawn: only the page is built
     summary = json.loads((run / "summary.json").read_text())
     page = build_report(run).read_text()
     box = re.search(r'<div class="box (ok|warn)"><b>Checks</b>(.*?)</div>', page, re.S)

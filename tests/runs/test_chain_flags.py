@@ -5,10 +5,7 @@ refuses a changed config), and the commands that take a run folder. A live write
 
 from __future__ import annotations
 
-import os
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import h5py
@@ -18,7 +15,6 @@ import yaml
 from support.sampling import write_case
 
 from bayes_dnlr import cli
-from bayes_dnlr.diskio import KILL_ENV
 from bayes_dnlr.runs.chains import read_run, release_stale_writer, write_flags
 from bayes_dnlr.runs.lock import run_lock
 
@@ -26,13 +22,13 @@ SAMPLER = {"walkers": 8, "max_steps": 60, "target_ess": 1.0e9, "checkpoint_every
 
 
 @pytest.fixture(scope="module")
-def killed_once(tmp_path_factory) -> Path:
-    """A run whose `sample` was killed after its second commit (40 steps): chains.h5 flagged."""
+def killed_once(tmp_path_factory, zygote) -> Path:
+    """A run whose `sample` was killed after its second commit (40 steps): chains.h5 flagged. The
+    `sample` is forked from the session's zygote (support/crash.py), as the crash tests' are: a
+    fresh interpreter cost it 3-4 s of CPU in imports."""
     config = write_case(tmp_path_factory.mktemp("killed"), "syn", n=200, sampler=SAMPLER)
-    env = {**os.environ, KILL_ENV: "append.flushed@2"}
-    proc = subprocess.run([sys.executable, "-m", "bayes_dnlr", "sample", "--quiet", str(config)],
-                          env=env, capture_output=True, text=True, timeout=300)
-    assert proc.returncode == -9, proc.stderr
+    log = config.parent.parent / "sample.log"
+    assert zygote.sample(config, kill="append.flushed@2", log=log) == -9, log.read_text()
     return config.parent
 
 

@@ -4,8 +4,6 @@ joint names in every output; a one-test config unchanged; bad configs name the k
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -15,11 +13,6 @@ from support.joint import RATES, SHARED, TAU_MAX, make_joint
 from support.runs import make_run, ramp_truth
 
 JOINT_NAMES = ["E", "G", *(f"tau_max[{t}]" for t in RATES)]
-
-
-def cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "bayes_dnlr", *args], capture_output=True, text=True,
-                          cwd=cwd)
 
 
 @pytest.fixture(scope="module")
@@ -88,13 +81,14 @@ def _joint_raw(tmp_path: Path) -> dict:
     return yaml.safe_load(path.read_text())
 
 
-def _run_fit(tmp_path: Path, raw: dict) -> subprocess.CompletedProcess:
+def _run_fit(tmp_path: Path, raw: dict, cli):
+    """``cli``: conftest's cli_here (the command in this process: it is not about the process)."""
     path = tmp_path / "bad" / "config.yaml"
     path.write_text(yaml.safe_dump(raw, sort_keys=False))
     return cli("fit", str(path))
 
 
-def _one_error_line(r: subprocess.CompletedProcess) -> str:
+def _one_error_line(r) -> str:
     assert r.returncode == 2, r.stderr
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: "), r.stderr
@@ -102,25 +96,25 @@ def _one_error_line(r: subprocess.CompletedProcess) -> str:
     return lines[0]
 
 
-def test_bad_config_test_name_used_twice(tmp_path):
+def test_bad_config_test_name_used_twice(tmp_path, cli_here):
     raw = _joint_raw(tmp_path)
     raw["tests"][2]["name"] = raw["tests"][0]["name"]
-    line = _one_error_line(_run_fit(tmp_path, raw))
+    line = _one_error_line(_run_fit(tmp_path, raw, cli_here))
     assert "tests[2].name: 'r2.5e-3' is used twice" in line
     assert not (tmp_path / "bad" / "fit.json").exists()
 
 
-def test_bad_config_per_test_on_one_test(tmp_path):
+def test_bad_config_per_test_on_one_test(tmp_path, cli_here):
     path = make_run(tmp_path, "one", ramp_truth(0.4, n_points=150))
     raw = yaml.safe_load(path.read_text())
     raw["parameters"] = {"tau_max": {"prior": "log-uniform", "low": 0.01, "high": 1e4, "per": "test"}}
     path.write_text(yaml.safe_dump(raw, sort_keys=False))
-    line = _one_error_line(cli("fit", str(path)))
+    line = _one_error_line(cli_here("fit", str(path)))
     assert "parameters.tau_max.per: test needs several tests" in line
     assert not (path.parent / "fit.json").exists()
 
 
-def test_bad_config_shared_parameter_a_test_cannot_identify(tmp_path):
+def test_bad_config_shared_parameter_a_test_cannot_identify(tmp_path, cli_here):
     """A shared sigma_inf with a test whose window ends before its hold: that test cannot identify
     it; the message names the test and the key to change."""
     raw = _joint_raw(tmp_path)
@@ -134,18 +128,18 @@ def test_bad_config_shared_parameter_a_test_cannot_identify(tmp_path):
                   "noise": {"strain_sd": 0.0, "stress_sd": 0.05}, "seed": 11}})
     path = tmp_path / "bad" / "config.yaml"
     path.write_text(yaml.safe_dump(raw, sort_keys=False))
-    assert cli("simulate", str(path)).returncode == 0
-    line = _one_error_line(cli("fit", str(path)))
+    assert cli_here("simulate", str(path)).returncode == 0
+    line = _one_error_line(cli_here("fit", str(path)))
     assert "tests[3] (relax)" in line and "sigma_inf" in line and "data.window" in line
     assert not (tmp_path / "bad" / "fit.json").exists()
 
 
-def test_bad_config_simulate_needs_every_truth(tmp_path):
+def test_bad_config_simulate_needs_every_truth(tmp_path, cli_here):
     raw = _joint_raw(tmp_path)
     del raw["tests"][1]["truth"]
     path = tmp_path / "bad" / "config.yaml"
     path.write_text(yaml.safe_dump(raw, sort_keys=False))
-    line = _one_error_line(cli("simulate", "--force", str(path)))
+    line = _one_error_line(cli_here("simulate", "--force", str(path)))
     assert "tests[1].truth" in line
 
 
@@ -181,8 +175,8 @@ def test_joint_recovery(tmp_path):
     assert j["parameters"][:5] == JOINT_NAMES
 
 
-def test_compare_refuses_a_joint_run_in_one_line(joint_run, tmp_path):
-    line = _one_error_line(cli("compare", str(joint_run), "--out", str(tmp_path / "cmp")))
+def test_compare_refuses_a_joint_run_in_one_line(joint_run, tmp_path, cli_here):
+    line = _one_error_line(cli_here("compare", str(joint_run), "--out", str(tmp_path / "cmp")))
     assert "several tests" in line and "report" in line
     assert not (tmp_path / "cmp").exists()
 

@@ -43,6 +43,9 @@ def _sample_copy(name: str, tmp: Path):
     return cfg, sample(cfg, progress=False)
 
 
+# statistical checks of long chains (each example sampled to ESS 1000 by its shipped sampler
+# settings, as test_joint.py's recovery is): the slow suite; 9-13 s of CPU for the four
+@pytest.mark.slow
 @pytest.mark.parametrize("name", EXAMPLES)
 def test_example_recovers_truth_and_converges(sampled, name: str) -> None:
     cfg, post = sampled(name)
@@ -63,6 +66,7 @@ def test_example_recovers_truth_and_converges(sampled, name: str) -> None:
         assert min(p["ess_bulk"], p["ess_tail"], s["ess_autocorr"][k]) >= 1000, k
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", EXAMPLES[:3])
 def test_three_parameter_posterior_matches_linearized(sampled, name: str) -> None:
     _, post = sampled(name)

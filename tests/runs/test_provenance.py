@@ -18,13 +18,14 @@ STALE_BOX = 'class="box stale"'
 
 @pytest.fixture(scope="module")
 def finished(tmp_path_factory) -> Path:
-    return make_finished_run(tmp_path_factory.mktemp("prov"))
+    """The session's finished run with its report's figures: the reports here draw none of them."""
+    return make_finished_run(tmp_path_factory.mktemp("prov"), figures=True)
 
 
 @pytest.fixture
 def run(finished, tmp_path) -> Path:
     return Path(shutil.copytree(finished, tmp_path / "tiny", ignore=shutil.ignore_patterns(
-        "report.html", "figures")))
+        "report.html")))
 
 
 

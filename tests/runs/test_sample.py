@@ -86,10 +86,10 @@ def test_finished_run_is_not_sampled_again(quick_run, capsys) -> None:
 
 
 def test_same_seed_same_chain_other_seed_other_chain(tmp_path: Path) -> None:
-    kw = {"sampler": {"max_steps": 60, "target_ess": 1e9, "checkpoint_every": 25}}
+    kw = {"n": 300, "sampler": {"max_steps": 60, "target_ess": 1e9, "checkpoint_every": 25}}
     a = sample(load_config(write_case(tmp_path / "a", **kw)), progress=False)
     b = sample(load_config(write_case(tmp_path / "b", **kw)), progress=False)
-    c = sample(load_config(write_case(tmp_path / "c", sampler={**kw["sampler"], "seed": 7})),
+    c = sample(load_config(write_case(tmp_path / "c", n=300, sampler={**kw["sampler"], "seed": 7})),
                progress=False)
     ca, cb, cc = (read_run(p.run_dir / "chains.h5") for p in (a, b, c))
     assert ca.steps == cb.steps == 60
@@ -101,7 +101,7 @@ def test_same_seed_same_chain_other_seed_other_chain(tmp_path: Path) -> None:
 
 
 def test_changed_config_or_data_is_refused_unless_restart(tmp_path: Path) -> None:
-    path = write_case(tmp_path, sampler={"max_steps": 40, "target_ess": 1e9, "checkpoint_every": 20})
+    path = write_case(tmp_path, n=300, sampler={"max_steps": 40, "target_ess": 1e9, "checkpoint_every": 20})
     sample(load_config(path), progress=False)
     raw = yaml.safe_load(path.read_text())
     raw["parameters"] = {"E": {"prior": "uniform", "low": 100, "high": 10000}}
@@ -142,7 +142,7 @@ def test_sampled_sigma0(tmp_path: Path) -> None:
 
 
 def test_progress_bar_only_when_asked(tmp_path: Path, capsys) -> None:
-    path = write_case(tmp_path, sampler={"max_steps": 20, "target_ess": 1e9, "checkpoint_every": 10})
+    path = write_case(tmp_path, n=300, sampler={"max_steps": 20, "target_ess": 1e9, "checkpoint_every": 10})
     sample(load_config(path), progress=False)
     assert capsys.readouterr().err == ""
     sample(load_config(path), restart=True, progress=True)
@@ -206,7 +206,7 @@ def test_convergence_rule_on_independent_draws() -> None:
 def test_one_sampler_per_run_directory(tmp_path: Path) -> None:
     from bayes_dnlr.runs.sample import _run_lock
 
-    path = write_case(tmp_path, sampler={"max_steps": 20, "checkpoint_every": 10})
+    path = write_case(tmp_path, n=300, sampler={"max_steps": 20, "checkpoint_every": 10})
     cfg = load_config(path)
     with _run_lock(cfg.run_dir), pytest.raises(RunError, match="another `sample` is running"):
         sample(cfg, progress=False)
@@ -228,7 +228,7 @@ def test_sigma0_from_residuals_is_resolved_once_by_the_fit(tmp_path: Path) -> No
 def test_stale_fit_json_is_never_replaced_silently(tmp_path: Path) -> None:
     from bayes_dnlr.runs.fit import fit
 
-    path = write_case(tmp_path, sampler={"max_steps": 40, "target_ess": 1e9, "checkpoint_every": 20})
+    path = write_case(tmp_path, n=300, sampler={"max_steps": 40, "target_ess": 1e9, "checkpoint_every": 20})
     fit(load_config(path))
     before = (path.parent / "fit.json").read_text()
     raw = yaml.safe_load(path.read_text())
@@ -244,7 +244,7 @@ def test_stale_fit_json_is_never_replaced_silently(tmp_path: Path) -> None:
 
 
 def test_not_converged_warning_names_the_failing_condition(tmp_path: Path) -> None:
-    path = write_case(tmp_path, sampler={"max_steps": 120, "target_ess": 1e9, "checkpoint_every": 60})
+    path = write_case(tmp_path, n=300, sampler={"max_steps": 120, "target_ess": 1e9, "checkpoint_every": 60})
     post = sample(load_config(path), progress=False)
     text = " ".join(post.summary.get("warnings", []))
     assert "not converged: stopped at max_steps = 120" in text

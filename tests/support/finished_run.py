@@ -25,16 +25,31 @@ RATE, N = 1e-2, 300
 
 
 _MADE: list[Path] = []      # the session's pristine run, never handed out
+_REPORTED: list[Path] = []  # a copy of it with its report, never handed out
 
 
-def make_finished_run(folder: Path, name: str = "tiny") -> Path:
+def make_finished_run(folder: Path, name: str = "tiny", *, figures: bool = False) -> Path:
     """``folder/<name>``: a copy of the session's finished run (a run of another name is made anew:
-    the name is inside its outputs)."""
+    the name is inside its outputs).
+
+    ``figures``: the copy also holds the figures of the run's report (figures/, drawn once per
+    session; no report.html), so that a report of it draws only the figures whose inputs the test
+    changed (the others hold the same key: report/figure_cache.py), not all of them (2.5-3 s). For
+    the tests that read the page; the tests of the drawing itself start without figures."""
     if name != "tiny":
         return _make(folder, name)
     if not _MADE or not _MADE[0].is_dir():
         _MADE[:] = [_make(folder.parent / "finished-run-made-once")]
-    return Path(shutil.copytree(_MADE[0], folder / "tiny"))
+    run = Path(shutil.copytree(_MADE[0], folder / "tiny"))
+    if figures:
+        if not _REPORTED or not _REPORTED[0].is_dir():
+            from bayes_dnlr.report import build_report
+
+            reported = Path(shutil.copytree(_MADE[0], folder.parent / "reported-run-made-once" / "tiny"))
+            build_report(reported)
+            _REPORTED[:] = [reported]
+        shutil.copytree(_REPORTED[0] / "figures", run / "figures")
+    return run
 
 
 def _make(folder: Path, name: str = "tiny") -> Path:

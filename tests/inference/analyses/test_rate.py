@@ -9,10 +9,14 @@ import pytest
 from support.joint import make_joint
 
 
-def _verdict(tmp_path, name: str, per_decade: float):
+def _verdict(tmp_path, name: str, per_decade: float, *, whole_page: bool):
+    """The rate analysis of a sampled joint run with one E per test, and the report's words on it:
+    the whole page (``whole_page``), or only the rate section the page is built with
+    (report.across_tests.rate_section: the other test builds the whole report of such a run, 8-9 s
+    of drawing its figures)."""
     from bayes_dnlr.config import load_config
     from bayes_dnlr.report import build_report
-    from bayes_dnlr.report.across_tests import rate_question
+    from bayes_dnlr.report.across_tests import rate_question, rate_section
     from bayes_dnlr.runs.results import load_run
     from bayes_dnlr.runs.sample import sample
 
@@ -22,24 +26,25 @@ def _verdict(tmp_path, name: str, per_decade: float):
     run = load_run(path.parent)
     assert [n for n in run.names if n.startswith("E[")] == ["E[r2.5e-3]", "E[r5e-3]", "E[r1e-2]"]
     ra = rate_question(run)
-    page = build_report(path.parent).read_text()
-    return ra, page
+    if whole_page:
+        return ra, build_report(path.parent).read_text()
+    return ra, "".join(rate_section(run, ra))
 
 
 def test_one_e_is_consistent(tmp_path):
-    ra, page = _verdict(tmp_path, "one-e", 0.0)
+    ra, page = _verdict(tmp_path, "one-e", 0.0, whole_page=True)
     assert ra.verdict == "consistent", ra.words
     assert ra.log_bf01 > 0 and ra.slope["lo95"] <= 0 <= ra.slope["hi95"]
     assert "Verdict: consistent." in page and "Savage-Dickey" in page
 
 
 def test_e_rising_ten_percent_per_decade_is_rate_dependent(tmp_path):
-    ra, page = _verdict(tmp_path, "rising-e", 0.10)
+    ra, section = _verdict(tmp_path, "rising-e", 0.10, whole_page=False)
     assert ra.verdict == "rate-dependent", ra.words
     # the trend recovers the 10 % per decade within its interval
     assert ra.slope["lo95"] < 10.0 < ra.slope["hi95"], ra.slope
     assert ra.differences["r1e-2"]["mean"] > 0
-    assert "Verdict: rate-dependent." in page
+    assert "Verdict: rate-dependent." in section
 
 
 @pytest.mark.parametrize("per_decade", [0.0])

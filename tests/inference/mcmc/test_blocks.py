@@ -5,6 +5,7 @@ hyperparameter) sampled to their moments; and it stays inside emcee's contract."
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from bayes_dnlr.inference.mcmc.blocks import ConditionalMove
 from bayes_dnlr.inference.mcmc.emcee_import import load_emcee
@@ -40,6 +41,7 @@ def _kept(chain: np.ndarray, burn: int = 200) -> tuple[np.ndarray, np.ndarray]:
     return kept.reshape(-1, kept.shape[-1]), kept.shape[0] * kept.shape[1] / _tau(kept)
 
 
+@pytest.mark.slow      # a statistical check of a long chain: 3000 steps of 32 walkers, 4 s of CPU
 def test_the_conditional_move_keeps_a_correlated_gaussian() -> None:
     rng = np.random.default_rng(0)
     a = rng.standard_normal((4, 4))
@@ -59,6 +61,7 @@ def test_the_conditional_move_keeps_a_correlated_gaussian() -> None:
     assert np.all(np.abs(np.corrcoef(flat.T) - cov / np.outer(sd, sd)) < 0.08)
 
 
+@pytest.mark.slow      # a statistical check of a long chain: 4000 steps of 32 walkers, 6 s of CPU
 def test_the_conditional_move_keeps_a_funnel() -> None:
     """h = (h1, h2) ~ N(0, I); the model block θ | h ~ N(0, exp(h1) I): E θ = 0,
     Var θ = E exp(h1) = exp(1/2)."""
