@@ -15,6 +15,13 @@ from bayes_dnlr.runs.sample import sample
 
 RUNS = REPO / "runs"
 EXAMPLES = ["hdpe-a-2.5e-3", "hdpe-a-5e-3", "hdpe-a-1e-2", "hdpe-b-relax-5e-3"]
+DEMO = "hdpe-a-5e-3"        # `make demo`'s example: checked in the default suite too
+
+
+def _slow_but_demo(names: list[str]) -> list:
+    """The statistical checks of long chains are slow tests (each example sampled to ESS 1000, as
+    test_joint.py's recovery is), except on the example `make demo` runs (about 2 s)."""
+    return [pytest.param(n, marks=() if n == DEMO else pytest.mark.slow) for n in names]
 
 
 @pytest.fixture(scope="module")
@@ -43,10 +50,7 @@ def _sample_copy(name: str, tmp: Path):
     return cfg, sample(cfg, progress=False)
 
 
-# statistical checks of long chains (each example sampled to ESS 1000 by its shipped sampler
-# settings, as test_joint.py's recovery is): the slow suite; 9-13 s of CPU for the four
-@pytest.mark.slow
-@pytest.mark.parametrize("name", EXAMPLES)
+@pytest.mark.parametrize("name", _slow_but_demo(EXAMPLES))
 def test_example_recovers_truth_and_converges(sampled, name: str) -> None:
     cfg, post = sampled(name)
     s = post.summary
@@ -66,8 +70,7 @@ def test_example_recovers_truth_and_converges(sampled, name: str) -> None:
         assert min(p["ess_bulk"], p["ess_tail"], s["ess_autocorr"][k]) >= 1000, k
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("name", EXAMPLES[:3])
+@pytest.mark.parametrize("name", _slow_but_demo(EXAMPLES[:3]))
 def test_three_parameter_posterior_matches_linearized(sampled, name: str) -> None:
     _, post = sampled(name)
     s = post.summary
