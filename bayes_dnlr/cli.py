@@ -77,10 +77,22 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     print("\n".join(r.summary() for r in simulate_tests(cfg, overwrite=args.force)))
 
 
+def _first_compile_note(quiet: bool) -> None:
+    """Before a command that runs the model: say that this machine compiles it first (model/
+    compiled.py), rather than leave a minute of silence."""
+    from bayes_dnlr.model.compiled import first_compile_note
+
+    note = None if quiet else first_compile_note()
+    if note:
+        print(note, file=sys.stderr, flush=True)
+
+
 def cmd_fit(args: argparse.Namespace) -> None:
     from bayes_dnlr.runs.fit import fit
 
-    result = fit(_config(args.config, "fit"), overwrite=args.force)
+    cfg = _config(args.config, "fit")
+    _first_compile_note(args.quiet)
+    result = fit(cfg, overwrite=args.force)
     if not args.quiet:
         print(result.table())
 
@@ -88,8 +100,9 @@ def cmd_fit(args: argparse.Namespace) -> None:
 def cmd_sample(args: argparse.Namespace) -> None:
     from bayes_dnlr.runs.sample import sample
 
-    post = sample(_config(args.config, "sample"), restart=args.restart, progress=not args.quiet,
-                  threads=args.threads)
+    cfg = _config(args.config, "sample")
+    _first_compile_note(args.quiet)
+    post = sample(cfg, restart=args.restart, progress=not args.quiet, threads=args.threads)
     print(post.table())
 
 
