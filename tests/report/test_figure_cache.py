@@ -3,14 +3,16 @@ some of them beside the page gives the same page and the same PNGs as drawing th
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import re
 import shutil
+import time
 from pathlib import Path
 
 import pytest
-from support.drawing import busy_worker, pid_figure
+from support.drawing import busy_until, pid_figure
 from support.finished_run import make_finished_run
 
 from bayes_dnlr.report import build_report, figure_cache
@@ -93,9 +95,16 @@ def test_figures_the_worker_has_not_started_are_drawn_here(tmp_path, monkeypatch
     monkeypatch.setattr(figure_cache, "_free_core", lambda: True)
     monkeypatch.setattr(figure_cache, "_single_threaded", lambda: True)
     paths = [tmp_path / f"{name}.png" for name in "abcd"]
-    with figure_cache.figure_session(warm=busy_worker):
+    # the worker stays busy until this process has drawn c: its queue holds two figures at most
+    # (a, and b when the pool moved it in time), never c or d
+    with figure_cache.figure_session(warm=functools.partial(busy_until, paths[2])):
         for path in paths:
             figure_cache.drawn(pid_figure, path, aside=True)
+        # the pool moves a figure to the worker's queue in a thread of its own: wait until it took a
+        taken = figure_cache._session.get().pending[0][0]
+        deadline = time.monotonic() + 60.0
+        while not taken.running() and time.monotonic() < deadline:
+            time.sleep(0.005)
     drew = [int(p.read_text()) for p in paths]
     here = os.getpid()
     assert drew[0] != here                    # the worker had taken it before the session's end

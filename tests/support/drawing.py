@@ -8,9 +8,13 @@ import time
 from pathlib import Path
 
 
-def busy_worker() -> None:
-    """The worker's first task: it keeps the worker busy while the test hands figures over."""
-    time.sleep(0.5)
+def busy_until(path: Path, timeout: float = 30.0) -> None:
+    """The worker's first task: it keeps the worker busy until ``path`` exists (a figure the
+    session's process draws at its end), so that the worker cannot take the figures handed over
+    after the first ones, however slowly the test runs."""
+    deadline = time.monotonic() + timeout
+    while not path.exists() and time.monotonic() < deadline:
+        time.sleep(0.005)
 
 
 def pid_figure(path: Path) -> Path:
