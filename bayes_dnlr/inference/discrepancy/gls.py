@@ -302,9 +302,13 @@ def discrepancy_analysis(cfg: Config, test, problem: LsqProblem, beta_white: np.
 def _whiteness_warning(whitened: dict[str, Any], zero: bool, kernel: str) -> list[str]:
     if whitened["white"] or zero:
         return []
-    r1 = whitened["lag1_autocorrelation"]
-    return [f"the whitened residuals are still correlated (lag-1 autocorrelation {r1:+.2f}): the "
-            f"{kernel} kernel describes the model error only in part (docs/model-error.md, 'Limits')"]
+    # every statistic of the test: the one that failed may be the runs test alone, with a lag-1
+    # autocorrelation near 0 (the sign pattern in the small residuals)
+    runs = whitened["runs_test"]
+    return [f"the whitened residuals are still correlated ({runs['n_runs']} sign runs for "
+            f"{runs['expected']:.0f} expected, Durbin-Watson {whitened['durbin_watson']:.2f}, lag-1 "
+            f"autocorrelation {whitened['lag1_autocorrelation']:+.2f}): the {kernel} kernel describes "
+            "the model error only in part (docs/model-error.md, 'Limits')"]
 
 
 __all__ = ["CANDIDATES", "LENGTH", "WORKING", "columns_for", "discrepancy_analysis", "on_bound",
