@@ -3,7 +3,7 @@ smooth the strain) and of ``fit`` with the default config, for 1e4 to 1e6 rows.
 
 A 1 kHz tensile test of 1000 s to strain 1.9 (Table 3 parameters, strain noise 1e-4, stress noise
 0.3 MPa) is written at each size; each measurement runs in a fresh process, so the peak resident
-memory (ru_maxrss) is that of one load or one fit. The baseline is the same process on a 1000-row
+memory (VmHWM; ru_maxrss where /proc is absent) is that of one load or one fit. The baseline is the same process on a 1000-row
 file, measured in the same run; the ratios show how time and memory grow with the rows.
 
     .venv/bin/python benchmarks/large_files.py              # 1e4, 1e5, 1e6 rows, load and fit
@@ -62,6 +62,11 @@ wall = time.perf_counter() - t0
 use = resource.getrusage(resource.RUSAGE_SELF)
 cpu = use.ru_utime + use.ru_stime - cpu0
 rss = use.ru_maxrss / 1024.0
+try:        # this process's own peak: ru_maxrss keeps the parent's size at the fork across exec
+    with open("/proc/self/status") as f:
+        rss = next(int(line.split()[1]) for line in f if line.startswith("VmHWM:")) / 1024.0
+except (OSError, StopIteration, ValueError):
+    pass
 print(json.dumps({"n": n, "wall_s": wall, "cpu_s": cpu, "peak_rss_mb": rss, **extra}))
 """
 
