@@ -80,11 +80,10 @@ def cmd_simulate(args: argparse.Namespace) -> None:
 def _first_compile_note(quiet: bool) -> None:
     """Before a command that runs the model: say that this machine compiles it first (model/
     compiled.py), rather than leave a minute of silence."""
-    from bayes_dnlr.model.compiled import first_compile_note
+    if not quiet:
+        from bayes_dnlr.model.compiled import announce_first_compile
 
-    note = None if quiet else first_compile_note()
-    if note:
-        print(note, file=sys.stderr, flush=True)
+        announce_first_compile()
 
 
 def cmd_fit(args: argparse.Namespace) -> None:

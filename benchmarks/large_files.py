@@ -3,8 +3,9 @@ smooth the strain) and of ``fit`` with the default config, for 1e4 to 1e6 rows.
 
 A 1 kHz tensile test of 1000 s to strain 1.9 (Table 3 parameters, strain noise 1e-4, stress noise
 0.3 MPa) is written at each size; each measurement runs in a fresh process, so the peak resident
-memory (VmHWM; ru_maxrss where /proc is absent) is that of one load or one fit. The baseline is the same process on a 1000-row
-file, measured in the same run; the ratios show how time and memory grow with the rows.
+memory (VmHWM; ru_maxrss where /proc is absent) is that of one load or one fit. The baseline is
+the same process on a 1000-row file, measured in the same run; the ratios show how time and
+memory grow with the rows.
 
     .venv/bin/python benchmarks/large_files.py              # 1e4, 1e5, 1e6 rows, load and fit
     .venv/bin/python benchmarks/large_files.py --no-fit     # reading only

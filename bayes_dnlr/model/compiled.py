@@ -9,6 +9,8 @@ in under a second. The commands say so before that wait, instead of a silent min
 
 from __future__ import annotations
 
+import sys
+
 FIRST_COMPILE_NOTE = ("compiling the model for this machine (numba, the first run of this copy "
                       "only: about a minute; later runs load it in under a second)")
 
@@ -29,3 +31,10 @@ def first_compile_note() -> str | None:
     from bayes_dnlr.model import kernel
 
     return None if has_machine_code(kernel.integrate) else FIRST_COMPILE_NOTE
+
+
+def announce_first_compile() -> None:
+    """Print ``first_compile_note()`` on stderr when there is one (before the command's wait)."""
+    note = first_compile_note()
+    if note:
+        print(note, file=sys.stderr, flush=True)

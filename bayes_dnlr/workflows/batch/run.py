@@ -358,6 +358,10 @@ def run_batch(jobs: list[Job], out: Path, *, n_jobs: int = -1, scheduler: str | 
         backend = "all done earlier: nothing to run"
         if todo:
             gen, backend = _results(stack, todo, n_jobs, client, report)
+            if progress and client is None:     # this machine's workers compile on a first run
+                from bayes_dnlr.model.compiled import announce_first_compile
+
+                announce_first_compile()
             for j in todo:              # a stale row must not survive a failed re-run
                 _row_path(out, j.name).unlink(missing_ok=True)
             interrupted = True

@@ -185,3 +185,19 @@ def test_restart_redoes_only_the_tests_whose_chain_is_stale(tmp_path, capsys):
     assert list(pq["status"]) == ["ok"] * 3 and list(pq["reused"]) == [True, False, True]
     assert {i: (out / "runs" / f"t{i}" / "summary.json").stat().st_mtime_ns for i in before} == before
     assert read_run(out / "runs" / "t1" / "chains.h5").finished
+
+
+def test_a_batch_says_when_its_workers_compile_the_model(tmp_path, capsys, monkeypatch):
+    """The note of model/compiled.py, before the tests run (a test that fails on its data costs no
+    fit); none with --quiet."""
+    from bayes_dnlr.model import compiled
+
+    monkeypatch.setattr(compiled, "first_compile_note", lambda: compiled.FIRST_COMPILE_NOTE)
+    template, manifest = tiny_campaign(tmp_path, 1)
+    (tmp_path / "data" / "t0.csv").write_text("t_s,eps,stress_MPa\n0,0,0\n1,0.005,abc\n")
+    args = ["batch", str(template), "--manifest", str(manifest), "--jobs", "1", "--no-report",
+            "--no-population"]
+    assert main([*args, "--out", str(tmp_path / "a")]) == 1          # the test failed on its data
+    assert compiled.FIRST_COMPILE_NOTE in capsys.readouterr().err
+    assert main([*args, "--out", str(tmp_path / "b"), "--quiet"]) == 1
+    assert compiled.FIRST_COMPILE_NOTE not in capsys.readouterr().err
