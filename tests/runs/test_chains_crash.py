@@ -145,3 +145,16 @@ def test_python_m_sample_killed_where_hdf5_used_to_poison_the_file(tmp_path: Pat
     assert out.returncode == 0, out.stderr
     _assert_same_as_reference(read_run(chains), ref)
     _no_temporaries(tmp_path / "syn")
+
+
+def test_the_zygote_keeps_each_childs_pid_and_code_apart(zygote, tmp_path: Path) -> None:
+    # the zygote is shared by the session: a test that fails between a start and its wait leaves
+    # its child's exit code unread, and the next test must not take that code for its child's pid
+    from support.crash import child_running
+
+    zygote.start_command(["--version"], log=tmp_path / "left.log")        # never waited for
+    pid = zygote.start_command(["--version"], log=tmp_path / "next.log")
+    assert pid > 1
+    assert zygote.wait() == 0
+    assert (tmp_path / "next.log").read_text().startswith("bayes_dnlr ")
+    assert not child_running(pid)                   # reaped: gone from /proc

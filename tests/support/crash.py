@@ -32,6 +32,7 @@ class Zygote:
                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
                                      cwd=HERE)
         assert self.proc.stdout.readline().strip() == "ready"
+        self._waiting = False          # a child started whose code is not read yet
         return self
 
     def __exit__(self, *exc) -> None:
@@ -58,9 +59,7 @@ class Zygote:
         of wall time, not of CPU (the chain is the same)."""
         job = {"config": str(config), "kill": kill, "log": str(log), "precheck": precheck,
                "pace": pace}
-        self.proc.stdin.write(json.dumps(job) + "\n")
-        self.proc.stdin.flush()
-        return self._read()
+        return self._fork(job)
 
     def start_command(self, args: list[str], *, kill: str = "", log: Path) -> int:
         """Fork ``python -m bayes_dnlr <args>`` (the CLI's main) in a session of its own, so that a
@@ -70,12 +69,21 @@ class Zygote:
         (``model.threads.parallel_allowed``); a `batch --jobs 2` starts its workers afresh (loky)."""
         job = {"argv": list(args), "kill": kill, "log": str(log), "precheck": True, "pace": 0.0,
                "session": True}
-        self.proc.stdin.write(json.dumps(job) + "\n")
-        self.proc.stdin.flush()
-        return self._read()
+        return self._fork(job)
 
     def wait(self) -> int:
         """The return code of the child ``start`` forked (negative: the signal that ended it)."""
+        self._waiting = False
+        return self._read()
+
+    def _fork(self, job: dict) -> int:
+        # the zygote is shared by the session: a test that failed between its start and its wait
+        # left the code of its child unread, which the next test would take for its child's pid
+        if self._waiting:
+            self.wait()
+        self.proc.stdin.write(json.dumps(job) + "\n")
+        self.proc.stdin.flush()
+        self._waiting = True
         return self._read()
 
     def _read(self) -> int:
@@ -90,7 +98,8 @@ def child_running(pid: int) -> bool:
     try:
         with open(f"/proc/{pid}/stat") as f:
             return f.read().rsplit(")", 1)[1].split()[0] != "Z"
-    except FileNotFoundError:
+    except (FileNotFoundError, ProcessLookupError):
+        # gone, or reaped by the zygote between the open and the read (ESRCH)
         return False
 
 
