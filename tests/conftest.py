@@ -9,11 +9,6 @@ import os
 # tests/inference/discrepancy/test_gp.py 6 times the CPU. (The model's own threads, numba's, are
 # left as they are: the thread tests set them.)
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-# numba's OpenMP threads sleep when idle (model/threads.py spins them briefly on a free core, which
-# buys a user's run wall time). The suite makes thousands of tiny calls with Python work between
-# them, where the spin bought no wall time and cost 9 % of the CPU of the sampling tests
-# (tests/README.md). The threads still run: every parallel function is exercised as before.
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 import signal
 import sys
