@@ -248,6 +248,12 @@ def parse_design(raw: Any, source: Path | None = None) -> DesignConfig:
     where = str(source) if source is not None else "design"
     if not isinstance(raw, dict):
         raise ConfigError(f"{where}: expected a mapping of keys at the top level")
+    if "conditions" not in raw and ("data" in raw or "tests" in raw):
+        # a run's config given by mistake: its first pydantic error (noise.sigma0) says nothing of it
+        raise ConfigError(f"{where}: a run config (it has {'data' if 'data' in raw else 'tests'}:), "
+                          "not a design file: design reads a design.yaml with conditions: (the planned "
+                          "tests); to start from this run's posterior, write one with from_run: "
+                          "<its run folder> (docs/design.md)")
     try:
         cfg = DesignConfig.model_validate(raw)
     except ValidationError as err:

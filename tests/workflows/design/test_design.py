@@ -179,6 +179,19 @@ def test_bad_designs_name_the_key(tmp_path, over, key):
     assert key in str(err.value) and str(path) in str(err.value)
 
 
+@pytest.mark.parametrize("key", ["data", "tests"])
+def test_a_run_config_given_to_design_is_named_as_one(tmp_path, capsys, key):
+    """The first error pydantic finds in a run's config (its noise.sigma0) would not say that the
+    file is of the other kind."""
+    path = tmp_path / "config.yaml"
+    path.write_text(yaml.safe_dump({"name": "run", key: {"file": "test.csv"},
+                                    "noise": {"sigma0": "residuals"}}))
+    assert main(["design", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {path}: a run config (it has {key}:), not a design file")
+    assert "from_run" in err and "docs/design.md" in err and "sigma0" not in err
+
+
 def test_missing_run_is_named(tmp_path):
     raw = design(from_run="no-such-run")
     raw.pop("parameters")
