@@ -18,6 +18,11 @@ def parse_config(raw: dict[str, Any], source: Path | None = None) -> Config:
     where = str(source) if source is not None else "config"
     if not isinstance(raw, dict):
         raise ConfigError(f"{where}: expected a mapping of keys at the top level")
+    if "conditions" in raw and "data" not in raw and "tests" not in raw:
+        # a design file given by mistake: pydantic's errors would list its keys one by one
+        raise ConfigError(f"{where}: a design file (it has conditions:, no data:), not a run config: "
+                          "`python -m bayes_dnlr design` reads it (docs/design.md); fit, sample and "
+                          "batch read a run config with data: (docs/config.md)")
     try:
         cfg = Config.model_validate(raw)
     except ValidationError as err:

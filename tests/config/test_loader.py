@@ -107,3 +107,18 @@ def test_relaxation_adds_its_parameters():
     cfg = parse_config(with_("data.relaxation_start", "auto"))
     assert cfg.free_parameters == ["E", "G", "tau_max", "sigma_inf", "tau_max_R"]
     assert cfg.has_relaxation
+
+
+def test_a_design_file_given_as_a_run_config_is_named_as_one(tmp_path: Path, capsys) -> None:
+    """pydantic would list a design's keys one by one (parameters.E, conditions, constraints...)."""
+    from bayes_dnlr.cli import main
+
+    repo = Path(__file__).resolve().parents[2]
+    design = repo / "runs" / "design" / "a-par.yaml"
+    with pytest.raises(ConfigError, match=r"a design file \(it has conditions:, no data:\), not a run "
+                                          r"config: `python -m bayes_dnlr design` reads it"):
+        load_config(design)
+    for command in ("fit", "sample"):
+        assert main([command, str(design)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"error: {design}: a design file") and "ParameterSpec" not in err
