@@ -13,8 +13,9 @@ from typing import Any
 from bayes_dnlr.inference.lsq.plausibility import plausibility_warnings
 from bayes_dnlr.numbers import fmt, interval, pm
 from bayes_dnlr.report import tables as tb
+from bayes_dnlr.report.page_parts import bullets
 from bayes_dnlr.report.run_sections import truths
-from bayes_dnlr.runs.results import RunResults
+from bayes_dnlr.runs.results import RunResults, verdict_lines
 
 STANDARDS = (("iso527_1", "ISO 527-1"), ("astm_d638", "ASTM D638"))
 
@@ -106,8 +107,9 @@ def checks_box(run: RunResults) -> str:
     if not checks or not checks.get("verdict"):
         return ""
     css = "ok" if checks.get("trust_interval") else "warn"
-    return (f'<div class="box {css}"><b>Checks</b> (docs/sampling.md, "checks"): '
-            f"{html.escape(str(checks['verdict']))}</div>")
+    head, points = verdict_lines(checks)          # one finding per line: four in a paragraph read as one
+    words = f"<b>{html.escape(head)}</b>" + bullets(points) if points else html.escape(head)
+    return f'<div class="box {css}"><b>Checks</b> (docs/sampling.md, "checks"): {words}</div>'
 
 
 def warnings(run: RunResults) -> list[str]:

@@ -381,7 +381,14 @@ def _bound_words(entries: list[dict]) -> tuple[bool, list[str]]:
 
 
 def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[bool, bool, str]:
-    """(adequate, trust_interval, words) from the checks."""
+    """(adequate, trust_interval, words) from the checks: the first sentence, then one per check."""
+    adequate, trust, head, points = verdict_parts(checks, converged, several)
+    return adequate, trust, " ".join([head, *points])
+
+
+def verdict_parts(checks: dict[str, Any], converged: bool, several: bool
+                  ) -> tuple[bool, bool, str, list[str]]:
+    """(adequate, trust_interval, the verdict's first sentence, the checks' sentences)."""
     adequate, trust, words = True, True, []
     reaches_e = implausible = False
     for t, c in checks["predictive_coverage"].items():
@@ -428,7 +435,7 @@ def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[boo
             if trust else
             "The model describes this test, but do not use E's interval as it is." if adequate else
             "The model does not describe this test: E's interval is not reliable.")
-    return adequate, trust, " ".join([head, *(_cap(w) for w in words)])
+    return adequate, trust, head, [_cap(w) for w in words]
 
 
 def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, names: list[str],
@@ -448,10 +455,11 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
         "model_form": model_form_check(fit, layout, post_sd),
         "noise_model": noise_model_check(cfg, noise),
     }
-    adequate, trust, words = verdict(checks, bool(summary.get("converged")), not layout.plain)
+    adequate, trust, head, points = verdict_parts(checks, bool(summary.get("converged")), not layout.plain)
     if layout.plain:
         for k in ("predictive_coverage", "plausibility", "noise_model"):
             checks[k] = layout.collapse(checks[k])
         checks["model_form"] = checks["model_form"].get(layout.tests[0])      # None: no score test
-    checks.update(adequate=adequate, trust_interval=trust, verdict=words)
+    checks.update(adequate=adequate, trust_interval=trust, verdict=" ".join([head, *points]),
+                  verdict_points=points)
     return checks

@@ -33,6 +33,7 @@ from bayes_dnlr.inference.mcmc.ess import diagnostics
 from bayes_dnlr.numbers import interval, pm
 from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
 from bayes_dnlr.runs.layout import CHAINS_FILE, POSTERIOR_FILE, SUMMARY_FILE
+from bayes_dnlr.runs.results import verdict_lines
 from bayes_dnlr.vocabulary import UNITS
 
 HDI_PROB = 0.9
@@ -254,7 +255,8 @@ class Posterior:
             lines.append(f"noise: {noise['model']} likelihood. {noise['verdict']}")
         checks = s.get("checks") or {}
         if checks.get("verdict"):
-            lines.append(f"verdict: {checks['verdict']}")
+            head, points = verdict_lines(checks)
+            lines += [f"verdict: {head}", *(f"  - {p}" for p in points)]
         warn = s.get("warnings") or []
         lines += [f"warning: {w}" for w in warn]
         lines.append(f"outputs: {self.run_dir}/{{{CHAINS_FILE}, {POSTERIOR_FILE}, {SUMMARY_FILE}}}")

@@ -378,3 +378,15 @@ def stale_notes(run_dir: Path | str, source: Path | str | None = None) -> list[s
     problems: list[str] = []
     return stale_results(run_dir, cfg, _read_json(run_dir / FIT_FILE, problems),
                          _read_json(run_dir / SUMMARY_FILE, problems), source)
+
+
+def verdict_lines(checks: Mapping[str, Any]) -> tuple[str, list[str]]:
+    """The checks' verdict (summary.json ``checks``) as its first sentence and one line per check
+    (``verdict_points``); the whole verdict and no lines when its points are not recorded (a run of
+    an earlier version) or there is only one."""
+    words = str(checks.get("verdict") or "")
+    points = [str(p) for p in checks.get("verdict_points") or []]
+    tail = " ".join(points)
+    if len(points) < 2 or not words.endswith(tail):
+        return words, []
+    return words[: len(words) - len(tail)].strip(), points

@@ -63,8 +63,36 @@ def test_the_checks_verdict_sits_under_the_headline(tmp_path):
 
     run = make_finished_run(tmp_path, figures=True)        # its figures drawn: only the page is built
     summary = json.loads((run / "summary.json").read_text())
+    points = summary["checks"]["verdict_points"]          # the verdict after its first sentence
+    assert points and summary["checks"]["verdict"].endswith(" ".join(points))
     page = build_report(run).read_text()
     box = re.search(r'<div class="box (ok|warn)"><b>Checks</b>(.*?)</div>', page, re.S)
     assert box is not None
     assert box.group(1) == ("ok" if summary["checks"]["trust_interval"] else "warn")
-    assert html.unescape(box.group(2)).strip().endswith(summary["checks"]["verdict"])
+    assert _words(box.group(2)).endswith(" ".join(summary["checks"]["verdict"].split()))
+
+
+def _words(fragment: str) -> str:
+    """The text of an HTML fragment, its tags as spaces, its white space single."""
+    return " ".join(html.unescape(re.sub(r"<[^>]+>", " ", fragment)).split())
+
+
+def test_each_finding_of_the_checks_is_an_item_of_its_own():
+    """Four findings in one paragraph were read as one: the first sentence in bold, then one item
+    per check; a summary.json of a version without the points keeps the paragraph."""
+    from types import SimpleNamespace
+
+    from bayes_dnlr.report.headline import checks_box
+
+    head = "The model does not describe this test: E's interval is not reliable."
+    points = ["The 90 % predictive band holds 12 % of the points.",
+              "The posterior of G piles against its prior's high bound (50.00) & more."]
+    checks = {"trust_interval": False, "verdict": " ".join([head, *points]), "verdict_points": points}
+    box = checks_box(SimpleNamespace(summary={"checks": checks}))
+    assert box.startswith('<div class="box warn"><b>Checks</b>')
+    assert f"<b>{html.escape(head)}</b><ul>" in box
+    assert re.findall(r"<li>(.*?)</li>", box) == [html.escape(p) for p in points]
+    assert _words(box).endswith(checks["verdict"])
+    old = {k: v for k, v in checks.items() if k != "verdict_points"}
+    box = checks_box(SimpleNamespace(summary={"checks": old}))
+    assert "<li>" not in box and box.endswith(html.escape(checks["verdict"]) + "</div>")

@@ -75,6 +75,30 @@ def test_table_lists_every_parameter(quick_run) -> None:
         assert k in table
 
 
+def test_table_gives_the_verdict_one_check_per_line(quick_run) -> None:
+    import copy
+    import dataclasses
+
+    _, post = quick_run
+    checks = post.summary["checks"]
+    lines = post.table().splitlines()
+    head = next(i for i, line in enumerate(lines) if line.startswith("verdict: "))
+    points = checks["verdict_points"]
+    shown = [line[4:] for line in lines[head + 1:] if line.startswith("  - ")]
+    if len(points) >= 2:
+        assert shown == points and " ".join([lines[head][9:], *points]) == checks["verdict"]
+    else:
+        assert shown == [] and lines[head] == f"verdict: {checks['verdict']}"
+    # two checks with words: the first sentence, then one line each
+    summary = copy.deepcopy(post.summary)
+    two = ["The 90 % predictive band holds 12 % of the points.", "The chain has not converged."]
+    summary["checks"].update(verdict="The model does not describe this test. " + " ".join(two),
+                             verdict_points=two)
+    lines = dataclasses.replace(post, summary=summary).table().splitlines()
+    head = lines.index("verdict: The model does not describe this test.")
+    assert lines[head + 1: head + 3] == [f"  - {t}" for t in two]
+
+
 def test_finished_run_is_not_sampled_again(quick_run, capsys) -> None:
     cfg, post = quick_run
     chains = cfg.run_dir / "chains.h5"
