@@ -28,7 +28,7 @@ def rate_of(view: RunResults) -> float:
 def rate_question(run: RunResults):
     """inference.analyses.rate.RateAnalysis of the run's posterior when E is one per test and the
     tests have at least two strain rates (else None)."""
-    from bayes_dnlr.inference.analyses.rate import rate_analysis
+    from bayes_dnlr.inference.analyses.rate import one_rate, rate_analysis
     from bayes_dnlr.inference.posterior.priors import Prior
 
     layout = run.layout
@@ -38,7 +38,7 @@ def rate_question(run: RunResults):
     if not all(k in run.draws for k in keys.values()):
         return None
     rates = {t: rate_of(v) for t, v in run.tests.items()}
-    if len({r for r in rates.values() if math.isfinite(r)}) < 2:
+    if one_rate(rates) is not None:
         return None
     draws = {t: run.draws[k].reshape(-1) for t, k in keys.items()}
     priors = {t: Prior.from_spec("E", run.cfg.parameters["E"]) for t in keys}
@@ -121,8 +121,11 @@ def rate_section(run: RunResults, ra) -> list[str]:
                             "weighs one E against one E per rate. The paper's way, each test alone, "
                             "is below."))
         else:
-            sec.append(para("No posterior draws of E per test yet (run sample), or fewer than two "
-                            "distinct strain rates."))
+            from bayes_dnlr.inference.analyses.rate import one_rate
+
+            why = one_rate({t: rate_of(v) for t, v in run.tests.items()})
+            sec.append(para(f"No rate question: {why}" if why else
+                            "No posterior draws of E per test yet (run sample)."))
     else:
         sec.append(rate_table(ra).html())
         method = ra.to_dict()["method"]

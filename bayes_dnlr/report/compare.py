@@ -59,6 +59,7 @@ class Comparison:
     notes: list[str] = field(default_factory=list)
     written: list[Path] = field(default_factory=list)
     rate: Any = None            # inference.rate.RateAnalysis of the posteriors, when there are draws
+    rate_note: str = ""         # why there is none, when the runs' rates cannot answer the question
 
     def table(self) -> Table:
         """Table 3/5 layout: one column per run, one row per quantity."""
@@ -93,6 +94,8 @@ class Comparison:
             parts += [rate_table(self.rate).markdown(), "", f"Posterior: {self.rate.words}",
                       *[f"- {n}" for n in self.rate.notes], "",
                       "The paper's way (each run's sd, a χ² test):", ""]
+        elif self.rate_note:
+            parts += [f"No rate question: {self.rate_note}", ""]
         parts.append(self.consistency_text())
         if self.notes:
             parts += ["", *[f"- {n}" for n in self.notes]]
@@ -217,18 +220,22 @@ def rate_table(ra) -> Table:
                  "E across strain rates, from the posteriors", css="num")
 
 
-def _rate_of_runs(runs: Sequence[RunResults]):
-    """The rate analysis of separate runs (independent posteriors of E), when ≥ 2 have draws."""
-    from bayes_dnlr.inference.analyses.rate import rate_analysis
+def _rate_of_runs(runs: Sequence[RunResults]) -> tuple[Any, str]:
+    """The rate analysis of separate runs (independent posteriors of E), when ≥ 2 have draws and
+    their rates can answer it; else None and why not (empty: fewer than two with draws)."""
+    from bayes_dnlr.inference.analyses.rate import one_rate, rate_analysis
     from bayes_dnlr.inference.posterior.priors import Prior
 
     use = [r for r in runs if r.draws is not None and "E" in r.draws and r.strain_rate()]
     rates = {r.name: r.strain_rate() for r in use}
-    if len(use) < 2 or len(set(rates.values())) < 2:
-        return None
+    if len(use) < 2:
+        return None, ""
+    why = one_rate(rates)
+    if why is not None:
+        return None, why
     draws = {r.name: r.draws["E"].ravel() for r in use}
     priors = {r.name: Prior.from_spec("E", r.cfg.parameters["E"]) for r in use}
-    return rate_analysis(draws, rates, priors, joint=False)
+    return rate_analysis(draws, rates, priors, joint=False), ""
 
 
 def default_out_dir(run_dirs: Sequence[Path | str]) -> Path:
@@ -270,7 +277,8 @@ def compare_runs(run_dirs: Sequence[Path | str], out_dir: Path | str | None = No
         runs.append(run)
     rows = sorted((run_row(r) for r in runs),
                   key=lambda r: (r["strain_rate"] is None, r["strain_rate"] or 0.0, r["run"]))
-    comp = Comparison(rows, consistency_of_e(rows), notes, rate=_rate_of_runs(runs))
+    rate, rate_note = _rate_of_runs(runs)
+    comp = Comparison(rows, consistency_of_e(rows), notes, rate=rate, rate_note=rate_note)
     out = Path(out_dir) if out_dir is not None else default_out_dir(run_dirs)
     md, cs = out / "compare.md", out / "compare.csv"
     with publishing(out, "compare", [md.name, cs.name]):        # the two tables as one set

@@ -140,3 +140,18 @@ def test_the_rate_question_is_answered_from_the_posteriors(tmp_path, label, e_of
     md = (tmp_path / "compare.md").read_text()
     assert "Savage-Dickey" in md and "% per decade" in md
     assert "The paper's way" in md                      # the χ² table stays
+
+
+def test_replicates_at_one_rate_get_no_trend_per_decade(tmp_path):
+    """Three specimens at one nominal rate (measured 1.16-1.22e-3 1/s, as on a real ETFE export):
+    a trend per decade over 0.02 decades read +4.5e19 %; the rate question is left out and says
+    why, and the χ² comparison stays."""
+    dirs = [make_run(tmp_path, f"s{i}", rate, 1600.0 + 40 * i, 260.0)
+            for i, rate in enumerate((1.16e-3, 1.18e-3, 1.22e-3))]
+    comp = compare_runs(dirs)
+    assert comp.rate is None
+    assert comp.rate_note.startswith("the strain rates (0.00116-0.00122 1/s) span a factor 1.05")
+    md = (tmp_path / "compare.md").read_text()
+    assert "No rate question: the strain rates" in md and "per decade" in md
+    assert "trend of E" not in md and "Savage-Dickey" not in md
+    assert "weighted mean of 3 runs" in md

@@ -59,3 +59,20 @@ def test_shared_e_gives_no_rate_verdict(tmp_path, per_decade):
     fit(load_config(path))
     run = load_run(path.parent)
     assert rate_question(run) is None
+
+
+def test_rates_within_a_factor_two_are_one_rate():
+    """The rate question needs rates apart: replicates at one nominal rate are refused with why."""
+    import numpy as np
+
+    from bayes_dnlr.inference.analyses.rate import MIN_RATE_RATIO, one_rate, rate_analysis
+
+    assert one_rate({"a": 2.5e-3, "b": 5e-3, "c": 1e-2}) is None
+    assert one_rate({"a": 1e-3, "b": MIN_RATE_RATIO * 1e-3}) is None
+    assert "fewer than two distinct strain rates" in one_rate({"a": 5e-3, "b": 5e-3})
+    assert "fewer than two distinct strain rates" in one_rate({"a": 5e-3, "b": float("nan")})
+    why = one_rate({"a": 1.16e-3, "b": 1.22e-3})
+    assert why.startswith("the strain rates (0.00116-0.00122 1/s) span a factor 1.05, less than 2")
+    draws = {k: np.random.default_rng(1).normal(1600.0, 260.0, 400) for k in "ab"}
+    with pytest.raises(ValueError, match="span a factor 1.05"):
+        rate_analysis(draws, {"a": 1.16e-3, "b": 1.22e-3}, priors={})
