@@ -42,6 +42,7 @@ from bayes_dnlr.workflows.batch.run import BATCH_SET, BatchResult, run_batch, wr
 PAGE = "batch.html"
 FIGURE = "batch_E.png"
 FOREST_MAX = 80          # tests shown one by one in the forest plot
+HISTOGRAM_MIN = 10       # fewer tests get no histogram (three means made bars of height 1 and 0)
 
 
 def _warm_up_the_end() -> None:
@@ -122,9 +123,15 @@ def population(rows: list[dict[str, Any]], p: str = "E") -> dict[str, float] | N
 
 # ---------------------------------------------------------------- figure
 
+def _with_e(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The ok tests with a posterior mean of E: those ``e_figure`` draws."""
+    return [r for r in rows if r.get("status") == "ok" and r.get("E_mean") is not None]
+
+
 def e_figure(rows: list[dict[str, Any]], path: Path) -> Path | None:
-    """Histogram of the posterior mean of E and a forest plot (mean, 90 % HDI) of every test."""
-    ok = [r for r in rows if r.get("status") == "ok" and r.get("E_mean") is not None]
+    """Histogram of the posterior mean of E (from ``HISTOGRAM_MIN`` tests) and a forest plot (mean,
+    90 % HDI) of every test (up to ``FOREST_MAX``)."""
+    ok = _with_e(rows)
     if not ok:
         return None
     from bayes_dnlr.report.canvas import save_figure
@@ -132,22 +139,26 @@ def e_figure(rows: list[dict[str, Any]], path: Path) -> Path | None:
 
     plt = pyplot()
     forest = len(ok) <= FOREST_MAX
-    fig, axes = plt.subplots(1, 2 if forest else 1, figsize=(11 if forest else 6, max(3.6, 0.18 * len(ok)
-                                                                                      if forest else 3.6)),
+    histogram = len(ok) >= HISTOGRAM_MIN or not forest
+    panels = int(histogram) + int(forest)
+    fig, axes = plt.subplots(1, panels, figsize=(11 if panels == 2 else 6,
+                                                  max(3.6, 0.18 * len(ok)) if forest else 3.6),
                              squeeze=False)
-    ax = axes[0, 0]
-    means = np.array([r["E_mean"] for r in ok], float)
-    bins = max(5, min(40, int(math.sqrt(len(ok)) * 2)))
-    ax.hist(means, bins=bins, color="#1f5fa8", alpha=0.75)
-    ax.plot(means, np.zeros_like(means), "|", color="k", ms=12)
-    ax.set_xlabel("posterior mean of E (MPa)")
-    ax.set_ylabel("tests")
-    from matplotlib.ticker import MaxNLocator
+    axes = list(axes[0])
+    if histogram:
+        ax = axes.pop(0)
+        means = np.array([r["E_mean"] for r in ok], float)
+        bins = max(5, min(40, int(math.sqrt(len(ok)) * 2)))
+        ax.hist(means, bins=bins, color="#1f5fa8", alpha=0.75)
+        ax.plot(means, np.zeros_like(means), "|", color="k", ms=12)
+        ax.set_xlabel("posterior mean of E (MPa)")
+        ax.set_ylabel("tests")
+        from matplotlib.ticker import MaxNLocator
 
-    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
-    ax.set_title(f"E across {len(ok)} tests")
+        ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+        ax.set_title(f"E across {len(ok)} tests")
     if forest:
-        ax2 = axes[0, 1]
+        ax2 = axes.pop(0)
         order = sorted(ok, key=lambda r: r["E_mean"])
         y = np.arange(len(order))
         lo = np.array([r["E_hdi90_lo"] for r in order], float)
@@ -162,9 +173,21 @@ def e_figure(rows: list[dict[str, Any]], path: Path) -> Path | None:
             ax2.legend(loc="lower right", fontsize=8)
         ax2.set_yticks(y, [r["name"] for r in order], fontsize=7)
         ax2.set_xlabel("E (MPa): posterior mean and 90 % HDI")
-        ax2.set_title("each test")
+        ax2.set_title("each test" if histogram else f"E of each of {len(ok)} tests")
     fig.tight_layout()
     return save_figure(fig, path)
+
+
+def e_caption(n: int) -> str:
+    """The caption of ``e_figure`` for ``n`` tests."""
+    forest = ("each test's posterior mean (dot) and 90 % HDI (bar), sorted; crosses mark the true E "
+              "of synthetic tests.")
+    if n < HISTOGRAM_MIN:
+        return forest[0].upper() + forest[1:]
+    hist = "histogram of the posterior means of E (one tick per test)"
+    if n > FOREST_MAX:
+        return hist[0].upper() + hist[1:] + "."
+    return f"Left: {hist}. Right: {forest}"
 
 
 # ---------------------------------------------------------------- page
@@ -229,9 +252,7 @@ def write_page(result: BatchResult, step: PopulationStep | None = None) -> Path:
     sec.append("<h2>E across the tests</h2>")
     sec.append(_population_text(population(rows)))
     if fig is not None:
-        sec.append(_img(fig, "E across tests", "Left: histogram of the posterior means of E (one tick "
-                        "per test). Right (up to 80 tests): each test's posterior mean (dot) and 90 % "
-                        "HDI (bar), sorted; crosses mark the true E of synthetic tests."))
+        sec.append(_img(fig, "E across tests", e_caption(len(_with_e(rows)))))
     sec.append(section(step, _img))
     sec.append("<h2>Failing tests</h2>")
     if failed or pending:
