@@ -129,12 +129,16 @@ def _with_e(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def e_figure(rows: list[dict[str, Any]], path: Path) -> Path | None:
-    """Histogram of the posterior mean of E (from ``HISTOGRAM_MIN`` tests) and a forest plot (mean,
-    90 % HDI) of every test (up to ``FOREST_MAX``)."""
-    ok = _with_e(rows)
-    if not ok:
-        return None
+    """The PNG of ``e_plot`` at ``path`` (None: no ok test with E)."""
     from bayes_dnlr.report.canvas import save_figure
+
+    ok = _with_e(rows)
+    return save_figure(e_plot(ok), path) if ok else None
+
+
+def e_plot(ok: list[dict[str, Any]]):
+    """Histogram of the posterior mean of E (from ``HISTOGRAM_MIN`` tests) and a forest plot (mean,
+    90 % HDI) of every test (up to ``FOREST_MAX``): the matplotlib Figure."""
     from bayes_dnlr.report.figures import pyplot
 
     plt = pyplot()
@@ -175,7 +179,7 @@ def e_figure(rows: list[dict[str, Any]], path: Path) -> Path | None:
         ax2.set_xlabel("E (MPa): posterior mean and 90 % HDI")
         ax2.set_title("each test" if histogram else f"E of each of {len(ok)} tests")
     fig.tight_layout()
-    return save_figure(fig, path)
+    return fig
 
 
 def e_caption(n: int) -> str:

@@ -150,7 +150,7 @@ def test_killed_batch_resumes_and_recomputes_nothing_finished(tmp_path):
     # the resume in this process: what is reused and what resumes does not depend on the workers
     result = run_campaign([str(template)], manifest=manifest, out=out, n_jobs=1, progress=False)
     rows = {r["name"]: r for r in result.rows}
-    assert [r["status"] for r in result.rows] == ["ok"] * 3
+    assert [r["status"] for r in result.rows] == ["ok"] * 3, [r.get("error") for r in result.rows]
     for n in finished:
         assert rows[n]["reused"] is True
         assert _run_files(out / "runs" / n) == done[n]           # nothing finished was recomputed
