@@ -7,6 +7,7 @@ import re
 
 from pydantic import ValidationError
 
+from bayes_dnlr.config.suggest import close_key
 from bayes_dnlr.errors import BayesDnlrError
 
 
@@ -39,14 +40,18 @@ def _shown(value: object) -> str:
     return repr(value)
 
 
-def format_errors(err: ValidationError, where: str) -> str:
+def format_errors(err: ValidationError, where: str, model: type | None = None) -> str:
+    """One line: the first problem, then the others. ``model``: the pydantic model validated, for
+    the key a misspelt one was probably meant to be (config/suggest.py)."""
     entries = []
     for e in err.errors():
         # pydantic puts union member tags in loc; drop them to keep the key readable
         loc = tuple(str(x) for x in e["loc"] if not _is_type_tag(str(x)))
         msg = e["msg"].removeprefix("Value error, ")
         if e["type"] == "extra_forbidden":
-            msg = "unknown key (check the spelling; see docs/config.md)"
+            close = close_key(model, loc) if model is not None else None
+            msg = (f"unknown key (did you mean {close}? see docs/config.md)" if close else
+                   "unknown key (check the spelling; see docs/config.md)")
         elif e["type"] == "missing":
             msg = "required key is missing"
         elif e["type"] == "finite_number":

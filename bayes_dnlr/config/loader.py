@@ -26,7 +26,7 @@ def parse_config(raw: dict[str, Any], source: Path | None = None) -> Config:
     try:
         cfg = Config.model_validate(raw)
     except ValidationError as err:
-        raise ConfigError(format_errors(err, where)) from None
+        raise ConfigError(format_errors(err, where, Config)) from None
     bad = range_errors(cfg)
     if bad:
         raise ConfigError(f"{where}: {bad[0]}")

@@ -257,7 +257,7 @@ def parse_design(raw: Any, source: Path | None = None) -> DesignConfig:
     try:
         cfg = DesignConfig.model_validate(raw)
     except ValidationError as err:
-        text = format_errors(err, where)
+        text = format_errors(err, where, DesignConfig)
         for tag in (".DesignNoise", ".FixedDiscrepancy"):
             text = text.replace(tag, "")
         raise ConfigError(text.replace("docs/config.md", "docs/design.md")) from None
