@@ -47,6 +47,7 @@ class Draws:
     axis: str = "time"
     source: str = ""
     start: str = "stationary"          # stationary | pinned (δ = 0 at the test's first sample)
+    caveat: str = ""                   # what the predictions leave out of the source's intervals
 
     @property
     def n(self) -> int:

@@ -70,6 +70,26 @@ def _run_noise(run, keep: np.ndarray) -> tuple[list[NoiseDraw], str, str, str]:
         f"the run's model discrepancy ({block.get('kernel')} kernel on the {block.get('axis')} axis)"
 
 
+WIDENED = 1.05      # a run's sd factor beyond which the design says its predictions leave it out
+
+
+def widening_caveat(summary: dict[str, Any]) -> str:
+    """What predictions under a run's sampled kernel leave out of the intervals the run reports:
+    the open-faced sandwich widening of its posterior for the kernels' model of the error
+    (summary.json noise.projection.sd_factor; docs/model-error.md). Empty when it changed no sd
+    by more than 5 %."""
+    proj = ((summary.get("noise") or {}).get("projection") or {})
+    factors = {k: float(v) for k, v in (proj.get("sd_factor") or {}).items() if v is not None}
+    if not factors or all(1 / WIDENED <= f <= WIDENED for f in factors.values()):
+        return ""
+    weights = ", ".join(f"{k} {100 * w:.0f} %" for k, w in (proj.get("kernel_weights") or {}).items())
+    each = ", ".join(f"{k} x{f:.3g}" for k, f in factors.items())
+    return (f"the run's intervals are its sampled posterior's widened for the kernels' model of the "
+            f"error ({weights}): sd {each} on its own test. These predictions are the sampled "
+            "kernel's, without that widening (it depends on the test): at the run's own conditions "
+            "the intervals `sample` reports are that much wider (docs/design.md, 'Limits')")
+
+
 def resolve_draws(cfg: DesignConfig) -> tuple[Draws, list[str], dict[str, Any]]:
     """(the draws to average over, the free parameters, facts about the source)."""
     if cfg.parameters is not None:
@@ -119,7 +139,8 @@ def resolve_draws(cfg: DesignConfig) -> tuple[Draws, list[str], dict[str, Any]]:
         start = "stationary" if d == "none" else d.start
         what = "the design's noise"
     draws = Draws(params, noise, kernel, axis,
-                  source=f"{keep.size} posterior draws of {cfg.run_path}; noise: {what}", start=start)
+                  source=f"{keep.size} posterior draws of {cfg.run_path}; noise: {what}", start=start,
+                  caveat=widening_caveat(run.summary or {}) if cfg.noise == "from_run" else "")
     free = cfg.free or [k for k in run.parameters if k in PARAMETER_NAMES]
     nc = Path(cfg.run_path) / POSTERIOR_FILE
     facts = {"run": str(cfg.run_path), "posterior_sha256": file_sha256(nc), "draws": int(keep.size)}
@@ -200,6 +221,8 @@ class DesignResult:
         unident = [p for p in self.predictions if p.feasible and not p.identifiable]
         if unident:
             lines.append(f"not identifiable: {len(unident)} candidates ({unident[0].note})")
+        if self.draws.caveat:
+            lines.append(f"note: {self.draws.caveat}")
         if self.files:
             lines.append(f"outputs: {self.out_dir}/{{{', '.join(f.name for f in self.files)}}}")
         return "\n".join(lines)
@@ -310,6 +333,7 @@ def to_dict(res: DesignResult) -> dict[str, Any]:
     return jsonable({
         "name": res.cfg.name, "criterion": res.criterion, "digest": res.digest, "source": res.source,
         "averaged_over": res.draws.n, "noise": res.noise_text(), "free": res.free,
+        "caveat": res.draws.caveat,
         "recommended": one(r), "candidates": [one(p) for p in res.predictions],
         "wall_time_s": res.wall_time_s, "version": __version__,
         "design": res.cfg.model_dump(mode="json"),
@@ -338,6 +362,7 @@ def markdown(res: DesignResult, figure: str | None = None) -> str:
     lines = [f"# Design {res.cfg.name}", "",
              f"{len(res.predictions)} candidates; {res.draws.source}; {res.noise_text()}; "
              f"criterion `{res.criterion}` (smaller is better).", "",
+             *([f"**Note:** {res.draws.caveat}", ""] if res.draws.caveat else []),
              f"**Recommended:** {c.label()} ({c.duration:.4g} s, {r.total_points} points).", "",
              "| parameter | predicted sd | Err |", "|---|---|---|"]
     lines += [f"| {k} | {fmt(r.sd[k], 3)} | {100 * r.err[k]:.3g} % |" for k in r.names]

@@ -235,3 +235,19 @@ def test_prediction_comes_true(noise):
     lo, hi = rep.ratio_interval(0.999)
     for k, r in rep.ratio().items():
         assert lo <= r <= hi, f"{k}: observed/predicted sd {r:.3f} outside [{lo:.2f}, {hi:.2f}]"
+
+
+def test_a_run_whose_intervals_were_widened_gives_its_factors_as_a_caveat():
+    """The run reports its sampled posterior widened for the kernels' model of the error; a design
+    from it predicts the sampled kernel's sd, and says how much narrower that is on the run's test."""
+    from bayes_dnlr.workflows.design.run import widening_caveat
+
+    proj = {"sd_factor": {"E": 5.0137, "G": 6.2383, "tau_max": 1.01},
+            "kernel_weights": {"exp": 0.0, "matern32": 1.0}}
+    text = widening_caveat({"noise": {"model": "discrepancy", "projection": proj}})
+    assert "(exp 0 %, matern32 100 %): sd E x5.01, G x6.24, tau_max x1.01 on its own test" in text
+    assert "without that widening" in text
+    near = {"sd_factor": {"E": 1.04, "G": 0.97}, "kernel_weights": {"exp": 1.0, "matern32": 0.0}}
+    assert widening_caveat({"noise": {"projection": near}}) == ""
+    assert widening_caveat({"noise": {"model": "white"}}) == ""
+    assert widening_caveat({}) == ""
