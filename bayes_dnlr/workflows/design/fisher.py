@@ -37,6 +37,16 @@ class NoiseDraw:
     length: float = 1.0
 
 
+@dataclass(frozen=True)
+class ErrorModel:
+    """A kernel of a run's model of the error, with its weight and (maximum-likelihood) noise: the
+    sandwich that widens the sampled kernel's covariance (docs/model-error.md)."""
+
+    weight: float
+    kernel: str
+    noise: NoiseDraw
+
+
 @dataclass
 class Draws:
     """What the prediction averages over: parameter sets and their noise (one each for a guess)."""
@@ -47,7 +57,8 @@ class Draws:
     axis: str = "time"
     source: str = ""
     start: str = "stationary"          # stationary | pinned (δ = 0 at the test's first sample)
-    caveat: str = ""                   # what the predictions leave out of the source's intervals
+    note: str = ""                     # the words on ``widen``, when there is one
+    widen: list[ErrorModel] = field(default_factory=list)   # the run's kernels, for the sandwich
 
     @property
     def n(self) -> int:
@@ -99,6 +110,20 @@ def free_names(candidate: Candidate, free: Sequence[str], relaxation: bool) -> t
     return names, "; ".join(notes)
 
 
+def _sandwich(delta: np.ndarray, axis, X: np.ndarray, noise: NoiseDraw, draws: Draws) -> np.ndarray:
+    """Σ_k w_k Δ (Xᵀ C⁻¹ C_k C⁻¹ X) Δ: the covariance of the estimate under the sampled kernel's C
+    when the error follows the run's kernels C_k (their weights), as `fit` and `sample` widen it
+    (inference/discrepancy/gls.py)."""
+    Z = gp.solve(axis.values, axis.sort(X), noise.sigma0, noise.amplitude, noise.length, draws.kernel,
+                 axis.origin)
+    total = np.zeros_like(delta)
+    for m in draws.widen:
+        G = (gp.quadratic_form(axis.values, Z, m.noise.amplitude, m.noise.length, m.kernel, axis.origin)
+             + m.noise.sigma0**2 * (Z.T @ Z))
+        total += m.weight * (delta @ (0.5 * (G + G.T)) @ delta)
+    return 0.5 * (total + total.T)
+
+
 def predict(candidate: Candidate, draws: Draws, free: Sequence[str], modes: int, decades: float,
             max_duration: float | None = None, max_points: int | None = None) -> Prediction:
     """The predicted sd, Err, ρ, Δ̃, D and A of ``candidate`` averaged over ``draws``."""
@@ -139,6 +164,8 @@ def predict(candidate: Candidate, draws: Draws, free: Sequence[str], modes: int,
                 Xw, _ = gp.whiten(axis.values, axis.sort(X), noise.sigma0, noise.amplitude, noise.length,
                                   draws.kernel, axis.origin)
                 delta = covariance(Xw, 1.0, values)            # eq. 32 with K: (XᵀK⁻¹X)⁻¹
+                if draws.widen:
+                    delta = _sandwich(delta, axis, X, noise, draws)
             else:
                 delta = covariance(X, noise.sigma0, values)    # eq. 32
         except np.linalg.LinAlgError as err:

@@ -28,7 +28,7 @@ from bayes_dnlr.runs.testset import plain_names
 from bayes_dnlr.vocabulary import PARAMETER_NAMES, RELAXATION_PARAMETERS, TENSILE_PARAMETERS
 from bayes_dnlr.workflows.design.candidates import expand
 from bayes_dnlr.workflows.design.config import DesignConfig
-from bayes_dnlr.workflows.design.fisher import Draws, NoiseDraw, Prediction, predict
+from bayes_dnlr.workflows.design.fisher import Draws, ErrorModel, NoiseDraw, Prediction, predict
 
 RESULT_FILE = "design.json"
 TABLE_FILE = "design.csv"
@@ -70,24 +70,31 @@ def _run_noise(run, keep: np.ndarray) -> tuple[list[NoiseDraw], str, str, str]:
         f"the run's model discrepancy ({block.get('kernel')} kernel on the {block.get('axis')} axis)"
 
 
-WIDENED = 1.05      # a run's sd factor beyond which the design says its predictions leave it out
+def run_error_models(fit: dict[str, Any], sampled: str) -> list[ErrorModel]:
+    """The kernels of a run's model of the error with their weights and maximum-likelihood noise
+    (fit.json ``discrepancy.projection.kernels``) when they put weight on another kernel than the
+    sampled one: then the run's intervals are the sampled posterior widened by their sandwich, and
+    the predictions carry the same sandwich. Empty otherwise."""
+    kernels = (((fit.get("discrepancy") or {}).get("projection") or {}).get("kernels") or {})
+    models = []
+    for kind, k in kernels.items():
+        h, w = k.get("hyperparameters") or {}, float(k.get("weight") or 0.0)
+        if w > 0 and all(h.get(key) is not None for key in ("sigma0", "amplitude", "length")):
+            models.append(ErrorModel(w, kind, NoiseDraw(float(h["sigma0"]), float(h["amplitude"]),
+                                                        float(h["length"]))))
+    return models if any(m.kernel != sampled for m in models) else []
 
 
-def widening_caveat(summary: dict[str, Any]) -> str:
-    """What predictions under a run's sampled kernel leave out of the intervals the run reports:
-    the open-faced sandwich widening of its posterior for the kernels' model of the error
-    (summary.json noise.projection.sd_factor; docs/model-error.md). Empty when it changed no sd
-    by more than 5 %."""
-    proj = ((summary.get("noise") or {}).get("projection") or {})
-    factors = {k: float(v) for k, v in (proj.get("sd_factor") or {}).items() if v is not None}
-    if not factors or all(1 / WIDENED <= f <= WIDENED for f in factors.values()):
+def error_model_note(models: list[ErrorModel], summary: dict[str, Any]) -> str:
+    """The design's words on the sandwich it carries from the run (empty: none)."""
+    if not models:
         return ""
-    weights = ", ".join(f"{k} {100 * w:.0f} %" for k, w in (proj.get("kernel_weights") or {}).items())
-    each = ", ".join(f"{k} x{f:.3g}" for k, f in factors.items())
-    return (f"the run's intervals are its sampled posterior's widened for the kernels' model of the "
-            f"error ({weights}): sd {each} on its own test. These predictions are the sampled "
-            "kernel's, without that widening (it depends on the test): at the run's own conditions "
-            "the intervals `sample` reports are that much wider (docs/design.md, 'Limits')")
+    proj = ((summary.get("noise") or {}).get("projection") or {})
+    factors = ", ".join(f"{k} x{float(f):.3g}" for k, f in (proj.get("sd_factor") or {}).items())
+    weights = ", ".join(f"{m.kernel} {100 * m.weight:.0f} %" for m in models)
+    return (f"the predicted sd carry the run's widening for the kernels' model of the error ({weights}, "
+            "their maximum-likelihood hyperparameters), as `sample` reports the run's intervals"
+            + (f" (there: sd {factors})" if factors else "") + " (docs/design.md, 'Method')")
 
 
 def resolve_draws(cfg: DesignConfig) -> tuple[Draws, list[str], dict[str, Any]]:
@@ -138,9 +145,10 @@ def resolve_draws(cfg: DesignConfig) -> tuple[Draws, list[str], dict[str, Any]]:
             ("time" if d == "none" else d.axis)
         start = "stationary" if d == "none" else d.start
         what = "the design's noise"
+    models = run_error_models(run.fit, kernel) if cfg.noise == "from_run" else []
     draws = Draws(params, noise, kernel, axis,
                   source=f"{keep.size} posterior draws of {cfg.run_path}; noise: {what}", start=start,
-                  caveat=widening_caveat(run.summary or {}) if cfg.noise == "from_run" else "")
+                  note=error_model_note(models, run.summary or {}), widen=models)
     free = cfg.free or [k for k in run.parameters if k in PARAMETER_NAMES]
     nc = Path(cfg.run_path) / POSTERIOR_FILE
     facts = {"run": str(cfg.run_path), "posterior_sha256": file_sha256(nc), "draws": int(keep.size)}
@@ -221,8 +229,8 @@ class DesignResult:
         unident = [p for p in self.predictions if p.feasible and not p.identifiable]
         if unident:
             lines.append(f"not identifiable: {len(unident)} candidates ({unident[0].note})")
-        if self.draws.caveat:
-            lines.append(f"note: {self.draws.caveat}")
+        if self.draws.note:
+            lines.append(f"note: {self.draws.note}")
         if self.files:
             lines.append(f"outputs: {self.out_dir}/{{{', '.join(f.name for f in self.files)}}}")
         return "\n".join(lines)
@@ -333,7 +341,7 @@ def to_dict(res: DesignResult) -> dict[str, Any]:
     return jsonable({
         "name": res.cfg.name, "criterion": res.criterion, "digest": res.digest, "source": res.source,
         "averaged_over": res.draws.n, "noise": res.noise_text(), "free": res.free,
-        "caveat": res.draws.caveat,
+        "error_model": res.draws.note,
         "recommended": one(r), "candidates": [one(p) for p in res.predictions],
         "wall_time_s": res.wall_time_s, "version": __version__,
         "design": res.cfg.model_dump(mode="json"),
@@ -362,7 +370,7 @@ def markdown(res: DesignResult, figure: str | None = None) -> str:
     lines = [f"# Design {res.cfg.name}", "",
              f"{len(res.predictions)} candidates; {res.draws.source}; {res.noise_text()}; "
              f"criterion `{res.criterion}` (smaller is better).", "",
-             *([f"**Note:** {res.draws.caveat}", ""] if res.draws.caveat else []),
+             *([f"**Note:** {res.draws.note}", ""] if res.draws.note else []),
              f"**Recommended:** {c.label()} ({c.duration:.4g} s, {r.total_points} points).", "",
              "| parameter | predicted sd | Err |", "|---|---|---|"]
     lines += [f"| {k} | {fmt(r.sd[k], 3)} | {100 * r.err[k]:.3g} % |" for k in r.names]

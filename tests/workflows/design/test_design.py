@@ -237,17 +237,51 @@ def test_prediction_comes_true(noise):
         assert lo <= r <= hi, f"{k}: observed/predicted sd {r:.3f} outside [{lo:.2f}, {hi:.2f}]"
 
 
-def test_a_run_whose_intervals_were_widened_gives_its_factors_as_a_caveat():
-    """The run reports its sampled posterior widened for the kernels' model of the error; a design
-    from it predicts the sampled kernel's sd, and says how much narrower that is on the run's test."""
-    from bayes_dnlr.workflows.design.run import widening_caveat
+def test_the_sandwich_of_a_run_s_kernels_against_dense_matrices():
+    """A run sampled under the exp kernel whose error model weighs matern32: the predicted covariance
+    is Σ_k w_k Δ Xᵀ C⁻¹ C_k C⁻¹ X Δ with Δ = (Xᵀ C⁻¹ X)⁻¹, formed densely here; with the sampled
+    kernel itself as the only error model it is Δ."""
+    from dataclasses import replace
 
-    proj = {"sd_factor": {"E": 5.0137, "G": 6.2383, "tau_max": 1.01},
-            "kernel_weights": {"exp": 0.0, "matern32": 1.0}}
-    text = widening_caveat({"noise": {"model": "discrepancy", "projection": proj}})
-    assert "(exp 0 %, matern32 100 %): sd E x5.01, G x6.24, tau_max x1.01 on its own test" in text
-    assert "without that widening" in text
-    near = {"sd_factor": {"E": 1.04, "G": 0.97}, "kernel_weights": {"exp": 1.0, "matern32": 0.0}}
-    assert widening_caveat({"noise": {"projection": near}}) == ""
-    assert widening_caveat({"noise": {"model": "white"}}) == ""
-    assert widening_caveat({}) == ""
+    from bayes_dnlr.workflows.design.fisher import ErrorModel
+
+    cfg = parse_design(design(strain_rate=1e-2, strain_max=1.0, sample_rate=None, n_points=300,
+                              noise={"sigma0": 0.3, "discrepancy": {"kernel": "exp", "axis": "time",
+                                                                   "amplitude": 0.7, "length": 8.0}}))
+    draws, free = _draws(cfg)
+    c = expand(cfg)[0]
+    plain = predict(c, draws, free, 50, 6.0)
+    itself = predict(c, replace(draws, widen=[ErrorModel(1.0, "exp", draws.noise[0])]), free, 50, 6.0)
+    for k in free:
+        assert itself.sd[k] == pytest.approx(plain.sd[k], rel=1e-6)
+    m32 = NoiseDraw(0.3, 2.5, 20.0)
+    widen = [ErrorModel(0.25, "exp", draws.noise[0]), ErrorModel(0.75, "matern32", m32)]
+    pred = predict(c, replace(draws, widen=widen), free, 50, 6.0)
+    prot = planned_protocol(c, GUESS)
+    X = sensitivity_matrix(DNLR(prot.time, prot.strain).basis(GUESS["tau_max"], grad=True), GUESS, free)
+    C = gp.covariance(prot.time, 0.7, 8.0, "exp", 0.3)
+    Cm = gp.covariance(prot.time, 2.5, 20.0, "matern32", 0.3)
+    Z = np.linalg.solve(C, X)
+    delta = np.linalg.inv(X.T @ Z)
+    cov = sum(w * delta @ (Z.T @ K @ Z) @ delta for w, K in ((0.25, C), (0.75, Cm)))
+    np.testing.assert_allclose([pred.sd[k] for k in free], np.sqrt(np.diag(cov)), rtol=1e-6)
+    assert pred.sd["E"] > 1.5 * plain.sd["E"]
+
+
+def test_a_run_s_kernels_are_carried_only_when_they_weigh_another_kernel():
+    from bayes_dnlr.workflows.design.run import error_model_note, run_error_models
+
+    def fit(weights):
+        return {"discrepancy": {"projection": {"kernels": {
+            k: {"weight": w, "hyperparameters": {"sigma0": 0.004, "amplitude": a, "length": ell}}
+            for (k, w), (a, ell) in zip(weights.items(), ((0.98, 600.0), (5.12, 99.2)), strict=True)}}}}
+
+    models = run_error_models(fit({"exp": 0.0, "matern32": 1.0}), "exp")
+    assert [(m.kernel, m.weight, m.noise.amplitude) for m in models] == [("matern32", 1.0, 5.12)]
+    summary = {"noise": {"projection": {"sd_factor": {"E": 5.0137, "G": 6.2383}}}}
+    note = error_model_note(models, summary)
+    assert "(matern32 100 %, their maximum-likelihood hyperparameters)" in note
+    assert "(there: sd E x5.01, G x6.24)" in note
+    assert run_error_models(fit({"exp": 1.0, "matern32": 0.0}), "exp") == []      # the sampled kernel
+    assert run_error_models({}, "exp") == [] and error_model_note([], summary) == ""
+
