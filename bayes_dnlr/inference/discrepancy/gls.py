@@ -136,8 +136,8 @@ def _generalized(cfg, problem, beta_white, axis, kernels, sigma0, floor) -> dict
     per = {}
     for k in kernels:
         h = fits[k].hyper
-        G = gp.quadratic_form(x, Z, h.amplitude, h.length, k, origin) + h.sigma0**2 * (Z.T @ Z)
-        per[k] = _record(fits[k]) | {"covariance_u": sigma_w @ (0.5 * (G + G.T)) @ sigma_w}
+        per[k] = _record(fits[k]) | {"covariance_u": gp.sandwich(x, Z, sigma_w, h.sigma0, h.amplitude,
+                                                                 h.length, k, origin)}
     white_sigma = sigma0 if sigma0 is not None else math.sqrt(float(r @ r) / max(r.size - X.shape[1], 1))
     white = restricted_log_likelihood(x, r, X, Hyper(white_sigma, 0.0, 1.0), WORKING, origin)
     return {"params": params, "hyper": hw, "sampled_kernel": WORKING, "per": per,

@@ -180,6 +180,14 @@ def quadratic_form(x: np.ndarray, Z: np.ndarray, amplitude: float, length: float
     return float(amplitude) ** 2 * Mt
 
 
+def sandwich(x: np.ndarray, Z: np.ndarray, delta: np.ndarray, sigma0: float, amplitude: float,
+             length: float, kind: str = "matern32", start: float | None = None) -> np.ndarray:
+    """Δ Zᵀ C Z Δ for C = k(x, x) + σ0² I, Z = C_w⁻¹ X and Δ = (Xᵀ C_w⁻¹ X)⁻¹: the covariance of
+    the estimate under the covariance C_w when the error has the covariance C (symmetrized)."""
+    G = quadratic_form(x, Z, amplitude, length, kind, start) + sigma0**2 * (Z.T @ Z)
+    return delta @ (0.5 * (G + G.T)) @ delta
+
+
 def posterior_mean(x: np.ndarray, r: np.ndarray, sigma0: float, amplitude: float, length: float,
                    kind: str = "matern32", start: float | None = None) -> np.ndarray:
     """E[δ | r]: the discrepancy the residuals imply (Kalman filter + RTS smoother), O(n)."""

@@ -116,11 +116,8 @@ def _sandwich(delta: np.ndarray, axis, X: np.ndarray, noise: NoiseDraw, draws: D
     (inference/discrepancy/gls.py)."""
     Z = gp.solve(axis.values, axis.sort(X), noise.sigma0, noise.amplitude, noise.length, draws.kernel,
                  axis.origin)
-    total = np.zeros_like(delta)
-    for m in draws.widen:
-        G = (gp.quadratic_form(axis.values, Z, m.noise.amplitude, m.noise.length, m.kernel, axis.origin)
-             + m.noise.sigma0**2 * (Z.T @ Z))
-        total += m.weight * (delta @ (0.5 * (G + G.T)) @ delta)
+    total = sum(m.weight * gp.sandwich(axis.values, Z, delta, m.noise.sigma0, m.noise.amplitude,
+                                       m.noise.length, m.kernel, axis.origin) for m in draws.widen)
     return 0.5 * (total + total.T)
 
 
