@@ -380,15 +380,9 @@ def _bound_words(entries: list[dict]) -> tuple[bool, list[str]]:
     return ok, words
 
 
-def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[bool, bool, str]:
-    """(adequate, trust_interval, words) from the checks: the first sentence, then one per check."""
-    adequate, trust, head, points = verdict_parts(checks, converged, several)
-    return adequate, trust, " ".join([head, *points])
-
-
-def verdict_parts(checks: dict[str, Any], converged: bool, several: bool
-                  ) -> tuple[bool, bool, str, list[str]]:
-    """(adequate, trust_interval, the verdict's first sentence, the checks' sentences)."""
+def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[bool, bool, str, list[str]]:
+    """(adequate, trust_interval, the verdict's first sentence, one sentence per check) from the
+    checks; summary.json's ``verdict`` is the sentences joined."""
     adequate, trust, words = True, True, []
     reaches_e = implausible = False
     for t, c in checks["predictive_coverage"].items():
@@ -455,7 +449,7 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
         "model_form": model_form_check(fit, layout, post_sd),
         "noise_model": noise_model_check(cfg, noise),
     }
-    adequate, trust, head, points = verdict_parts(checks, bool(summary.get("converged")), not layout.plain)
+    adequate, trust, head, points = verdict(checks, bool(summary.get("converged")), not layout.plain)
     if layout.plain:
         for k in ("predictive_coverage", "plausibility", "noise_model"):
             checks[k] = layout.collapse(checks[k])

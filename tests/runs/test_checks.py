@@ -9,7 +9,14 @@ import pytest
 
 from bayes_dnlr.inference.checks import bounds, physical, power_scaling, predictive
 from bayes_dnlr.inference.layout import Layout
-from bayes_dnlr.runs.checks import model_form_check, verdict
+from bayes_dnlr.runs.checks import model_form_check
+from bayes_dnlr.runs.checks import verdict as verdict_parts
+
+
+def verdict(checks, converged, several):
+    """(adequate, trust_interval, the words summary.json keeps: the sentences joined)."""
+    adequate, trust, head, points = verdict_parts(checks, converged, several)
+    return adequate, trust, " ".join([head, *points])
 
 
 def test_power_scaling_equals_arviz_stats_psense() -> None:
