@@ -19,6 +19,7 @@ from __future__ import annotations
 import hashlib
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -212,6 +213,30 @@ def _cache_file(cache: Path, time: np.ndarray, strain: np.ndarray, breaks: Seque
     return Path(cache) / f"strain-{h.hexdigest()[:32]}.npz"
 
 
+@dataclass(frozen=True)
+class UnkeptSmoothing:
+    """A smoothing computed before its cache folder's parent (the run folder) existed: ``keep``
+    writes it once the folder is there, so that the next command does not search λ again."""
+
+    path: Path
+    strain: np.ndarray
+    lams: tuple[float, ...]
+
+    def keep(self) -> bool:
+        """Write it to the cache when the run folder exists now; False when it is not written."""
+        return self.path.parent.parent.is_dir() and _store(self.path, self.strain, list(self.lams))
+
+
+def unkept_smoothing(cache: Path | None, time: np.ndarray, strain: np.ndarray, breaks: Sequence[int],
+                     result: tuple[np.ndarray, list[float]]) -> UnkeptSmoothing | None:
+    """``smooth_strain``'s ``result`` to keep later, when its ``cache`` could not be written yet (the
+    run folder is made once a command has something to write: ``fit`` and ``sample`` from an empty
+    folder); None when there is nothing to keep later."""
+    if cache is None or Path(cache).parent.is_dir():
+        return None
+    return UnkeptSmoothing(_cache_file(Path(cache), time, strain, breaks), result[0], tuple(result[1]))
+
+
 def _cached(path: Path) -> tuple[np.ndarray, list[float]] | None:
     try:
         with np.load(path) as z:
@@ -220,10 +245,10 @@ def _cached(path: Path) -> tuple[np.ndarray, list[float]] | None:
         return None
 
 
-def _store(path: Path, fit: np.ndarray, lams: list[float]) -> None:
+def _store(path: Path, fit: np.ndarray, lams: list[float]) -> bool:
     """Keep a smoothing for the next command (replaced in one step; a cache that cannot be written
-    is no error: the next command smooths again)."""
-    keep_cache_arrays(path, strain=fit, lams=np.asarray(lams, dtype=float))
+    is no error: the next command smooths again). False when it is not written."""
+    return keep_cache_arrays(path, strain=fit, lams=np.asarray(lams, dtype=float))
 
 
 def smooth_strain(time: np.ndarray, strain: np.ndarray, breaks: Sequence[int] = (),

@@ -11,7 +11,7 @@ message names the file, the line and the column.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -38,7 +38,13 @@ from bayes_dnlr.data.errors import DataError
 from bayes_dnlr.data.initial_state import plan_start
 from bayes_dnlr.data.ramp import detect_relaxation_start, window_strain_rate
 from bayes_dnlr.data.reading import Table, read_table
-from bayes_dnlr.data.smoothing import sampling_breaks, segment_edges, smooth_strain
+from bayes_dnlr.data.smoothing import (
+    UnkeptSmoothing,
+    sampling_breaks,
+    segment_edges,
+    smooth_strain,
+    unkept_smoothing,
+)
 from bayes_dnlr.data.windows import window_mask
 
 
@@ -73,6 +79,14 @@ class TestData:
     virtual_start: int = 0        # leading model-only samples (an unloaded start), never in the window
     lines: np.ndarray | None = None  # the file line of each sample (0 for a model-only sample)
     rows_per_point: int = 1       # data.reduce: each sample the mean of this many consecutive rows
+    # the smoothed strain to keep in the run folder's cache once the folder exists (``keep_smoothing``)
+    unkept_smoothing: UnkeptSmoothing | None = field(default=None, repr=False, compare=False)
+
+    def keep_smoothing(self) -> None:
+        """Keep the smoothed strain in the run folder's cache, if it could not be kept when the test
+        was loaded (no run folder yet): the commands after this one then read it."""
+        if self.unkept_smoothing is not None:
+            self.unkept_smoothing.keep()
 
     @property
     def model_end(self) -> int:
@@ -240,11 +254,14 @@ def load_test(cfg: Config, cache: Path | None = None) -> TestData:
 
     rs, more = _relaxation_start(cfg, time, strain, path)
     notes += more
+    unkept = None
     if d.strain_input == "smoothed":
         breaks = [] if rs is None else [int(np.searchsorted(time, rs))]
         sampling = sampling_breaks(time, breaks)
-        strain_input, lams = smooth_strain(time, strain, sorted({*breaks, *sampling}), cache)
-        notes.append(_smoothing_note(time, sorted({*breaks, *sampling}), lams, sampling))
+        segments = sorted({*breaks, *sampling})
+        strain_input, lams = smooth_strain(time, strain, segments, cache)
+        unkept = unkept_smoothing(cache, time, strain, segments, (strain_input, lams))
+        notes.append(_smoothing_note(time, segments, lams, sampling))
     else:
         strain_input = strain
     stress = _observable(cfg, values, strain, eps22, path)
@@ -287,7 +304,7 @@ def load_test(cfg: Config, cache: Path | None = None) -> TestData:
         stress=stress, nominal_strain=nominal, nominal_stress=nom_stress, window=window,
         relaxation_start=rs, strain_rate=rate, observable=d.observable, notes=tuple(notes),
         force=values.get("force"), transverse_strain=eps22, area0=d.area0, virtual_start=virtual,
-        lines=lines, rows_per_point=k)
+        lines=lines, rows_per_point=k, unkept_smoothing=unkept)
     return test
 
 

@@ -91,4 +91,5 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
                 resolved_config_path(cfg).unlink(missing_ok=True)
                 discard_if_empty(cfg.run_dir)
             raise
+        test.keep_smoothings()       # the run folder exists now: sample and report read it
     return result

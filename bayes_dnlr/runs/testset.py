@@ -37,6 +37,12 @@ class TestSet:
     tests: dict[str, Any]        # name -> TestData
     plain: bool = False          # one test under plain names (``plain_names``)
 
+    def keep_smoothings(self) -> None:
+        """Keep each test's smoothed strain in the run folder's cache, now that the folder exists
+        (``TestData.keep_smoothing``)."""
+        for data in self.tests.values():
+            data.keep_smoothing()
+
     @property
     def sha256(self) -> str:
         """The data file's sha256 for one test, a digest of the tests' for several."""
