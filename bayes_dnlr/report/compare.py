@@ -28,11 +28,13 @@ from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pm
 from bayes_dnlr.report.tables import Table, deborah
 from bayes_dnlr.runs.folder import write_atomic
 from bayes_dnlr.runs.layout import SUMMARY_FILE
-from bayes_dnlr.runs.results import RunResults, load_run
+from bayes_dnlr.runs.results import RunResults, load_run, verdict_lines
 from bayes_dnlr.runs.testset import plain_names
 from bayes_dnlr.vocabulary import PARAMETER_NAMES, UNITS
 
 P_CONSISTENT = 0.05
+# row keys kept out of compare.csv: the verdict's sentences one by one (its `verdict` column has them)
+NOT_IN_CSV = ("verdict_points",)
 
 
 @dataclass
@@ -81,7 +83,11 @@ class Comparison:
         lines.append(["ASTM D638 (MPa)", *[fmt(r["astm_d638"]) for r in self.rows]])
         lines.append(["ISO 527-1 / E", *[fmt(r["iso_ratio"], 3) for r in self.rows]])
         lines.append(["checks (summary.json)", *[_checks_cell(r) for r in self.rows]])
-        notes = [f"{r['run']}: {r['verdict']}" for r in self.rows if r.get("verdict")]
+        notes = []
+        for r in self.rows:
+            if r.get("verdict"):
+                head, points = verdict_lines(r)
+                notes += [f"{r['run']}: {head}", *(f"  - {p}" for p in points)]
         return Table(header, lines, "Runs compared (paper Tables 3 and 5)", css="num", notes=notes)
 
     def consistency_text(self) -> str:
@@ -105,7 +111,7 @@ class Comparison:
         keys: list[str] = []
         for r in self.rows:
             keys += [k for k in r if k not in keys]
-        keys = [k for k in keys if any(r.get(k) is not None for r in self.rows)]
+        keys = [k for k in keys if k not in NOT_IN_CSV and any(r.get(k) is not None for r in self.rows)]
         buf = io.StringIO()
         w = csv.DictWriter(buf, fieldnames=keys, lineterminator="\n")
         w.writeheader()
@@ -158,6 +164,7 @@ def run_row(run: RunResults) -> dict[str, Any]:
     checks = (run.summary or {}).get("checks") or {}
     row["adequate"], row["trust_interval"] = checks.get("adequate"), checks.get("trust_interval")
     row["verdict"] = checks.get("verdict")
+    row["verdict_points"] = checks.get("verdict_points")
     return row
 
 

@@ -155,3 +155,26 @@ def test_replicates_at_one_rate_get_no_trend_per_decade(tmp_path):
     assert "No rate question: the strain rates" in md and "per decade" in md
     assert "trend of E" not in md and "Savage-Dickey" not in md
     assert "weighted mean of 3 runs" in md
+
+
+def test_each_runs_verdict_gives_one_finding_per_line(tmp_path):
+    """compare.md lists each check of a run's verdict on its own line, as the report and the console
+    do; compare.csv keeps the whole verdict in one column and no column of the points."""
+    root = tmp_path / "runs"
+    root.mkdir()
+    runs = [make_run(root, "a", 2.5e-3, 2850.0, 15.0), make_run(root, "b", 1e-2, 2860.0, 15.0)]
+    points = ["The 90 % predictive band holds 98 % of the points.",
+              "The posterior of disc_length piles against its prior's high bound."]
+    head = "The model describes this test, but do not use E's interval as it is."
+    summary_path = runs[0] / "summary.json"
+    summary = json.loads(summary_path.read_text())
+    summary["checks"] = {"adequate": True, "trust_interval": False,
+                         "verdict": " ".join([head, *points]), "verdict_points": points}
+    summary_path.write_text(json.dumps(summary))
+    comp = compare_runs(runs, out_dir=tmp_path / "out")
+    lines = comp.markdown().splitlines()
+    at = lines.index(f"a: {head}  ")
+    assert lines[at + 1: at + 3] == [f"  - {p}  " for p in points]
+    rows = list(csv.DictReader(open(tmp_path / "out" / "compare.csv")))
+    assert rows[0]["verdict"] == " ".join([head, *points])
+    assert "verdict_points" not in rows[0]
