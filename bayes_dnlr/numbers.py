@@ -45,15 +45,20 @@ def fmt(x: Any, sig: int = 4) -> str:
 
 def fmt_at(x: Any, sd: Any, sig: int = 4) -> str:
     """A value with at least ``sig`` significant digits and enough decimals to show its sd to two
-    digits (G = 2.31952 with sd 0.00059, not 2.320)."""
+    digits (G = 2.31952 with sd 0.00059, not 2.320); a value that rounds to zero at those decimals
+    is zero (G = 2.6e-19 with sd 16 reads 0, not 2.556e-19)."""
     try:
         x, sd = float(x), float(sd)
     except (TypeError, ValueError):
         return fmt(x, sig)
-    if not (math.isfinite(x) and math.isfinite(sd) and sd > 0) or x == 0 or not 1e-5 <= abs(x) < 1e5:
+    if not (math.isfinite(x) and math.isfinite(sd) and sd > 0) or x == 0:
+        return fmt(x, sig)
+    d_sd = 1 - int(math.floor(math.log10(sd)))
+    if abs(x) < 0.5 * 10.0 ** -d_sd:      # zero at the sd's last digit (an optimum on a bound at 0)
+        return "0" if d_sd <= 0 else f"{0:.{min(10, d_sd)}f}"
+    if not 1e-5 <= abs(x) < 1e5:
         return fmt(x, sig)
     d_sig = sig - 1 - int(math.floor(math.log10(abs(x))))
-    d_sd = 1 - int(math.floor(math.log10(sd)))
     return f"{x:.{min(10, max(0, d_sig, d_sd))}f}"
 
 

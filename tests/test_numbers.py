@@ -17,6 +17,9 @@ from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pct, pm
     (5.76213, 0.0268, "5.762 ± 0.027"),
     (28690.4, 137.7, "28690 ± 138"),                # integer digits are never rounded away
     (2869.37, None, "2869"),
+    (2.55583e-19, 16.0, "0 ± 16"),                  # zero at the sd's last digit: an optimum on 0
+    (-3e-9, 0.0032, "0.0000 ± 0.0032"),
+    (4e-6, 1e-7, "4.000e-06 ± 1.0e-07"),            # small but resolved: as before
 ])
 def test_the_rule(x, sd, text):
     assert pm(x, sd) == text

@@ -189,3 +189,12 @@ def test_a_failed_fit_into_a_new_folder_keeps_no_smoothing_there(tmp_path, monke
     with pytest.raises(OSError):
         fit(cfg)
     assert not cfg.run_dir.exists()                        # no half-made run folder, no cache in it
+
+
+def test_an_estimate_under_model_error_on_a_bound_is_named_at_the_bound(tmp_path):
+    """The estimate under model error with G on its bound 0 is said to be 0, on the lower bound (it
+    printed 'G = 2.55583e-19 ... sits on a bound' on a real curve)."""
+    path = write_case(tmp_path, "g0", params=NO_HARDENING, n=300, seed=0, discrepancy="default",
+                      error=("exp", 0.5, 20.0))
+    warnings = fit(load_config(path), write=False).only.warnings
+    assert "G = 0 (the estimate under model error) sits on the lower bound of its prior [0, 50]" in warnings

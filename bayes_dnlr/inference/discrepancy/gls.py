@@ -49,6 +49,7 @@ from bayes_dnlr.inference.lsq import optimize
 from bayes_dnlr.inference.lsq.problem import LsqProblem
 from bayes_dnlr.inference.lsq.sensitivity import (
     alpha_score,
+    bound_side,
     correlation,
     derivative,
     relative_errors,
@@ -61,12 +62,6 @@ from bayes_dnlr.vocabulary import SPECTRUM_EXPONENT
 
 CANDIDATES = ("exp", "matern32")
 WORKING = "exp"         # the kernel of the generalized target's metric (and of the sampled posterior)
-
-
-def on_bound(cfg: Config, name: str, value: float) -> bool:
-    lo, hi = cfg.parameters[name].bounds()
-    return bool((math.isfinite(lo) and abs(value - lo) <= 1e-6 * max(abs(lo), 1e-12 + abs(value)))
-                or (math.isfinite(hi) and abs(value - hi) <= 1e-6 * abs(hi)))
 
 
 def columns_for(cfg: Config, test, estimate: dict[str, float]):
@@ -237,10 +232,11 @@ def discrepancy_analysis(cfg: Config, test, problem: LsqProblem, beta_white: np.
     sampled = _physical(sampled_u, values, problem.is_log)
     warnings: list[str] = []
     for k in names:
-        if on_bound(cfg, k, params[k]):
-            lo, hi = cfg.parameters[k].bounds()
-            warnings.append(f"{k} = {params[k]:.6g} (the estimate under model error) sits on a bound of "
-                            f"its prior [{lo:g}, {hi:g}]")
+        lo, hi = cfg.parameters[k].bounds()
+        side = bound_side(float(params[k]), lo, hi)
+        if side is not None:
+            warnings.append(f"{k} = {lo if side == 'lower' else hi:g} (the estimate under model error) "
+                            f"sits on the {side} bound of its prior [{lo:g}, {hi:g}]")
     hs = core["sampled_kernel"]
     whiten = whitener(axis, Hyper(h.sigma0, max(h.amplitude, 0.0), h.length), hs)
     whitened = residual_diagnostics(whiten(core["r_window"]), 1.0, "whitened")
@@ -311,5 +307,5 @@ def _whiteness_warning(whitened: dict[str, Any], zero: bool, kernel: str) -> lis
             "the model error only in part (docs/model-error.md, 'Limits')"]
 
 
-__all__ = ["CANDIDATES", "LENGTH", "WORKING", "columns_for", "discrepancy_analysis", "on_bound",
+__all__ = ["CANDIDATES", "LENGTH", "WORKING", "columns_for", "discrepancy_analysis",
            "projection_estimate"]
