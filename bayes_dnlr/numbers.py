@@ -91,6 +91,17 @@ def err_pct(err: Any) -> str:
     return f"{e:.3f}" if abs(e) < 1e4 else ">1e4"
 
 
+def share(x: float) -> str:
+    """A share of a whole (a kernel's weight) as a percentage to 3 digits, 0 % and 100 % when it
+    rounds there at 0.1 % ('7.15e-280' -> '0 %', '0.2503' -> '25 %', '0.0123' -> '1.23 %')."""
+    v = 100.0 * float(x)
+    if v < 0.05:
+        return "0 %"
+    if v > 99.95:
+        return "100 %"
+    return f"{v:.3g} %"
+
+
 def pct(x: float | None, digits: int = 2) -> str:
     """A fraction as a percentage ('0.0137' -> '1.37 %'); '>1e4 %' beyond, as ``err_pct`` (a relative
     sd of an estimate on a bound at 0 would print 20 digits)."""

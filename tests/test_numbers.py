@@ -64,3 +64,11 @@ def test_err_percent_never_prints_thirty_digits():
     assert err_pct(3.5e22) == ">1e4"              # G on its bound: sd / |estimate| explodes
     assert pct(5.4e19) == ">1e4 %" and pct(0.0137) == "1.37 %" and pct(None) == "–"
     assert err_pct(float("nan")) == "nan" and err_pct(None) == "nan"
+
+
+@pytest.mark.parametrize(("x", "text"), [(7.15e-280, "0 %"), (1.0, "100 %"), (0.99999, "100 %"),
+                                         (0.2503, "25 %"), (0.0123, "1.23 %"), (0.75, "75 %")])
+def test_a_kernels_weight_reads_as_a_share(x, text):
+    from bayes_dnlr.numbers import share
+
+    assert share(x) == text

@@ -7,7 +7,8 @@
   of E when that bound is widened ×10 (a second least-squares fit with the widened bound, the same
   analysis as the run's: generalized under model error);
 - ``prior_sensitivity``: the power-scaling sensitivity of each sampled parameter to the prior
-  (inference/checks/power_scaling.py);
+  (inference/checks/power_scaling.py); ``prior_sources``: for an E it flags, its sensitivity to
+  each prior that is not flat, scaled alone (whose prior shapes E: its own, or alpha's);
 - ``plausibility``: σ∞ against a falling hold, the time constants against the test's duration, E
   against the standards' chord (inference/checks/physical.py);
 - ``model_form``: the score test of the spectrum's exponent held at ½ (eq. 12; fit.json
@@ -207,6 +208,40 @@ def prior_sensitivity_check(draws: np.ndarray, names: list[str], priors) -> dict
         return dict.fromkeys(names, 0.0)      # a flat prior: power-scaling changes nothing
     per = {k: draws[..., j].reshape(-1) for j, k in enumerate(names)}
     return power_scaling.sensitivity(per, log_prior)
+
+
+def prior_sources(draws: np.ndarray, names: list[str], priors, flagged: list[str]
+                  ) -> dict[str, dict[str, float]]:
+    """Which priors shape the parameters in ``flagged``: the sensitivity of each to power-scaling one
+    prior alone, for every prior that is not flat at the draws (a flat one changes nothing)."""
+    if not flagged:
+        return {}
+    z = priors.from_physical(draws.reshape(-1, draws.shape[-1]))
+    per = {k: draws[..., names.index(k)].reshape(-1) for k in flagged}
+    out: dict[str, dict[str, float]] = {k: {} for k in flagged}
+    for j, p in enumerate(priors.priors):
+        component = p.logpdf_sampling(z[:, j])
+        if not np.all(np.isfinite(component)) or np.ptp(component) == 0:
+            continue
+        for k, v in power_scaling.sensitivity(per, component).items():
+            out[k][p.name] = v
+    return out
+
+
+def _prior_words(sensitive: dict[str, float], sources: dict[str, dict[str, float]]) -> str:
+    """The sentence of a prior that shapes E's interval, naming the priors that do it."""
+    by = {n: v for k in sensitive for n, v in (sources.get(k) or {}).items()
+          if v > power_scaling.SENSITIVE}
+    text = ("The prior shapes E's interval: power-scaling sensitivity "
+            + ", ".join(f"{k} {v:.2f}" for k, v in sensitive.items())
+            + f" (above {power_scaling.SENSITIVE})")
+    if not by:
+        return text + "; widen the informative priors or give more data."
+    named = ", ".join(f"{n} ({v:.2f})" for n, v in sorted(by.items(), key=lambda kv: -kv[1]))
+    if all(base_name(n) == "E" for n in by):
+        return text + f", through the prior of {named}; give E a wider prior or more data."
+    return (text + f", through the prior of {named}, not E's own: widen that prior, fix the parameter, "
+            "or give more data.")
 
 
 def bound_check(cfg: Config, tests: TestSet, draws: np.ndarray, names: list[str], priors,
@@ -415,9 +450,7 @@ def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[boo
             if base_name(k) == "E" and v > power_scaling.SENSITIVE}
     if sens:
         trust = False
-        words.append("The prior shapes E's interval: power-scaling sensitivity "
-                     + ", ".join(f"{k} {v:.2f}" for k, v in sens.items())
-                     + f" (above {power_scaling.SENSITIVE}); give E a wider prior or more data.")
+        words.append(_prior_words(sens, checks.get("prior_sources") or {}))
     if not converged:
         trust = False
         words.append("The chain has not converged: its intervals are not final (raise "
@@ -449,6 +482,9 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
         "model_form": model_form_check(fit, layout, post_sd),
         "noise_model": noise_model_check(cfg, noise),
     }
+    checks["prior_sources"] = prior_sources(
+        draws, names, priors, [k for k, v in checks["prior_sensitivity"].items()
+                               if base_name(k) == "E" and v > power_scaling.SENSITIVE])
     adequate, trust, head, points = verdict(checks, bool(summary.get("converged")), not layout.plain)
     if layout.plain:
         for k in ("predictive_coverage", "plausibility", "noise_model"):

@@ -15,6 +15,7 @@ from typing import Any
 from bayes_dnlr.config import Config
 from bayes_dnlr.inference.discrepancy.hyper import AMPLITUDE, LENGTH
 from bayes_dnlr.inference.layout import Layout
+from bayes_dnlr.numbers import share
 from bayes_dnlr.runs.records import Analysis, FitRecord
 from bayes_dnlr.vocabulary import Z90
 
@@ -131,18 +132,18 @@ def verdict(block: dict[str, Any]) -> str:
                 f"Ornstein-Uhlenbeck discrepancy (slopes as much as levels): {p} moves by "
                 f"{shift:+.1f} white sd; its sd, {ratio:.2f}x the white one ({width}), is that of this "
                 f"estimate under the kernels' model of the error ("
-                + ", ".join(f"{k} {100 * v:.3g} %" for k, v in w.items()) + "). Whether to use "
+                + ", ".join(f"{k} {share(v)}" for k, v in w.items()) + "). Whether to use "
                 "the interval is the checks' verdict.")
     if proj:
-        share = (proj.get("sd_offset_u") or {}).get(p)
+        offset = (proj.get("sd_offset_u") or {}).get(p)
         return (f"The residuals of the white fit are signed waves (model error), which the white "
                 f"likelihood takes for independent noise: its interval of {p} (90 % half-width "
                 f"{Z90 * white['sd']:.4g}) is that of the least-squares projection of the curve onto "
                 f"the model, not of {p} itself. The discrepancy keeps the projection as the centre "
                 f"and adds what the data cannot tell from a change of {p}, the part of the model "
                 f"error along the sensitivities (its projection offset): the sd is {ratio:.2f}x the "
-                f"white one ({width})" + (f", the offset's sd {share:.3g} (in {p}'s sampling units)"
-                                          if share is not None else "") + ". Its width is set by "
+                f"white one ({width})" + (f", the offset's sd {offset:.3g} (in {p}'s sampling units)"
+                                          if offset is not None else "") + ". Its width is set by "
                 "the kernel's model of the error; whether to use it is the checks' verdict.")
     return (f"The residuals of the white fit are signed waves (model error), which the white "
             f"likelihood takes for independent noise: its interval of {p} (90 % half-width "

@@ -235,3 +235,46 @@ def test_the_model_form_check_of_a_joint_run_reads_each_tests_own_fit() -> None:
     c = model_form_check(fit, layout, {"E": 30.0})
     assert not c["a"]["ok"] and c["a"]["E_shift_sd"] == pytest.approx(-11.0)
     assert c["b"]["ok"] and c["b"]["E_relative_per_tenth"] == -0.1
+
+
+def _priors_and_draws(e_prior: dict, alpha_prior: dict):
+    """Draws of (E, alpha) with E tied to alpha (ρ ≈ -0.9), under the given priors."""
+    from bayes_dnlr.config import ParameterSpec
+    from bayes_dnlr.inference.posterior.priors import Prior, PriorSet
+
+    rng = np.random.default_rng(5)
+    alpha = rng.normal(0.55, 0.04, size=(4000, 8))
+    e = 2000.0 - 3000.0 * (alpha - 0.55) + rng.normal(0.0, 50.0, size=alpha.shape)
+    priors = PriorSet((Prior.from_spec("E", ParameterSpec(**e_prior)),
+                       Prior.from_spec("alpha", ParameterSpec(**alpha_prior))))
+    return np.stack([e, alpha], axis=-1), ["E", "alpha"], priors
+
+
+def test_the_verdict_names_the_prior_that_shapes_e() -> None:
+    """With E's own prior flat and alpha's tight, E's sensitivity comes through alpha's prior: the
+    verdict says so instead of asking for a wider prior on E."""
+    from bayes_dnlr.runs.checks import prior_sensitivity_check, prior_sources
+
+    draws, names, priors = _priors_and_draws({"prior": "uniform", "low": 100, "high": 20000},
+                                             {"prior": "normal", "mean": 0.5, "sd": 0.03, "low": 0, "high": 1})
+    sens = prior_sensitivity_check(draws, names, priors)
+    assert sens["E"] > power_scaling.SENSITIVE
+    sources = prior_sources(draws, names, priors, ["E"])
+    assert list(sources["E"]) == ["alpha"]                  # E's flat prior is not scaled at all
+    assert sources["E"]["alpha"] == pytest.approx(sens["E"], rel=1e-9)   # the only non-flat prior
+    checks = _checks(sens=sens["E"]) | {"prior_sources": sources}
+    _, trust, words = verdict(checks, True, False)
+    assert not trust and "through the prior of alpha" in words and "not E's own" in words
+    assert "give E a wider prior" not in words
+
+
+def test_e_shaped_by_its_own_prior_is_asked_for_a_wider_one() -> None:
+    from bayes_dnlr.runs.checks import prior_sensitivity_check, prior_sources
+
+    draws, names, priors = _priors_and_draws({"prior": "normal", "mean": 1950, "sd": 60},
+                                             {"prior": "uniform", "low": 0, "high": 1})
+    sens = prior_sensitivity_check(draws, names, priors)
+    sources = prior_sources(draws, names, priors, ["E"])
+    assert sens["E"] > power_scaling.SENSITIVE and list(sources["E"]) == ["E"]
+    _, _, words = verdict(_checks(sens=sens["E"]) | {"prior_sources": sources}, True, False)
+    assert "through the prior of E" in words and "give E a wider prior or more data" in words

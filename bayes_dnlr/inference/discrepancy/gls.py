@@ -57,7 +57,7 @@ from bayes_dnlr.inference.lsq.sensitivity import (
 )
 from bayes_dnlr.inference.lsq.sigma0 import high_frequency_sd, resolve_sigma0
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
-from bayes_dnlr.numbers import fmt
+from bayes_dnlr.numbers import fmt, share
 from bayes_dnlr.vocabulary import SPECTRUM_EXPONENT
 
 CANDIDATES = ("exp", "matern32")
@@ -250,7 +250,7 @@ def discrepancy_analysis(cfg: Config, test, problem: LsqProblem, beta_white: np.
         "rule": "kernels weighed by their likelihood of the hyperparameters with the amplitude's prior; "
                 "the estimate does not depend on the weights",
         "weights": w, "log_likelihood_gain_matern32": gain,
-        "reason": "weights " + ", ".join(f"{k} {100 * v:.3g} %" for k, v in w.items())
+        "reason": "weights " + ", ".join(f"{k} {share(v)}" for k, v in w.items())
                   + (f" (log-likelihood matern32 - exp: {fmt(gain, 3)})" if gain is not None else ""),
         "candidates": {k: {kk: a[kk] for kk in ("hyperparameters", "log_likelihood", "log_posterior")}
                        for k, a in per.items()},

@@ -21,7 +21,7 @@ import numpy as np
 from bayes_dnlr.config import ConfigError
 from bayes_dnlr.digests import digest, file_sha256
 from bayes_dnlr.errors import BayesDnlrError, RunError
-from bayes_dnlr.numbers import fmt
+from bayes_dnlr.numbers import fmt, share
 from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
 from bayes_dnlr.runs.layout import POSTERIOR_FILE
 from bayes_dnlr.runs.testset import plain_names
@@ -91,7 +91,7 @@ def error_model_note(models: list[ErrorModel], summary: dict[str, Any]) -> str:
         return ""
     proj = ((summary.get("noise") or {}).get("projection") or {})
     factors = ", ".join(f"{k} x{float(f):.3g}" for k, f in (proj.get("sd_factor") or {}).items())
-    weights = ", ".join(f"{m.kernel} {100 * m.weight:.0f} %" for m in models)
+    weights = ", ".join(f"{m.kernel} {share(m.weight)}" for m in models)
     return (f"the predicted sd carry the run's widening for the kernels' model of the error ({weights}, "
             "their maximum-likelihood hyperparameters), as `sample` reports the run's intervals"
             + (f" (there: sd {factors})" if factors else "") + " (docs/design.md, 'Method')")
