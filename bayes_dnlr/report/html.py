@@ -154,6 +154,15 @@ def _part(run: RunResults, test: str) -> ts.Part:
     return part
 
 
+def _data_file(cfg) -> str:
+    """The data file as the header shows it: as the run's config names it (relative to the run
+    folder) when it lies in the run folder or beside it, else its absolute path (not a chain of
+    '../' up to the file system's root)."""
+    name = cfg.data.file
+    ups = Path(name).parts.count("..")
+    return str(cfg.data_path.resolve()) if ups > 1 and not Path(name).is_absolute() else name
+
+
 def _data_text(view: RunResults) -> str:
     """A test's data in the page's header: file, observable, window, points, strain rate."""
     cfg = view.cfg
@@ -162,7 +171,7 @@ def _data_text(view: RunResults) -> str:
     own = view.own_fit()
     n_pts = ((own.n_points if own is not None else (view.summary or {}).get("n_points"))
              or (view.test.n_points if view.test is not None else None))
-    return (f"<code>{html.escape(cfg.data.file)}</code> · observable {cfg.data.observable} · "
+    return (f"<code>{html.escape(_data_file(cfg))}</code> · observable {cfg.data.observable} · "
             f"window: {html.escape(window_txt)} · {fmt(n_pts)} points · strain rate "
             f"{fmt(view.strain_rate(), 3)} 1/s")
 

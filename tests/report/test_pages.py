@@ -82,3 +82,20 @@ def test_a_joint_page_sets_the_runs_analyses_beside_each_test(tmp_path):
         assert (path.parent / "figures" / f"acf-{t}.png").is_file()
         for w in result["single_fits"][t]["warnings"]:
             assert html.escape(f"{t}: {w}") in page
+
+
+def test_the_header_names_a_far_data_file_by_its_absolute_path(tmp_path):
+    """The run's config names its data relative to the run folder; one beside it reads so, one far
+    away by its absolute path, not '../../../..' up to the root."""
+    from types import SimpleNamespace
+
+    from bayes_dnlr.report.html import _data_file
+
+    def cfg(name, base):
+        return SimpleNamespace(data=SimpleNamespace(file=name), data_path=base / name)
+
+    run = tmp_path / "a" / "b" / "run"
+    assert _data_file(cfg("data.csv", run)) == "data.csv"
+    assert _data_file(cfg("../data.csv", run)) == "../data.csv"
+    assert _data_file(cfg("../../../x/data.csv", run)) == str((tmp_path / "x" / "data.csv").resolve())
+    assert _data_file(cfg("/abs/data.csv", run)) == "/abs/data.csv"

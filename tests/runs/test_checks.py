@@ -255,8 +255,8 @@ def test_the_verdict_names_the_prior_that_shapes_e() -> None:
     verdict says so instead of asking for a wider prior on E."""
     from bayes_dnlr.runs.checks import prior_sensitivity_check, prior_sources
 
-    draws, names, priors = _priors_and_draws({"prior": "uniform", "low": 100, "high": 20000},
-                                             {"prior": "normal", "mean": 0.5, "sd": 0.03, "low": 0, "high": 1})
+    tight = {"prior": "normal", "mean": 0.5, "sd": 0.03, "low": 0, "high": 1}
+    draws, names, priors = _priors_and_draws({"prior": "uniform", "low": 100, "high": 20000}, tight)
     sens = prior_sensitivity_check(draws, names, priors)
     assert sens["E"] > power_scaling.SENSITIVE
     sources = prior_sources(draws, names, priors, ["E"])
