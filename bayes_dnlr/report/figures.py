@@ -60,12 +60,18 @@ def ellipse_xy(mean: Sequence[float], cov: np.ndarray, k: float, n: int = 200) -
 
 
 def _ranges(samples: np.ndarray, est: np.ndarray | None, sd: np.ndarray | None,
-            truths: Sequence[float | None] | None) -> list[tuple[float, float]]:
+            truths: Sequence[float | None] | None,
+            bounds: Sequence[tuple[float, float]] | None = None) -> list[tuple[float, float]]:
+    """Each axis: the posterior's 99.6 %, the linearized 2.3σ and the truth, the linearized part
+    clipped to the prior's support (an ellipse past a bound would squeeze the posterior)."""
     out = []
     for j in range(samples.shape[1]):
         lo, hi = np.quantile(samples[:, j], [0.002, 0.998])
         if est is not None and sd is not None and np.isfinite(sd[j]):
-            lo, hi = min(lo, est[j] - 2.3 * sd[j]), max(hi, est[j] + 2.3 * sd[j])
+            a, b = est[j] - 2.3 * sd[j], est[j] + 2.3 * sd[j]
+            if bounds is not None:
+                a, b = max(a, bounds[j][0]), min(b, bounds[j][1])
+            lo, hi = min(lo, a), max(hi, b)
         if truths is not None and truths[j] is not None:
             lo, hi = min(lo, truths[j]), max(hi, truths[j])
         pad = 0.05 * (hi - lo) if hi > lo else max(abs(lo) * 1e-3, 1e-12)
@@ -76,9 +82,11 @@ def _ranges(samples: np.ndarray, est: np.ndarray | None, sd: np.ndarray | None,
 def corner_plot(samples: np.ndarray, names: Sequence[str], path: Path,
                 gn_estimate: Sequence[float] | None = None, gn_covariance: np.ndarray | None = None,
                 truths: Sequence[float | None] | None = None,
-                linearized_label: str = "Gauss-Newton") -> Path:
+                linearized_label: str = "Gauss-Newton",
+                bounds: Sequence[tuple[float, float]] | None = None) -> Path:
     """Posterior corner plot; Gauss-Newton estimate (blue cross) with its linearized 1σ and 2σ ellipses
     (Mahalanobis distance 1 and 2 of N(β̂, Δ), eq. 32) and 1-D normal densities; truths in green.
+    ``bounds``: each parameter's prior support, which the axes do not pass for the ellipses' sake.
 
     The posterior contours are drawn at the same two probability levels (39 % and 86 %), so a
     posterior contour on top of its ellipse means the linearization holds.
@@ -90,7 +98,7 @@ def corner_plot(samples: np.ndarray, names: Sequence[str], path: Path,
     cov = None if gn_covariance is None else np.asarray(gn_covariance, dtype=float)
     sd = None if cov is None else np.sqrt(np.diag(cov))
     has_truth = truths is not None and any(t is not None for t in truths)
-    ranges = _ranges(samples, est, sd, truths if has_truth else None)
+    ranges = _ranges(samples, est, sd, truths if has_truth else None, bounds)
     levels = (1 - math.exp(-0.5), 1 - math.exp(-2.0))
     fig = new_figure(figsize=(2.3 * p + 1.0, 2.3 * p + 1.0))
     draw_corner(samples, fig=fig, labels=[LABELS.get(n, n) for n in names], range=ranges,

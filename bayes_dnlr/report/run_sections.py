@@ -54,8 +54,12 @@ def corner_section(run: RunResults, figdir: Path, title: str) -> list[str]:
             est = [gn["estimate"][n] for n in names]
             cov = gn["covariance"][np.ix_(idx, idx)]
         true = truths(run, names)
+        specs = run.cfg.parameters
+        bounds = [specs[base_name(n)].bounds() if base_name(n) in specs else (-np.inf, np.inf)
+                  for n in names]
         p = drawn(figs.corner_plot, samples, names, figdir / "corner.png", est, cov, true,
-                  linearized_label="GLS" if _uses_gls(run) else "Gauss-Newton", aside=True)
+                  linearized_label="GLS" if _uses_gls(run) else "Gauss-Newton", bounds=bounds,
+                  aside=True)
         sandwich = bool(((run.fit or {}).get("discrepancy") or {}).get("projection"))
         lin_txt = ("the estimate under model error (generalized least squares under the exp covariance) "
                    "and the 1σ and 2σ ellipses of its linearized covariance under the kernels' model of "

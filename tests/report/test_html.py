@@ -168,3 +168,19 @@ def test_crosscheck_section_table_4(reported, tmp_path):
     assert f"{(2780 - e) / e * 100:+.1f} %" in page           # Table 4's discrepancy
     assert ">2281<" in page                                  # eq. 44 value (2280.6 MPa)
     assert re.search(r"Pulse-echo</th><td>2780</td><td>40</td>", page)   # sd: 2 digits
+
+
+def test_the_corner_axes_stop_at_the_prior_bounds_the_ellipses_would_pass():
+    """A linearized sd of 0.8 for alpha in [0, 1] stretched its axis to [-0.7, 3.0] on a real curve,
+    squeezing the posterior; the axis now stops near the bound, the posterior kept whole."""
+    from bayes_dnlr.report.figures import _ranges
+
+    rng = np.random.default_rng(0)
+    samples = np.column_stack([rng.uniform(0.45, 1.0, 4000), rng.normal(2000.0, 250.0, 4000)])
+    est, sd = np.array([1.0, 1900.0]), np.array([0.8, 390.0])
+    free = _ranges(samples, est, sd, None)
+    bounded = _ranges(samples, est, sd, None, [(0.0, 1.0), (100.0, 20000.0)])
+    assert free[0][0] < -0.8 and free[0][1] > 2.8
+    assert -0.06 <= bounded[0][0] < 0.0 and 1.0 < bounded[0][1] <= 1.06
+    assert bounded[1] == free[1]                           # E's bounds are far: its axis unchanged
+    assert bounded[0][0] <= samples[:, 0].min() and bounded[0][1] >= np.quantile(samples[:, 0], 0.998)
