@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import copy
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -480,7 +481,10 @@ def test_corpus_case(tmp_path: Path, capsys, case: Case) -> None:
             assert "Traceback" not in out + err, f"{case.id}: traceback\n{err}"
             assert code == 0, f"{case.id} ({command}): exit {code}\n{err}"
             made = sorted(set(listing(folder)) - set(before))
-            assert made == ["run", "run/config.yaml", "run/fit.json"], made
+            # and the smoothed strain kept for the next commands (data/smoothing.py)
+            cache = [m for m in made if m.startswith("run/.cache")]
+            assert [m for m in made if m not in cache] == ["run", "run/config.yaml", "run/fit.json"], made
+            assert all(re.fullmatch(r"run/\.cache(/strain-[0-9a-f]{32}\.npz)?", m) for m in cache), made
             if case.note_in_fit:
                 assert case.note_in_fit in (folder / "run/fit.json").read_text(), case.id
 
