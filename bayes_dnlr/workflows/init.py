@@ -336,6 +336,8 @@ def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
     problems, test = _trial(raw, edits, out)
     if test is not None and "relaxation_start" not in raw["data"]:
         _window_at_peak(test, raw, edits, comments)
+    if any(p.startswith(LOADED_START) for p in problems):
+        _loaded_start(raw, edits, comments)
     text = config_text(raw, comments, data, column_notes)
     out.parent.mkdir(parents=True, exist_ok=True)
     try:
@@ -350,6 +352,21 @@ def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
 
 
 PLACEHOLDER = {"data.area0": 1.0, "data.gauge_length": 1.0}
+LOADED_START = "the first sample"       # how the reader's warning of a loaded first sample begins
+
+
+def _loaded_start(raw: dict[str, Any], edits: list[Edit], comments: dict[str, str]) -> None:
+    """A first sample that already carries load (the reader's warning): the choice of data.toe is
+    one of the edits, and the key is written into the config with the two remedies beside it."""
+    raw["data"].setdefault("toe", "none")
+    comments["toe"] = ("EDIT: the first sample carries load (init's warning): compensate, or "
+                       "initial_state: ramp-from-zero; none biases E (docs/data-input.md, 'The first "
+                       "sample')")
+    edits.append(Edit("check", "data.toe", raw["data"]["toe"],
+                      "the first sample carries load (the warning above): `compensate` moves the "
+                      "strain's zero to the toe's extrapolation (ASTM D638 X1, ISO 527-1), "
+                      "`data.initial_state: ramp-from-zero` lets the model load the specimen from "
+                      "zero; `none` keeps the model's unloaded start there, which biases E"))
 
 
 def _trial(raw: dict[str, Any], edits: list[Edit], out: Path) -> tuple[list[str], Any]:

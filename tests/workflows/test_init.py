@@ -171,3 +171,21 @@ def test_names_that_reach_the_config_are_escaped(tmp_path, name):
     assert cfg.data_path.resolve() == csv.resolve()
     assert raw["data"]["columns"]["stress"] == "Stress: true\tx (MPa)"
     assert all("\n" not in line and "\x85" not in line for line in out.read_text().split("\n"))
+
+
+def test_a_loaded_first_sample_makes_the_toe_one_of_the_edits(tmp_path):
+    """An export whose first rows were cropped (its first sample carries load): init lists data.toe
+    among the edits and writes the key with its remedies; the uncropped export has no such edit."""
+    lines = BLUEHILL.read_text().splitlines(keepends=True)
+    start = lines.index('"(s)","(%)","(N)"\n') + 1
+    cropped = tmp_path / "cropped.csv"
+    cropped.write_text("".join(lines[:start] + lines[start + 60:]))    # the first 60 samples gone
+    result = init_config(cropped, tmp_path / "cropped" / "config.yaml")
+    assert any(p.startswith("the first sample") for p in result.problems), result.problems
+    [toe] = [e for e in result.edits if e.key == "data.toe"]
+    assert toe.action == "check" and toe.value == "none" and "ramp-from-zero" in toe.why
+    text = (tmp_path / "cropped" / "config.yaml").read_text()
+    assert "  toe: none   # EDIT: the first sample carries load" in text
+    whole = init_config(BLUEHILL, tmp_path / "whole" / "config.yaml")
+    assert all(e.key != "data.toe" for e in whole.edits)
+    assert "toe:" not in (tmp_path / "whole" / "config.yaml").read_text()
