@@ -33,6 +33,7 @@ from bayes_dnlr.model import threads
 
 MIN_EFFECTIVE = 50.0
 MAX_LOG_L_VARIANCE = 1.0
+SPREAD_ZERO = 0.02          # an HDI of s that starts below this share of its upper end starts at 0
 N_MU, N_S = 120, 100
 MAX_DRAWS = 1000        # per specimen for the grid (thinned at random): an MCMC run's worth of ESS
 N_HYPER_DRAWS = 400     # (mu, s) draws from the grid posterior for the shrunk estimates
@@ -54,6 +55,13 @@ class Population:
     warnings: list[str] = field(default_factory=list)
 
     @property
+    def spread_resolved(self) -> bool:
+        """Whether the data tell the specimens apart: the 90 % HDI of s starts above zero (at less
+        than 2 % of its upper end it starts at zero: s is consistent with no spread at all)."""
+        lo, hi = self.s["hdi_90"]
+        return lo > SPREAD_ZERO * hi
+
+    @property
     def passed(self) -> bool:
         """The Monte Carlo check: every specimen keeps enough effective draws and ln L is stable."""
         return (min(self.effective_draws.values()) >= MIN_EFFECTIVE
@@ -67,6 +75,7 @@ class Population:
                                       "limits": {"effective_draws_min": MIN_EFFECTIVE,
                                                  "log_likelihood_variance_max": MAX_LOG_L_VARIANCE},
                                       "passed": self.passed},
+                "s_resolved": self.spread_resolved,
                 "s_prior": {"prior": "half-normal", "scale": self.s_prior_scale},
                 "mu_prior": "flat over the grid", "method": "two-stage reweighting of each "
                 "specimen's posterior draws (Hogg et al. 2010), grid over (mu, s)",

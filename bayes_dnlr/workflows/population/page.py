@@ -25,6 +25,12 @@ def markdown(pr: PopulationRun) -> str:
              f"(90 % HDI {interval(*mu['hdi_90'], mu['sd'])}); specimen-to-specimen sd **s = "
              f"{pm(s['mean'], s['sd'])} MPa** (90 % HDI {interval(*s['hdi_90'], s['sd'])}).",
              "",
+             *([] if r.spread_resolved else [
+                 f"The specimens' {p} agree within their own uncertainties: s is consistent with no "
+                 f"spread at all, and {len(r.names)} specimens only bound it, s < "
+                 f"{fmt(s['hdi_90'][1], 3)} MPa at 90 %; its mean, its sd and that bound lean on "
+                 f"the prior (half-normal, scale {fmt(r.s_prior_scale, 3)} MPa; docs/population.md).",
+                 ""]),
              f"Method: {r.to_dict()['method']}; priors: μ flat over the grid, s half-normal with scale "
              f"{fmt(r.s_prior_scale)} MPa. Stage 1: each specimen's own posterior (its run); stage 2: "
              "their draws reweighted under Normal(μ, s), divided by each run's prior.", ""]
