@@ -81,12 +81,12 @@ def corner_section(run: RunResults, figdir: Path, title: str) -> list[str]:
 
 def correlation_section(run: RunResults, number: int, model_error: int) -> list[str]:
     """The posterior correlations beside Δ̃ (eq. 35), and where the two disagree."""
-    post_t, lin_t = tb.correlation_tables(run)
-    if not (post_t or lin_t):
+    post_t, lin_ts = tb.correlation_tables(run)
+    if not (post_t or lin_ts):
         return []
     sec = [f"<h2>{number}. Correlations: posterior against Δ̃ (eq. 35)</h2>" if post_t else
            f"<h2>{number}. Correlations: the linearized Δ̃ (eq. 35)</h2>"]
-    sec.append('<div class="pair">' + "".join(t.html() for t in (post_t, lin_t) if t) + "</div>")
+    sec.append('<div class="pair">' + "".join(t.html() for t in (post_t, *lin_ts) if t) + "</div>")
     comp = tb.comparison_table(run)
     if comp is None:
         return sec

@@ -133,10 +133,30 @@ def parameter_table(run: RunResults, model_error: int = 5) -> Table:
     return Table(header, rows, caption, notes, css="num")
 
 
-def correlation_tables(run: RunResults) -> tuple[Table | None, Table | None]:
-    """The posterior correlation matrix and the linearized Δ̃ (eq. 35: Err in % on the diagonal)."""
+def _delta_tilde_table(analysis: dict | None, names: list[str], caption: str) -> Table | None:
+    """Δ̃ of a linearized analysis (eq. 35: Err in % on the diagonal, ρ off it) over ``names``."""
+    if analysis is None or analysis["delta_tilde"] is None:
+        return None
+    gnames = analysis["names"]
+    if not all(n in gnames for n in names):
+        return None
+    idx = [gnames.index(n) for n in names]
+    d = analysis["delta_tilde"][np.ix_(idx, idx)]
+    rows = []
+    for i, n in enumerate(names):
+        rows.append([n] + [pct(d[i, j]) if i == j else (fmt(d[i, j], 4) if abs(d[i, j]) < 0.9995
+                                                         else f"{d[i, j]:.5f}")
+                           for j in range(len(names))])
+    return Table([""] + list(names), rows, caption, css="num",
+                 html_header=[""] + [NAMES_HTML.get(n, n) for n in names])
+
+
+def correlation_tables(run: RunResults) -> tuple[Table | None, list[Table]]:
+    """The posterior correlation matrix, and the linearized Δ̃ (eq. 35: Err in % on the diagonal)
+    it is compared with: the generalized analysis's when the posterior used the discrepancy, then
+    the paper's white one beside it; the white one alone otherwise."""
     names = run.model_names
-    post_t = lin_t = None
+    post_t = None
     pc = (run.summary or {}).get("posterior_correlation")
     hdr = [""] + [n for n in names]
     hhdr = [""] + [NAMES_HTML.get(n, n) for n in names]
@@ -160,23 +180,17 @@ def correlation_tables(run: RunResults) -> tuple[Table | None, Table | None]:
                 rows.append(row)
             post_t = Table(hdr, rows, "Posterior: sd/mean on the diagonal, correlation off it", css="num",
                            html_header=hhdr)
-    gn = run.gn()
-    if gn is not None and gn["delta_tilde"] is not None:
-        gnames = gn["names"]
-        d = gn["delta_tilde"]
-        idx = [gnames.index(n) for n in names if n in gnames]
-        if len(idx) == len(names):
-            d = d[np.ix_(idx, idx)]
-            rows = []
-            for i, n in enumerate(names):
-                row = [n]
-                for j in range(len(names)):
-                    row.append(pct(d[i, j]) if i == j else (
-                        fmt(d[i, j], 4) if abs(d[i, j]) < 0.9995 else f"{d[i, j]:.5f}"))
-                rows.append(row)
-            lin_t = Table(hdr, rows, "Linearized Δ̃ (eq. 35): Err in % on the diagonal, ρ off it",
-                          css="num", html_header=hhdr)
-    return post_t, lin_t
+    white = run.gn()
+    if run.compared_with_gls:
+        tables = [_delta_tilde_table(run.gls(), names, "Linearized Δ̃ (eq. 35) of the estimate under model "
+                                                 "error (GLS, the kernels' covariance): Err in % on "
+                                                 "the diagonal, ρ off it"),
+                  _delta_tilde_table(white, names, "The paper's Δ̃ (eq. 35, white noise): Err in % on "
+                                                   "the diagonal, ρ off it")]
+    else:
+        tables = [_delta_tilde_table(white, names, "Linearized Δ̃ (eq. 35): Err in % on the diagonal, "
+                                                   "ρ off it")]
+    return post_t, [t for t in tables if t is not None]
 
 
 @dataclass(frozen=True)

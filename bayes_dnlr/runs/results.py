@@ -78,11 +78,17 @@ class RunResults:
         rec = self.record
         return None if rec is None or rec.generalized is None else _layout(rec.generalized, False)
 
+    @property
+    def compared_with_gls(self) -> bool:
+        """Whether the posterior is compared with the generalized analysis (``linearized``): it used
+        the discrepancy and fit.json holds that analysis."""
+        run_gls = (self.run_noise or ((self.summary or {}).get("noise") or {}).get("model")) == "discrepancy"
+        return run_gls and self.gls() is not None
+
     def linearized(self) -> dict[str, Any] | None:
         """The linearized analysis the posterior is to be compared with: GLS when the run's
         posterior used the discrepancy, else the paper's white Gauss-Newton analysis."""
-        run_gls = (self.run_noise or ((self.summary or {}).get("noise") or {}).get("model")) == "discrepancy"
-        return (self.gls() if run_gls else None) or self.gn()
+        return self.gls() if self.compared_with_gls else self.gn()
 
     @property
     def truth(self) -> dict[str, float] | None:

@@ -49,6 +49,12 @@ def test_discrepancy_run_reports_both_intervals_and_the_verdict(runs) -> None:
     # the residuals are not white: never the green "agrees" box
     assert 'class="box ok">The posterior agrees' not in page
     assert "least squares (GLS)" in page
+    # the posterior's correlations beside the Δ̃ it is compared with (GLS), then the paper's
+    fit = json.loads((run / "fit.json").read_text())
+    gls_err = fit["discrepancy"]["delta_tilde"][0][0]
+    assert "Linearized Δ̃ (eq. 35) of the estimate under model error (GLS" in page
+    assert page.index("of the estimate under model error (GLS") < page.index("Δ̃ (eq. 35, white noise)")
+    assert f">{100 * gls_err:.2f} %<" in page
 
 
 def test_white_run_on_correlated_data_says_its_interval_is_too_narrow(runs) -> None:
@@ -61,6 +67,8 @@ def test_white_run_on_correlated_data_says_its_interval_is_too_narrow(runs) -> N
     assert "too narrow" in page
     assert 'class="box ok">The posterior agrees' not in page
     assert "posterior, white likelihood" in page
+    assert "Linearized Δ̃ (eq. 35): Err in % on the diagonal" in page     # the white one alone
+    assert "Δ̃ (eq. 35, white noise)" not in page
 
 
 def test_discrepancy_interval_is_wider_and_recovers_the_truth(runs) -> None:
