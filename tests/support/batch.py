@@ -15,10 +15,13 @@ from support.sampling import write_case
 TINY = {"walkers": 16, "max_steps": 200, "target_ess": 100, "checkpoint_every": 50}
 
 
+LONG_STEPS = 600     # a test that never converges: long enough to be killed midway, no longer
+
+
 def tiny_campaign(folder: Path, n: int, *, long: set[int] = frozenset(),
                   points: int = 250) -> tuple[Path, Path]:
     """``n`` data files (different noise seeds) in folder/data, a template config and a manifest
-    (name, data.file, sampler.seed); tests in ``long`` never converge and run to 1500 steps."""
+    (name, data.file, sampler.seed); tests in ``long`` never converge and run to LONG_STEPS steps."""
     data = folder / "data"
     data.mkdir(parents=True, exist_ok=True)
     rows = []
@@ -28,7 +31,7 @@ def tiny_campaign(folder: Path, n: int, *, long: set[int] = frozenset(),
         row = {"name": f"t{i}", "data.file": f"data/t{i}.csv", "sampler.seed": str(i + 1),
                "sampler.max_steps": "", "sampler.target_ess": ""}
         if i in long:
-            row["sampler.max_steps"], row["sampler.target_ess"] = "1500", "1e9"
+            row["sampler.max_steps"], row["sampler.target_ess"] = str(LONG_STEPS), "1e9"
         rows.append(row)
     raw = yaml.safe_load(cfg.read_text())
     raw["name"] = "template"

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from support.batch import tiny_campaign
+from support.batch import LONG_STEPS, tiny_campaign
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.runs.chains import read_run
@@ -144,7 +144,7 @@ def test_killed_batch_resumes_and_recomputes_nothing_finished(tmp_path):
     finished = sorted(p.stem for p in (out / "rows").glob("*.json"))   # rows written before the kill
     assert "t2" not in finished and finished
     cut = read_run(chains)
-    assert 100 <= cut.steps < 1500 and not cut.finished
+    assert 100 <= cut.steps < LONG_STEPS and not cut.finished
     done = {n: _run_files(out / "runs" / n) for n in finished}
 
     # the resume in this process: what is reused and what resumes does not depend on the workers
@@ -156,13 +156,13 @@ def test_killed_batch_resumes_and_recomputes_nothing_finished(tmp_path):
         assert _run_files(out / "runs" / n) == done[n]           # nothing finished was recomputed
     assert rows["t2"]["reused"] is False
     run = read_run(chains)
-    assert run.finished and run.steps == 1500
+    assert run.finished and run.steps == LONG_STEPS
     np.testing.assert_array_equal(run.chain[: cut.steps], cut.chain)   # resumed, not restarted
     table = pd.read_parquet(out / "results.parquet")
     assert list(table["status"]) == ["ok"] * 3 and table["E_mean"].notna().all()
     assert all((out / "runs" / f"t{i}" / "report.html").is_file() for i in range(3))
     row2 = json.loads((out / "rows" / "t2.json").read_text())
-    assert row2["steps"] == 1500 and row2["converged"] is False
+    assert row2["steps"] == LONG_STEPS and row2["converged"] is False
 
 
 def test_restart_redoes_only_the_tests_whose_chain_is_stale(tmp_path, capsys):
