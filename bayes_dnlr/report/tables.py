@@ -133,6 +133,15 @@ def parameter_table(run: RunResults, model_error: int = 5) -> Table:
     return Table(header, rows, caption, notes, css="num")
 
 
+def _matrix_table(names: list[str], diagonal: list[str], m: np.ndarray, caption: str) -> Table:
+    """A matrix over ``names``: the given diagonal cells, the correlations off it."""
+    rows = [[n] + [diagonal[i] if i == j else (fmt(m[i, j], 4) if abs(m[i, j]) < 0.9995
+                                               else f"{m[i, j]:.5f}") for j in range(len(names))]
+            for i, n in enumerate(names)]
+    return Table([""] + list(names), rows, caption, css="num",
+                 html_header=[""] + [NAMES_HTML.get(n, n) for n in names])
+
+
 def _delta_tilde_table(analysis: dict | None, names: list[str], caption: str) -> Table | None:
     """Δ̃ of a linearized analysis (eq. 35: Err in % on the diagonal, ρ off it) over ``names``."""
     if analysis is None or analysis["delta_tilde"] is None:
@@ -142,13 +151,7 @@ def _delta_tilde_table(analysis: dict | None, names: list[str], caption: str) ->
         return None
     idx = [gnames.index(n) for n in names]
     d = analysis["delta_tilde"][np.ix_(idx, idx)]
-    rows = []
-    for i, n in enumerate(names):
-        rows.append([n] + [pct(d[i, j]) if i == j else (fmt(d[i, j], 4) if abs(d[i, j]) < 0.9995
-                                                         else f"{d[i, j]:.5f}")
-                           for j in range(len(names))])
-    return Table([""] + list(names), rows, caption, css="num",
-                 html_header=[""] + [NAMES_HTML.get(n, n) for n in names])
+    return _matrix_table(names, [pct(d[i, i]) for i in range(len(names))], d, caption)
 
 
 def correlation_tables(run: RunResults) -> tuple[Table | None, list[Table]]:
@@ -158,28 +161,16 @@ def correlation_tables(run: RunResults) -> tuple[Table | None, list[Table]]:
     names = run.model_names
     post_t = None
     pc = (run.summary or {}).get("posterior_correlation")
-    hdr = [""] + [n for n in names]
-    hhdr = [""] + [NAMES_HTML.get(n, n) for n in names]
     snames = list((run.summary or {}).get("parameters") or names)
     if pc is not None:
         a = np.asarray(pc, dtype=float)
         idx = [snames.index(n) for n in names if n in snames]
         if a.shape == (len(snames), len(snames)) and len(idx) == len(names):
-            a = a[np.ix_(idx, idx)]
             post = (run.summary or {}).get("posterior") or {}
-            rows = []
-            for i, n in enumerate(names):
-                row = [n]
-                for j in range(len(names)):
-                    if i == j:
-                        s = post.get(n, {})
-                        rel = None if not s.get("mean") else s.get("sd", math.nan) / abs(s["mean"])
-                        row.append(pct(rel))
-                    else:
-                        row.append(fmt(a[i, j], 4) if abs(a[i, j]) < 0.9995 else f"{a[i, j]:.5f}")
-                rows.append(row)
-            post_t = Table(hdr, rows, "Posterior: sd/mean on the diagonal, correlation off it", css="num",
-                           html_header=hhdr)
+            rel = [None if not post.get(n, {}).get("mean") else
+                   post[n].get("sd", math.nan) / abs(post[n]["mean"]) for n in names]
+            post_t = _matrix_table(names, [pct(r) for r in rel], a[np.ix_(idx, idx)],
+                                   "Posterior: sd/mean on the diagonal, correlation off it")
     white = run.gn()
     if run.compared_with_gls:
         tables = [_delta_tilde_table(run.gls(), names, "Linearized Δ̃ (eq. 35) of the estimate under model "

@@ -228,6 +228,12 @@ def prior_sources(draws: np.ndarray, names: list[str], priors, flagged: list[str
     return out
 
 
+def prior_shaped_e(sensitivity: dict[str, float]) -> dict[str, float]:
+    """The E (one, or one per test) whose posterior the prior shapes: power-scaling sensitivity
+    above ``power_scaling.SENSITIVE``."""
+    return {k: v for k, v in sensitivity.items() if base_name(k) == "E" and v > power_scaling.SENSITIVE}
+
+
 def _prior_words(sensitive: dict[str, float], sources: dict[str, dict[str, float]]) -> str:
     """The sentence of a prior that shapes E's interval, naming the priors that do it."""
     by = {n: v for k in sensitive for n, v in (sources.get(k) or {}).items()
@@ -446,8 +452,7 @@ def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[boo
     ok, bound_words = _bound_words(checks["bound_limited"])
     trust &= ok
     words += bound_words
-    sens = {k: v for k, v in checks["prior_sensitivity"].items()
-            if base_name(k) == "E" and v > power_scaling.SENSITIVE}
+    sens = prior_shaped_e(checks["prior_sensitivity"])
     if sens:
         trust = False
         words.append(_prior_words(sens, checks.get("prior_sources") or {}))
@@ -482,9 +487,8 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
         "model_form": model_form_check(fit, layout, post_sd),
         "noise_model": noise_model_check(cfg, noise),
     }
-    checks["prior_sources"] = prior_sources(
-        draws, names, priors, [k for k, v in checks["prior_sensitivity"].items()
-                               if base_name(k) == "E" and v > power_scaling.SENSITIVE])
+    checks["prior_sources"] = prior_sources(draws, names, priors,
+                                            list(prior_shaped_e(checks["prior_sensitivity"])))
     adequate, trust, head, points = verdict(checks, bool(summary.get("converged")), not layout.plain)
     if layout.plain:
         for k in ("predictive_coverage", "plausibility", "noise_model"):

@@ -142,20 +142,25 @@ def test_a_relaxed_modulus_above_the_instantaneous_one_is_flagged(tmp_path):
     assert plausibility_warnings({"E": 2854.0, "G": 2.32}) == []
 
 
-def test_a_fit_into_a_new_run_folder_keeps_the_smoothed_strain_for_the_next_commands(tmp_path, monkeypatch):
-    """From an empty run folder the strain is smoothed before the folder exists; the fit keeps it
-    once it has made the folder, so sample and report read it instead of searching λ again (and a
-    report then loads no numba)."""
+def _smoothed_into_a_new_folder(tmp_path):
+    """A synthetic test with a smoothed strain input, its run folder not made yet."""
     import yaml
-
-    from bayes_dnlr.data import smoothing
 
     path = write_case(tmp_path, "syn", n=300, seed=4)
     raw = yaml.safe_load(path.read_text())
     raw["data"]["strain_input"] = "smoothed"
     raw["output"] = {"dir": str(tmp_path / "new" / "run")}
     path.write_text(yaml.safe_dump(raw))
-    cfg = load_config(path)
+    return load_config(path)
+
+
+def test_a_fit_into_a_new_run_folder_keeps_the_smoothed_strain_for_the_next_commands(tmp_path, monkeypatch):
+    """From an empty run folder the strain is smoothed before the folder exists; the fit keeps it
+    once it has made the folder, so sample and report read it instead of searching λ again (and a
+    report then loads no numba)."""
+    from bayes_dnlr.data import smoothing
+
+    cfg = _smoothed_into_a_new_folder(tmp_path)
     assert not cfg.run_dir.exists()
     fit(cfg)
     [kept] = (cfg.run_dir / ".cache").glob("strain-*.npz")
@@ -171,16 +176,9 @@ def test_a_fit_into_a_new_run_folder_keeps_the_smoothed_strain_for_the_next_comm
 
 
 def test_a_failed_fit_into_a_new_folder_keeps_no_smoothing_there(tmp_path, monkeypatch):
-    import yaml
-
     from bayes_dnlr.runs import fit as run_fit_module
 
-    path = write_case(tmp_path, "syn", n=300, seed=4)
-    raw = yaml.safe_load(path.read_text())
-    raw["data"]["strain_input"] = "smoothed"
-    raw["output"] = {"dir": str(tmp_path / "new" / "run")}
-    path.write_text(yaml.safe_dump(raw))
-    cfg = load_config(path)
+    cfg = _smoothed_into_a_new_folder(tmp_path)
 
     def full_disk(*args, **kwargs):
         raise OSError(28, "No space left on device")
