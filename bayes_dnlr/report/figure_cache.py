@@ -8,8 +8,10 @@
 - When a core is free (two or more, and one of them idle now), a worker process
   forked when the report starts (before this process runs any other Python thread) imports
   matplotlib while the run is loaded, then draws the figures handed to it (``aside=True``) while
-  this process draws the others. At the session's end this process draws those the worker has not
-  started yet, then waits for the rest; the page embeds every PNG after that
+  this process draws the others. The worker is given one figure at a time, the next when it is
+  done with the last: a process pool moves a task to its worker's queue ahead of time, and a
+  moved task can no longer be taken back. At the session's end this process draws those the worker
+  has not started yet, then waits for the rest; the page embeds every PNG after that
   (``page_parts.embed``). Under load the figures are drawn here, one by one.
 - During a session what is already loaded (the modules, the run, the model) is kept out of the
   garbage collector's full passes (``gc.freeze``, again before each figure and before the model
@@ -26,6 +28,7 @@ import hashlib
 import os
 import pickle
 import sys
+import threading
 from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import Future
 from contextlib import contextmanager
@@ -46,7 +49,31 @@ _current: ContextVar[str | None] = ContextVar("figure_key", default=None)
 class _Figures:
     used: set[Path] = field(default_factory=set)
     worker: Any = None                          # a ProcessPoolExecutor of one forked process
-    pending: list[tuple[Future, Callable[[], Path]]] = field(default_factory=list)
+    waiting: list[Callable[[], Path]] = field(default_factory=list)   # not handed to the worker yet
+    pending: list[tuple[Future, Callable[[], Path]]] = field(default_factory=list)   # handed
+    busy: Future | None = None                  # the worker's task now (its warm-up first)
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def feed(self, _done: Future | None = None) -> None:
+        """Hand the worker the first waiting figure when it has nothing to do (also called in
+        the pool's own thread, as the worker's last task ends)."""
+        with self.lock:
+            if self.worker is None or not self.waiting or (self.busy is not None
+                                                          and not self.busy.done()):
+                return
+            task = self.waiting.pop(0)
+            try:
+                self.busy = self.worker.submit(task)
+            except RuntimeError:          # the pool is shutting down, or broken: drawn here
+                self.waiting.insert(0, task)
+                return
+            self.pending.append((self.busy, task))
+        self.busy.add_done_callback(self.feed)
+
+    def take_back(self) -> Callable[[], Path] | None:
+        """The last waiting figure, which the worker will not be given (None: there is none)."""
+        with self.lock:
+            return self.waiting.pop() if self.waiting else None
 
 
 _session: ContextVar[_Figures | None] = ContextVar("figures", default=None)
@@ -71,15 +98,15 @@ def _free_core() -> bool:
     return cores >= 2 and other_runnable() <= cores - 2
 
 
-def _fork_worker(warm: Callable[[], None] | None):
+def _fork_worker():
     if not (sys.platform == "linux" and _free_core() and _single_threaded()):
         return None
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
-    worker = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork"))
-    worker.submit(warm or _nothing)      # forks now, while this process has no other thread
-    return worker
+    # the pool forks at its first task (the warm-up, submitted by the session at once), while this
+    # process has no other thread
+    return ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork"))
 
 
 @contextmanager
@@ -88,19 +115,21 @@ def figure_session(aside: bool = True, warm: Callable[[], None] | None = None) -
     with ``aside``, a worker process draws those handed to it (``warm``: its first task, the imports
     of the figures while this process loads the run). At the end every PNG is written."""
     gc.freeze()                  # before the fork, too: the worker shares these pages untouched
-    session = _Figures(worker=_fork_worker(warm) if aside else None)
+    worker = _fork_worker() if aside else None
+    session = _Figures(worker=worker, busy=worker.submit(warm or _nothing) if worker else None)
     token = _session.set(session)
     try:
+        if session.busy is not None:
+            session.busy.add_done_callback(session.feed)
         yield session.used
         # This process is done with its own figures: it draws those the worker has not started
         # yet, the last handed over first (the worker takes them in order), so that the two
         # finish about together whatever the figures cost on this run.
-        for future, again in reversed(session.pending):
-            if future.cancel():
-                again()
-        for future, again in session.pending:
-            if future.cancelled():
-                continue
+        while (again := session.take_back()) is not None:
+            again()
+        with session.lock:
+            handed = list(session.pending)
+        for future, again in handed:
             try:
                 future.result()
             except Exception as err:  # noqa: BLE001 - a lost worker: draw here; a figure's own error again
@@ -224,7 +253,8 @@ def drawn(func: Callable[..., Path], *args: Any, aside: bool = False, **kwargs: 
     if stored_key(path) == key:
         return path
     if aside and session is not None and session.worker is not None and _picklable(func):
-        future = session.worker.submit(_draw, key, func, args, kwargs)
-        session.pending.append((future, functools.partial(_draw, key, func, args, kwargs)))
+        with session.lock:
+            session.waiting.append(functools.partial(_draw, key, func, args, kwargs))
+        session.feed()
         return path
     return _draw(key, func, args, kwargs)

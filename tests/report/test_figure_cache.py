@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 import pytest
-from support.drawing import busy_until, pid_figure
+from support.drawing import busy_until, logged_figure, pid_figure
 from support.finished_run import make_finished_run
 
 from bayes_dnlr.report import build_report, figure_cache
@@ -70,8 +70,8 @@ def test_the_worker_draws_the_same_page(run, tmp_path, monkeypatch):
     forked = []
     fork = figure_cache._fork_worker
 
-    def counted(warm):
-        worker = fork(warm)
+    def counted():
+        worker = fork()
         forked.append(worker)
         return worker
 
@@ -89,27 +89,29 @@ def test_the_worker_draws_the_same_page(run, tmp_path, monkeypatch):
 
 
 @pytest.mark.filterwarnings("ignore:This process .* is multi-threaded:DeprecationWarning")
-def test_figures_the_worker_has_not_started_are_drawn_here(tmp_path, monkeypatch):
-    """At the session's end this process draws what the busy worker has not started, the last
-    handed over first; what the worker took is drawn once, by the worker."""
+def test_a_busy_worker_is_handed_nothing_and_a_free_one_the_next_figure(tmp_path, monkeypatch):
+    """A worker is given a figure only when it has none: while it is busy every figure handed over
+    stays here, and at the session's end this process draws them all, the last handed over first.
+    A free worker takes the next figure at once."""
     monkeypatch.setattr(figure_cache, "_free_core", lambda: True)
     monkeypatch.setattr(figure_cache, "_single_threaded", lambda: True)
     paths = [tmp_path / f"{name}.png" for name in "abcd"]
-    # the worker stays busy until this process has drawn c: its queue holds two figures at most
-    # (a, and b when the pool moved it in time), never c or d
-    with figure_cache.figure_session(warm=functools.partial(busy_until, paths[2])):
+    log = tmp_path / "order.txt"
+    # the worker stays busy until this process has drawn a, the last it draws
+    with figure_cache.figure_session(warm=functools.partial(busy_until, paths[0])):
         for path in paths:
-            figure_cache.drawn(pid_figure, path, aside=True)
-        # the pool moves a figure to the worker's queue in a thread of its own: wait until it took a
-        taken = figure_cache._session.get().pending[0][0]
+            figure_cache.drawn(logged_figure, path, log, aside=True)
+        assert figure_cache._session.get().pending == []        # nothing handed to a busy worker
+    assert [int(p.read_text()) for p in paths] == [os.getpid()] * 4
+    assert log.read_text().split() == ["d.png", "c.png", "b.png", "a.png"]
+
+    late = tmp_path / "late.png"
+    with figure_cache.figure_session():
+        figure_cache.drawn(pid_figure, late, aside=True)
         deadline = time.monotonic() + 60.0
-        while not taken.running() and time.monotonic() < deadline:
+        while not late.exists() and time.monotonic() < deadline:     # the worker draws it
             time.sleep(0.005)
-    drew = [int(p.read_text()) for p in paths]
-    here = os.getpid()
-    assert drew[0] != here                    # the worker had taken it before the session's end
-    assert drew[-1] == here and drew[-2] == here
-    assert all(d != here for d in drew[:drew.index(here)])     # the worker's, then this process's
+    assert int(late.read_text()) != os.getpid()
 
 
 def test_the_worker_waits_for_a_core_idle_now(monkeypatch):

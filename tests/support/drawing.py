@@ -21,3 +21,10 @@ def pid_figure(path: Path) -> Path:
     """A 'figure' that writes the id of the process that drew it."""
     path.write_text(str(os.getpid()))
     return path
+
+
+def logged_figure(path: Path, log: Path) -> Path:
+    """``pid_figure``, and the figure's name appended to ``log``: the order the figures were drawn."""
+    with open(log, "a") as f:
+        f.write(f"{path.name}\n")
+    return pid_figure(path)
