@@ -5,13 +5,13 @@
   function's name, its arguments (arrays by their bytes), the package's and matplotlib's versions
   and the source of the figure modules make a key, written into the PNG's text chunk. A PNG that
   holds the same key is not drawn again. The figure functions themselves always draw.
-- When a core is free (two or more, and one of them idle now), a worker process
-  forked when the report starts (before this process runs any other Python thread) imports
-  matplotlib while the run is loaded, then draws the figures handed to it (``aside=True``) while
-  this process draws the others. The worker is given one figure at a time, the next when it is
-  done with the last: a process pool moves a task to its worker's queue ahead of time, and a
-  moved task can no longer be taken back. At the session's end this process draws those the worker
-  has not started yet, then waits for the rest; the page embeds every PNG after that
+- When a core is free (two or more, and one of them idle now), a worker process forked when the
+  session starts (before this process runs any other Python thread; ``warm``, its first task)
+  draws the figures handed to it (``aside=True``) while this process draws the others. The
+  worker is given one figure at a time, the next when it is done with the last: a process pool
+  moves a task to its worker's queue ahead of time, and a moved task can no longer be taken back.
+  At the session's end this process draws those the worker has not started yet, the last handed
+  over first, then waits for the rest; the page embeds every PNG after that
   (``page_parts.embed``). Under load the figures are drawn here, one by one.
 - During a session what is already loaded (the modules, the run, the model) is kept out of the
   garbage collector's full passes (``gc.freeze``, again before each figure and before the model
@@ -112,8 +112,8 @@ def _fork_worker():
 @contextmanager
 def figure_session(aside: bool = True, warm: Callable[[], None] | None = None) -> Iterator[set[Path]]:
     """The block's figures: yields the set of the PNGs ``drawn`` returns in it (drawn or kept);
-    with ``aside``, a worker process draws those handed to it (``warm``: its first task, the imports
-    of the figures while this process loads the run). At the end every PNG is written."""
+    with ``aside``, a worker process draws those handed to it (``warm``: its first task, before any
+    figure). At the end every PNG is written."""
     gc.freeze()                  # before the fork, too: the worker shares these pages untouched
     worker = _fork_worker() if aside else None
     session = _Figures(worker=worker, busy=worker.submit(warm or _nothing) if worker else None)

@@ -251,8 +251,12 @@ def build_report(run_dir: Path | str, source: Path | str | None = None,
     ``aside``: figures may be drawn by a worker process (when a core is free)."""
     t0 = time.perf_counter()
     run_dir = Path(run_dir)
+    # matplotlib and corner imported once, before the figure worker is forked: the worker starts
+    # drawing at once, and neither process imports them again
+    if aside:
+        import_figure_modules()
     # a figure drawn from the same inputs as before is kept
-    with figure_session(aside=aside, warm=import_figure_modules) as used:
+    with figure_session(aside=aside) as used:
         run = load_run(run_dir, source=source, load_data=False)     # the data: page_html
         for note in run.stale if on_stale is not None else []:
             on_stale(note)
