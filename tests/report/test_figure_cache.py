@@ -148,3 +148,15 @@ def test_other_runnable_counts_the_tasks_running_now(monkeypatch, tmp_path):
     assert machine_load.other_runnable() == 0
     loadavg.unlink()
     assert machine_load.other_runnable() == 1.25
+
+
+def test_a_task_runnable_for_an_instant_is_not_a_load(monkeypatch):
+    """The least of a few counts read 1 ms apart: one count with a passing task does not take
+    the figure worker away; a task runnable at every read does."""
+    from bayes_dnlr import machine_load
+
+    counts = iter([3, 1, 2])
+    monkeypatch.setattr(machine_load, "_runnable_now", lambda: next(counts))
+    assert machine_load.other_runnable() == 0
+    counts = iter([2, 2, 3])
+    assert machine_load.other_runnable() == 1
