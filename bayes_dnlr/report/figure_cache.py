@@ -63,12 +63,12 @@ class _Figures:
                 return
             task = self.waiting.pop(0)
             try:
-                self.busy = self.worker.submit(task)
+                future = self.busy = self.worker.submit(task)
             except RuntimeError:          # the pool is shutting down, or broken: drawn here
                 self.waiting.insert(0, task)
                 return
-            self.pending.append((self.busy, task))
-        self.busy.add_done_callback(self.feed)
+            self.pending.append((future, task))
+        future.add_done_callback(self.feed)
 
     def take_back(self) -> Callable[[], Path] | None:
         """The last waiting figure, which the worker will not be given (None: there is none)."""
