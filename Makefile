@@ -31,8 +31,8 @@ bytecode: install
 RUN_DIR = $(patsubst %/,%,$(dir $(EXAMPLE)))
 
 demo: bytecode
-	$(PY) -m bayes_dnlr sample $(EXAMPLE)
-	$(PY) -m bayes_dnlr report $(RUN_DIR) $(if $(FORCE),--force)
+	$(PY) -m bayes_dnlr sample $(EXAMPLE) $(if $(FORCE),,--report)
+	$(if $(FORCE),$(PY) -m bayes_dnlr report $(RUN_DIR) --force)
 	@echo "open $(RUN_DIR)/report.html"
 
 test: bytecode

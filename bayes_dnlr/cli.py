@@ -103,9 +103,17 @@ def cmd_sample(args: argparse.Namespace) -> None:
     _first_compile_note(args.quiet)
     post = sample(cfg, restart=args.restart, progress=not args.quiet, threads=args.threads)
     print(post.table())
+    if args.report:
+        # in this process, as `report RUN_DIR` would: the interpreter, numpy, the config models
+        # and the run's loading are paid once for both (about a second of a real curve)
+        if args.ends_process:
+            gc.disable()        # one report, then the process ends (see cmd_report)
+        _report(cfg.run_dir, cfg.source, force=False)
 
 
-def cmd_report(args: argparse.Namespace) -> None:
+def _report(run_dir: Path, source: Path | str | None, force: bool) -> None:
+    """Build ``run_dir``'s report unless it is current (``force``: build it anyway); print the
+    page's path, or why it was not rebuilt."""
     from bayes_dnlr.report import build_report
     from bayes_dnlr.report.current import REPORT_FILE, stale_inputs
     from bayes_dnlr.runs.results import stale_notes
@@ -113,6 +121,16 @@ def cmd_report(args: argparse.Namespace) -> None:
     def warn(note: str) -> None:
         print(f"warning: {note}", file=sys.stderr)
 
+    if not force and stale_inputs(run_dir) == []:
+        for note in stale_notes(run_dir, source):
+            warn(note)
+        print(f"{_shown(run_dir / REPORT_FILE)} is current (newer than its config, data and results): "
+              "not rebuilt; report --force rebuilds it")
+        return
+    print(_shown(build_report(run_dir, source=source, on_stale=warn)))
+
+
+def cmd_report(args: argparse.Namespace) -> None:
     if args.ends_process and len(args.run_dirs) == 1:
         # one report, then the process ends: the garbage collector's passes cost a first build
         # 0.4-0.5 s of CPU (its figures make millions of objects) to reclaim memory the exit
@@ -120,15 +138,8 @@ def cmd_report(args: argparse.Namespace) -> None:
         # leave 77 MB of cycles: with several, or called from Python, the collector stays on.
         gc.disable()
     for arg in args.run_dirs:
-        run_dir = _run(arg, "report")
         source = arg if Path(arg).is_file() else None     # the user's config, when given
-        if not args.force and stale_inputs(run_dir) == []:
-            for note in stale_notes(run_dir, source):
-                warn(note)
-            print(f"{_shown(run_dir / REPORT_FILE)} is current (newer than its config, data and results): "
-                  "not rebuilt; report --force rebuilds it")
-            continue
-        print(_shown(build_report(run_dir, source=source, on_stale=warn)))
+        _report(_run(arg, "report"), source, force=args.force)
 
 
 def cmd_compare(args: argparse.Namespace) -> None:
@@ -235,6 +246,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="threads for the likelihood (default: config sampler.threads, else "
                         "NUMBA_NUM_THREADS / OMP_NUM_THREADS, which also cap N); the chain does "
                         "not depend on it")
+    p.add_argument("--report", action="store_true",
+                   help="then write report.html in the same process, as `report RUN_DIR` would "
+                        "(unless it is current); a second faster than the two commands")
     p.set_defaults(func=cmd_sample)
 
     p = _command(sub, "report", "report.html and figures/*.png for a finished run", "docs/report.md")

@@ -2,8 +2,9 @@
 
 1. A real curve: ``init`` on the real ETFE export (specimen 1, the config init writes), then from
    an empty run folder ``sample`` (its fit included) and ``report``, each in a fresh process, as a
-   user types them. Skipped when the real curves are absent (they are not shipped:
-   ``BAYES_DNLR_REAL_DATA``, or ``shared/data/real`` beside or above the clone).
+   user types them; then the same from an empty run folder in one process, ``sample --report``.
+   Skipped when the real curves are absent (they are not shipped: ``BAYES_DNLR_REAL_DATA``, or
+   ``shared/data/real`` beside or above the clone).
 2. The shipped example ``runs/hdpe-a-5e-3`` (copied; the shipped folder is not touched): ``sample``
    from an empty run folder.
 
@@ -125,6 +126,9 @@ def main() -> None:
             results["real"] = workflow(config, [("sample", ["sample", str(config)]),
                                                 ("report", ["report", str(config.parent)])],
                                        args.repeats)
+            print("the same in one process: sample --report")
+            results["one"] = workflow(config, [("sample --report",
+                                                ["sample", str(config), "--report"])], args.repeats)
         if not args.skip_shipped:
             run = tmp / "hdpe-a-5e-3"
             shutil.copytree(ROOT / "runs" / "hdpe-a-5e-3", run,
@@ -143,6 +147,8 @@ def main() -> None:
         print(summary("real curve: sample (fit included)", r["sample"], unit))
         print(summary("real curve: report", r["report"], unit))
         print(summary("real curve: sample + report", both, unit))
+    if "one" in results:
+        print(summary("real curve: sample --report", results["one"]["sample --report"], unit))
     if "shipped" in results:
         print(summary("shipped example: sample (empty)", results["shipped"]["sample"], unit))
 

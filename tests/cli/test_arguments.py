@@ -95,3 +95,16 @@ def test_report_of_a_config_not_run_yet(tmp_path, capsys):
     assert err == (f"error: {cfg}: its run folder {cfg.parent / 'other'} does not exist yet: run "
                    f"`python -m bayes_dnlr sample {cfg}` first\n")
     assert not (cfg.parent / "other").exists()
+
+
+def test_sample_report_writes_the_report_then_keeps_it_current(finished, tmp_path, capsys):
+    """`sample --report` ends with the report `report RUN_DIR` would write, and leaves a current
+    one as it is."""
+    run = Path(shutil.copytree(finished, tmp_path / finished.name))
+    (run / "report.html").unlink(missing_ok=True)
+    assert main(["sample", str(run / "config.yaml"), "--quiet", "--report"]) == 0
+    page = run / "report.html"
+    assert page.is_file() and capsys.readouterr().out.strip().endswith("report.html")
+    stamp = page.stat().st_mtime_ns
+    assert main(["sample", str(run), "--quiet", "--report"]) == 0
+    assert "is current" in capsys.readouterr().out and page.stat().st_mtime_ns == stamp

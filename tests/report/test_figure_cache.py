@@ -63,9 +63,7 @@ def test_a_figure_no_longer_drawn_is_removed(tmp_path):
     assert not stray.exists()
 
 
-# the sampling of the fixture left tqdm's monitor thread (asleep) in this process: forking is
-# forced here; the CLI forks before any thread starts
-@pytest.mark.filterwarnings("ignore:This process .* is multi-threaded:DeprecationWarning")
+# the worker is forced here, whatever the machine's load
 def test_the_worker_draws_the_same_page(run, tmp_path, monkeypatch):
     forked = []
     fork = figure_cache._fork_worker
@@ -88,7 +86,6 @@ def test_the_worker_draws_the_same_page(run, tmp_path, monkeypatch):
     assert {k: v[1] for k, v in _pngs(alone).items()} == pngs
 
 
-@pytest.mark.filterwarnings("ignore:This process .* is multi-threaded:DeprecationWarning")
 def test_a_busy_worker_is_handed_nothing_and_a_free_one_the_next_figure(tmp_path, monkeypatch):
     """A worker is given a figure only when it has none: while it is busy every figure handed over
     stays here, and at the session's end this process draws them all, the last handed over first.

@@ -201,8 +201,12 @@ def _progress_bar(progress: bool, total: int):
     (inference/mcmc/progress.py)."""
     from tqdm.auto import tqdm
 
-    return tqdm(total=total, initial=0, unit="ESS", desc="sampling", disable=not progress,
-                dynamic_ncols=True, file=sys.stderr, leave=True)
+    # no monitor thread (tqdm's, to refresh a bar left without updates): the bar is updated at
+    # every check of the stopping rule, and a thread left asleep in the process keeps the report
+    # of `sample --report` from forking its figure worker
+    bar = type("SamplingBar", (tqdm,), {"monitor_interval": 0})
+    return bar(total=total, initial=0, unit="ESS", desc="sampling", disable=not progress,
+               dynamic_ncols=True, file=sys.stderr, leave=True)
 
 
 def _steps_text(n: int, rule: StopRule, conv: Convergence | None) -> str:

@@ -80,3 +80,21 @@ def test_bar_of_a_real_run(tmp_path: Path, monkeypatch, target, max_steps, conve
         assert min(p["ess_bulk"] for p in post.summary["posterior"].values()) >= target
     else:
         assert 0 < bar.n < bar.total and bar.postfix.startswith(f"step {max_steps}/{max_steps}")
+
+
+def test_the_bar_starts_no_thread():
+    """tqdm's monitor thread stays off: a thread left in the process would keep `sample
+    --report` from forking the report's figure worker. A fresh process: another test's bar may
+    have started the monitor here already."""
+    import subprocess
+    import sys
+
+    code = ("import threading\n"
+            "from bayes_dnlr.inference.mcmc import ensemble\n"
+            "bar = ensemble._progress_bar(True, 10)\n"
+            "bar.update(3)\n"
+            "print(threading.active_count())\n"
+            "bar.close()\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "1"
