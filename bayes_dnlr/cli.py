@@ -104,8 +104,8 @@ def cmd_sample(args: argparse.Namespace) -> None:
     post = sample(cfg, restart=args.restart, progress=not args.quiet, threads=args.threads)
     print(post.table())
     if args.report:
-        # in this process, as `report RUN_DIR` would: the interpreter, numpy, the config models
-        # and the run's loading are paid once for both (about a second of a real curve)
+        # in this process, as `report RUN_DIR` would: the interpreter, the imports and the
+        # config are paid once for both commands (0.7-0.9 s of 8 on a real curve, docs/performance.md)
         if args.ends_process:
             gc.disable()        # one report, then the process ends (see cmd_report)
         _report(cfg.run_dir, cfg.source, force=False)
@@ -248,7 +248,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "not depend on it")
     p.add_argument("--report", action="store_true",
                    help="then write report.html in the same process, as `report RUN_DIR` would "
-                        "(unless it is current); a second faster than the two commands")
+                        "(unless it is current); sooner than the two commands")
     p.set_defaults(func=cmd_sample)
 
     p = _command(sub, "report", "report.html and figures/*.png for a finished run", "docs/report.md")
