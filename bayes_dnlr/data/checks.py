@@ -12,6 +12,7 @@ from bayes_dnlr.data.reading import Table
 MAX_HENCKY = 5.0          # λ = e^5 ≈ 148: larger axial strains are taken for a unit mistake (percent)
 MIN_POLYMER_MODULUS = 100.0   # MPa: an initial slope below this, in a semicrystalline polymer, is a unit slip
 FIRST_SAMPLE_NOISE = 10.0     # a first stress this many noise sd away from zero is a loaded start
+LOADED_START = "the first sample"   # how the warning of a loaded start begins (init looks for it)
 
 
 def check_increasing(table: Table, x: np.ndarray, role: str, what: str) -> None:
@@ -131,7 +132,7 @@ def first_sample_warning(stress: np.ndarray, strain: np.ndarray, line: int,
         share = f"{100 * abs(load[0]) / scale:.2g} % of the peak force"
         what += (f" ({stress[0]:.4g} MPa with area0 = {area0:g} mm², {share})" if area0 is not None
                  else f" ({share})")
-    return (f"warning: the first sample (line {line}) carries {what} at strain {strain[0]:.4g} "
+    return (f"warning: {LOADED_START} (line {line}) carries {what} at strain {strain[0]:.4g} "
             f"({'force' if force is not None else 'stress'} noise sd about {sd:.2g} {unit}): the model "
             f"assumes the specimen unloaded and at rest there, so the toe looks cropped or preloaded and "
             f"E will be biased; set data.toe: compensate (ASTM D638 X1, ISO 527-1 zero point) or "

@@ -83,7 +83,7 @@ class RunResults:
         """Whether the posterior is compared with the generalized analysis (``linearized``): it used
         the discrepancy and fit.json holds that analysis."""
         run_gls = (self.run_noise or ((self.summary or {}).get("noise") or {}).get("model")) == "discrepancy"
-        return run_gls and self.gls() is not None
+        return run_gls and self.record is not None and self.record.generalized is not None
 
     def linearized(self) -> dict[str, Any] | None:
         """The linearized analysis the posterior is to be compared with: GLS when the run's

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config import NAME_PATTERN, ConfigError, parse_config
+from bayes_dnlr.data.checks import LOADED_START
 from bayes_dnlr.data.guess import FRACTION_MAX, Guess, Pick, guess_columns
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.numbers import fmt
@@ -352,7 +353,6 @@ def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
 
 
 PLACEHOLDER = {"data.area0": 1.0, "data.gauge_length": 1.0}
-LOADED_START = "the first sample"       # how the reader's warning of a loaded first sample begins
 
 
 def _loaded_start(raw: dict[str, Any], edits: list[Edit], comments: dict[str, str]) -> None:
