@@ -64,6 +64,28 @@ def _fresh(template: Path, folder: Path) -> Path:
     return folder / "config.yaml"
 
 
+@pytest.fixture(scope="module")
+def interrupted(tmp_path_factory, template, zygote) -> Path:
+    """A run folder of the template killed after its second commit (``_PARTIAL``: 40 steps
+    committed), as each resumed case starts: the chain is the same to the bit at every run (one
+    seed, one kill instant), so one kill serves them all and each case resumes a copy of it (a kill
+    of its own before each cost a forked `sample`, 0.4 s of CPU)."""
+    folder, ref = template
+    config = _fresh(folder, tmp_path_factory.mktemp("interrupted") / "syn")
+    log = config.parent.parent / "before.log"
+    assert zygote.sample(config, kill=_PARTIAL, log=log) == -9, log.read_text()
+    _assert_prefix(read_run(config.parent / "chains.h5"), ref, 40)
+    return config.parent
+
+
+def _resumable(interrupted: Path, folder: Path) -> tuple[Path, int]:
+    """A copy of the interrupted run in ``folder``; its config and the steps committed (40)."""
+    shutil.copytree(interrupted, folder, symlinks=True)
+    committed = read_run(folder / "chains.h5").steps
+    assert committed == 40
+    return folder / "config.yaml", committed
+
+
 def _assert_prefix(run: store.StoredRun, ref: store.StoredRun, at_least: int) -> None:
     """The committed chain is the uninterrupted one's beginning, and nothing committed was lost."""
     assert at_least <= run.steps <= ref.steps
@@ -101,16 +123,16 @@ def test_every_kill_point_is_tested() -> None:
 
 
 @pytest.mark.parametrize("case", CASES, ids=_case_id)
-def test_sigkill_at_every_instant_loses_nothing(tmp_path: Path, template, zygote, case) -> None:
+def test_sigkill_at_every_instant_loses_nothing(tmp_path: Path, template, interrupted, zygote,
+                                               case) -> None:
     before, kill = case
     folder, ref = template
-    config = _fresh(folder, tmp_path / "syn")
     chains = tmp_path / "syn" / "chains.h5"
-    committed = 0
-    if before is not None:
-        assert zygote.sample(config, kill=before, log=tmp_path / "before.log") == -9
-        committed = read_run(chains).steps
-        assert committed == 40
+    if before is None:
+        config, committed = _fresh(folder, tmp_path / "syn"), 0
+    else:
+        assert before == _PARTIAL
+        config, committed = _resumable(interrupted, tmp_path / "syn")
 
     code = zygote.sample(config, kill=kill, log=tmp_path / "killed.log")
     assert code == -9, (tmp_path / "killed.log").read_text()
@@ -127,13 +149,12 @@ def test_sigkill_at_every_instant_loses_nothing(tmp_path: Path, template, zygote
 
 
 def test_python_m_sample_killed_where_hdf5_used_to_poison_the_file(tmp_path: Path, template,
-                                                                   zygote) -> None:
+                                                                   interrupted) -> None:
     """A real `python -m bayes_dnlr sample` killed as it resumes, between opening the new generation
     for writing and its SWMR switch (where a resume used to leave an unopenable chains.h5)."""
-    folder, ref = template
-    config = _fresh(folder, tmp_path / "syn")
+    _, ref = template
+    config, _ = _resumable(interrupted, tmp_path / "syn")
     chains = tmp_path / "syn" / "chains.h5"
-    assert zygote.sample(config, kill=_PARTIAL, log=tmp_path / "before.log") == -9
     out = subprocess.run([sys.executable, "-m", "bayes_dnlr", "sample", str(config), "--quiet"],
                          capture_output=True, text=True, timeout=300,
                          env={**os.environ, KILL_ENV: "resume.written"})
