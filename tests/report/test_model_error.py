@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 
 import pytest
+from support.drawing import figures_not_drawn
 from support.sampling import write_case
 
 from bayes_dnlr.config import load_config
@@ -29,12 +30,15 @@ def runs(tmp_path_factory):
     return out
 
 
-def test_discrepancy_run_reports_both_intervals_and_the_verdict(runs) -> None:
+def test_discrepancy_run_reports_both_intervals_and_the_verdict(runs, monkeypatch) -> None:
     run = runs["disc"]
     summary = json.loads((run / "summary.json").read_text())
     noise = summary["noise"]
     assert noise["model"] == "discrepancy" and noise["evidence_of_model_error"]
     assert {"disc_amplitude", "disc_length"} <= set(summary["parameters"])
+    # the text is read; of the figures, those of the test's sections (δ on the residuals, the ACF
+    # of the residuals whitened by it) are drawn, not the corner, trace and rank plots
+    figures_not_drawn(monkeypatch, keep=("fit_plot", "acf_plot", "sensitivity_plot", "sensitivity_xy_plot"))
     page = build_report(run).read_text()
     assert "5. Model error: the two analyses and the checks" in page
     for row in ("white noise, linearized (the paper", "with the discrepancy, linearized (GLS",
@@ -57,12 +61,13 @@ def test_discrepancy_run_reports_both_intervals_and_the_verdict(runs) -> None:
     assert f">{100 * gls_err:.2f} %<" in page
 
 
-def test_white_run_on_correlated_data_says_its_interval_is_too_narrow(runs) -> None:
+def test_white_run_on_correlated_data_says_its_interval_is_too_narrow(runs, monkeypatch) -> None:
     run = runs["white"]
     summary = json.loads((run / "summary.json").read_text())
     assert summary["noise"]["model"] == "white"
     assert summary["noise"]["fit_residuals_white"] is False
     assert any("too narrow" in w for w in summary["warnings"])
+    figures_not_drawn(monkeypatch)          # the page's text is read, not its figures
     page = build_report(run).read_text()
     assert "too narrow" in page
     assert 'class="box ok">The posterior agrees' not in page

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from support.drawing import figures_not_drawn
 from support.joint import RATES, SHARED, TAU_MAX, make_joint
 from support.runs import make_run, ramp_truth
 
@@ -199,7 +200,7 @@ def test_joint_correlation_warnings_in_one_line():
         assert pair in corr[0]
 
 
-def test_joint_report_with_model_error_in_one_test(tmp_path):
+def test_joint_report_with_model_error_in_one_test(tmp_path, monkeypatch):
     """One test with a smooth correlated error: its own discrepancy in the joint posterior
     (disc_amplitude[r5e-3]); the others white; the report draws δ on that test's residuals only."""
     from bayes_dnlr.config import load_config
@@ -220,6 +221,9 @@ def test_joint_report_with_model_error_in_one_test(tmp_path):
     assert "disc_amplitude[r5e-3]" in summary["posterior"]
     assert not any(k.startswith("disc_") and "[r5e-3]" not in k for k in summary["posterior"])
     assert summary["noise"]["tests"]["r5e-3"]["model"] == "discrepancy"
+    # the page's text is read (the fit's caption says where δ is drawn); a joint page's figures
+    # are drawn by test_joint_report_shows_every_test_one_corner_and_tables_3_5
+    figures_not_drawn(monkeypatch)
     page = build_report(path.parent).read_text()
     assert page.count("green on the residuals") == 1
     verdicts = page.split("Model error: ")[1:]          # in test order: r2.5e-3, r5e-3, r1e-2

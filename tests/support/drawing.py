@@ -28,3 +28,29 @@ def logged_figure(path: Path, log: Path) -> Path:
     with open(log, "a") as f:
         f.write(f"{path.name}\n")
     return pid_figure(path)
+
+
+# the report's figure functions (report/figures.py), which the sections call through the module
+FIGURE_FUNCTIONS = ("corner_plot", "trace_plot", "rank_plot", "fit_plot", "sensitivity_plot",
+                    "sensitivity_xy_plot", "acf_plot")
+
+
+def blank_figure(*args, **kwargs) -> Path:
+    """A figure function's stand-in: an empty file where the figure goes, nothing drawn."""
+    path = Path(kwargs.get("path") or next(a for a in args if isinstance(a, Path)))
+    path.write_bytes(b"")
+    return path
+
+
+def figures_not_drawn(monkeypatch, keep: tuple[str, ...] = ()) -> None:
+    """The report's figure functions (all but ``keep``) write an empty file instead of drawing.
+
+    For the tests that read the page's text (and which figures it names): the page is built whole,
+    by the same sections, and names the same figure files; drawing costs 0.2-1.7 s a figure (a
+    report 2.5-5 s). Drawing every figure of a report is checked where the figures are the point
+    (tests/report/test_windows.py, test_html.py, test_figure_cache.py, tests/runs/test_joint.py)."""
+    from bayes_dnlr.report import figures as figs
+
+    for name in FIGURE_FUNCTIONS:
+        if name not in keep:
+            monkeypatch.setattr(figs, name, blank_figure)
