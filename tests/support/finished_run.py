@@ -28,14 +28,17 @@ _MADE: list[Path] = []      # the session's pristine run, never handed out
 _REPORTED: list[Path] = []  # a copy of it with its report, never handed out
 
 
-def make_finished_run(folder: Path, name: str = "tiny", *, figures: bool = False) -> Path:
+def make_finished_run(folder: Path, name: str = "tiny", *, figures: bool = False,
+                      page: bool = False) -> Path:
     """``folder/<name>``: a copy of the session's finished run (a run of another name is made anew:
     the name is inside its outputs).
 
     ``figures``: the copy also holds the figures of the run's report (figures/, drawn once per
-    session; no report.html), so that a report of it draws only the figures whose inputs the test
-    changed (the others hold the same key: report/figure_cache.py), not all of them (2.5-3 s). For
-    the tests that read the page; the tests of the drawing itself start without figures."""
+    session, in this process: no figure worker), so that a report of it draws only the figures
+    whose inputs the test changed (the others hold the same key: report/figure_cache.py), not all
+    of them (2.5-3 s). For the tests that read the page; the tests of the drawing itself start
+    without figures. ``page``: with ``figures``, that report's report.html too (the page as first
+    built, which a rebuild and the worker's page are compared with)."""
     if name != "tiny":
         return _make(folder, name)
     if not _MADE or not _MADE[0].is_dir():
@@ -43,12 +46,18 @@ def make_finished_run(folder: Path, name: str = "tiny", *, figures: bool = False
     run = Path(shutil.copytree(_MADE[0], folder / "tiny"))
     if figures:
         if not _REPORTED or not _REPORTED[0].is_dir():
-            from bayes_dnlr.report import build_report
+            import pytest
+
+            from bayes_dnlr.report import build_report, figure_cache
 
             reported = Path(shutil.copytree(_MADE[0], folder.parent / "reported-run-made-once" / "tiny"))
-            build_report(reported)
+            with pytest.MonkeyPatch.context() as mp:
+                mp.setattr(figure_cache, "_free_core", lambda: False)     # whatever the machine's load
+                build_report(reported)
             _REPORTED[:] = [reported]
         shutil.copytree(_REPORTED[0] / "figures", run / "figures")
+        if page:
+            shutil.copy2(_REPORTED[0] / "report.html", run / "report.html")
     return run
 
 
