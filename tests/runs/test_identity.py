@@ -16,7 +16,7 @@ import h5py
 import numpy as np
 import pytest
 import yaml
-from support.batch import tiny_campaign
+from support.batch import FEW, tiny_campaign
 from support.sampling import write_case
 
 from bayes_dnlr import cli
@@ -89,7 +89,7 @@ def test_continued_chain_equals_the_uninterrupted_one(tmp_path: Path, capsys) ->
 
 def test_the_rerun_of_one_batch_test(tmp_path: Path, capsys) -> None:
     """docs/batch.md: `sample <out>/runs/<name>/config.yaml` reruns one test of a manifest batch."""
-    template, manifest = tiny_campaign(tmp_path, 2, points=150)
+    template, manifest = tiny_campaign(tmp_path, 2, points=150, sampler=FEW)
     out = tmp_path / "out"
     code = cli.main(["batch", str(template), "--manifest", str(manifest), "--out", str(out),
                      "--jobs", "1", "--no-report", "--no-population", "--quiet"])
@@ -225,7 +225,7 @@ def test_chain_of_the_previous_form_still_refuses_real_changes(run: Path, capsys
 
 
 def test_batch_reuses_a_finished_test_of_the_previous_form(tmp_path: Path, capsys) -> None:
-    template, manifest = tiny_campaign(tmp_path, 2, points=150)
+    template, manifest = tiny_campaign(tmp_path, 2, points=150, sampler=FEW)
     out = tmp_path / "out"
     args = ["batch", str(template), "--manifest", str(manifest), "--out", str(out), "--jobs", "1",
             "--no-report", "--no-population", "--quiet"]

@@ -17,16 +17,23 @@ TINY = {"walkers": 16, "max_steps": 200, "target_ess": 100, "checkpoint_every": 
 
 LONG_STEPS = 600     # a test that never converges: long enough to be killed midway, no longer
 
+# fewer still, for the tests of what a batch does with finished runs (reuse, restart, the population
+# step, the rerun of one test), which read no chain's numbers: 8 walkers x 20 steps, a twentieth of
+# TINY's draws (its fit and outputs left, a test costs a third)
+FEW = {"walkers": 8, "max_steps": 20, "checkpoint_every": 10}
+
 
 def tiny_campaign(folder: Path, n: int, *, long: set[int] = frozenset(),
-                  points: int = 250) -> tuple[Path, Path]:
+                  points: int = 250, sampler: dict | None = None) -> tuple[Path, Path]:
     """``n`` data files (different noise seeds) in folder/data, a template config and a manifest
-    (name, data.file, sampler.seed); tests in ``long`` never converge and run to LONG_STEPS steps."""
+    (name, data.file, sampler.seed); tests in ``long`` never converge and run to LONG_STEPS steps.
+    ``sampler``: keys over TINY's in the template (FEW: a shorter chain)."""
     data = folder / "data"
     data.mkdir(parents=True, exist_ok=True)
     rows = []
+    sampler = {**TINY, **(sampler or {})}
     for i in range(n):
-        cfg = write_case(folder / "cases", f"t{i}", n=points, seed=100 + i, sampler=TINY)
+        cfg = write_case(folder / "cases", f"t{i}", n=points, seed=100 + i, sampler=sampler)
         (cfg.parent / "data.csv").replace(data / f"t{i}.csv")
         row = {"name": f"t{i}", "data.file": f"data/t{i}.csv", "sampler.seed": str(i + 1),
                "sampler.max_steps": "", "sampler.target_ess": ""}

@@ -8,7 +8,7 @@ import csv
 import json
 from pathlib import Path
 
-from support.batch import tiny_campaign
+from support.batch import FEW, tiny_campaign
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.workflows.batch.pooling import PopulationStep, select
@@ -41,7 +41,7 @@ def _corrupt(path: Path) -> bytes:
 
 
 def test_batch_population_uses_the_ok_tests_only_and_is_reused(tmp_path, capsys):
-    template, manifest = tiny_campaign(tmp_path, 5)
+    template, manifest = tiny_campaign(tmp_path, 5, sampler=FEW)
     _set_column(manifest, "parameters.E", {"t4": "{value: 2854}"})      # E fixed: not a specimen
     good = _corrupt(tmp_path / "data" / "t3.csv")
     out = tmp_path / "out"
@@ -92,7 +92,7 @@ def test_batch_population_uses_the_ok_tests_only_and_is_reused(tmp_path, capsys)
 
 
 def test_fewer_than_three_tests_opt_out_and_failures_are_notes(tmp_path, capsys, monkeypatch):
-    template, manifest = tiny_campaign(tmp_path, 3)
+    template, manifest = tiny_campaign(tmp_path, 3, sampler=FEW)
     goods = {i: _corrupt(tmp_path / "data" / f"t{i}.csv") for i in (1, 2)}
     out = tmp_path / "out"
     assert _batch(template, manifest, out) == 1

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from support.batch import LONG_STEPS, tiny_campaign
+from support.batch import FEW, LONG_STEPS, tiny_campaign
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.runs.chains import read_run
@@ -168,7 +168,7 @@ def test_killed_batch_resumes_and_recomputes_nothing_finished(tmp_path):
 def test_restart_redoes_only_the_tests_whose_chain_is_stale(tmp_path, capsys):
     """A test sampled from other data fails with a pointer to `batch --restart`; with it, that test
     starts again and the current ones are reused untouched."""
-    template, manifest = tiny_campaign(tmp_path, 3)
+    template, manifest = tiny_campaign(tmp_path, 3, sampler=FEW)
     out = tmp_path / "out"
     assert _batch(template, manifest, out, "--jobs", "1", "--no-report", "--no-population") == 0
     other = (tmp_path / "data" / "t0.csv").read_bytes()
