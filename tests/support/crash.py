@@ -1,6 +1,6 @@
 """Many `sample` processes killed at chosen instants, fast: a zygote process imports bayes_dnlr,
 emcee and ArviZ once, then forks one child per run; the child runs the CLI exactly as
-``python -m bayes_dnlr sample <config> --quiet`` does (``cli.main``, then a normal interpreter exit),
+``python -m bayes_dnlr sample <config> --quiet`` does (``cli.main``, then ``cli.exit_now``),
 with ``BAYES_DNLR_KILL_AT`` set to the kill point. A fork costs milliseconds where a fresh
 interpreter costs seconds of imports.
 
@@ -163,7 +163,9 @@ def _serve() -> None:
                 _pace(job["pace"])
             if job.get("session"):
                 os.setsid()
-            raise SystemExit(cli.main(job.get("argv") or ["sample", job["config"], "--quiet"]))
+            # as bayes_dnlr/__main__.py ends: the interpreter's finalization skipped (0.13 s a child)
+            cli.exit_now(cli.main(job.get("argv") or ["sample", job["config"], "--quiet"],
+                                  ends_process=True))
         print(pid, flush=True)
         _, status = os.waitpid(pid, 0)
         print(os.waitstatus_to_exitcode(status), flush=True)
