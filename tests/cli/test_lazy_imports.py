@@ -58,6 +58,19 @@ def test_fit_and_sample_import_no_plotting(tmp_path) -> None:
     assert report["heavy"] == []
 
 
+def test_a_config_error_is_printed_before_the_model_is_imported(tmp_path) -> None:
+    """`simulate`, `fit` and `sample` read the config first: a mistake in it is a one-line error
+    before numba, scipy's optimisers or the command's own modules are imported."""
+    config = tmp_path / "config.yaml"
+    config.write_text("name: t\ndata:\n  file: x.csv\n  columns: {time: t, force: F, eps11: e}\n"
+                      "  area0: 24\n  strain_mx: 2\n")
+    out = _run(*([command, str(config)] for command in ("simulate", "fit", "sample")),
+               heavy=("numba", "scipy.optimize", "bayes_dnlr.workflows.simulate",
+                      "bayes_dnlr.runs.fit", "bayes_dnlr.runs.sample"))
+    assert out["status"] == [2, 2, 2] and not out["emcee"]
+    assert out["heavy"] == []
+
+
 def test_emcee_without_scipy_stats_keeps_every_move() -> None:
     code = ("import sys\n"
             "from bayes_dnlr.inference.mcmc.emcee_import import load_emcee\n"
