@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 
 import pytest
+from support.batch import FEW
 from support.finished_run import make_finished_run
 from support.sampling import write_case
 
@@ -117,7 +118,7 @@ def test_default_material_from_a_long_run_name(tmp_path: Path, capsys) -> None:
     from bayes_dnlr.runs.sample import sample
 
     config = write_case(tmp_path, "r" * (MAX_MATERIAL + 5), n=300, extra={"fit": {"multistart": 0}},
-                        sampler={"walkers": 8, "max_steps": 20, "target_ess": 1e9, "checkpoint_every": 20})
+                        sampler=FEW)
     sample(load_config(config), progress=False)
     long_run = config.parent
     code, err = _run(["export", str(long_run), "--format", "abaqus", "--nu", "0.45"], capsys)
