@@ -49,7 +49,7 @@ from bayes_dnlr.config import load_config
 from bayes_dnlr.runs.sample import sample
 from bayes_dnlr.inference.mcmc.emcee_import import load_emcee
 load_emcee()
-import h5py, tqdm.auto, h5netcdf   # what the command imports inside functions
+import h5py, tqdm.auto   # what the command imports inside functions
 t_imp = time.perf_counter() - t_start
 post = sample(load_config(sys.argv[1]), progress=False)
 t = post.extras["timing"]
