@@ -6,7 +6,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import yaml
 from pydantic import Field, field_validator, model_validator
 
 from bayes_dnlr.config.base import Strict
@@ -21,6 +20,7 @@ from bayes_dnlr.config.run_sections import (
     SamplerConfig,
     TruthConfig,
 )
+from bayes_dnlr.config.yamlio import dump_yaml
 from bayes_dnlr.vocabulary import (
     PARAMETER_NAMES,
     RELAXATION_PARAMETERS,
@@ -194,7 +194,7 @@ class Config(Strict):
 
     def to_yaml(self) -> str:
         """The config as resolved (defaults filled in), as YAML."""
-        return yaml.safe_dump(self.as_dict(), sort_keys=False)
+        return dump_yaml(self.as_dict())
 
     def as_dict(self) -> dict[str, Any]:
         """The config as resolved, as plain data that ``parse_config`` reads back (a run with tests:

@@ -12,9 +12,8 @@ import os
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from bayes_dnlr.config import Config
+from bayes_dnlr.config.yamlio import dump_yaml
 from bayes_dnlr.digests import digest, jsonable
 from bayes_dnlr.diskio import storage_error, sweep_stale_temps, temp_path
 from bayes_dnlr.errors import RunError, StorageError
@@ -46,7 +45,7 @@ def resolved_config_text(cfg: Config) -> str:
     for section, view in zip(raw.get("tests") or [raw], cfg.test_configs(), strict=True):
         section["data"]["file"] = os.path.relpath(view.data_path, cfg.run_dir)
     raw["output"] = {"dir": "."}
-    return yaml.safe_dump(raw, sort_keys=False)
+    return dump_yaml(raw)
 
 
 def check_output_dir(run_dir: Path, *, writable: bool) -> None:

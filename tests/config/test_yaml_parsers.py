@@ -84,3 +84,32 @@ def test_nesting_is_refused_as_our_limit(loader, name: str) -> None:
     too_deep = rf"c\.yaml: line \d+, column \d+: not read: .*nested deeper than {MAX_DEPTH}"
     with pytest.raises(YamlError, match=too_deep):
         parse_yaml(DOCUMENTS[name], "c.yaml")
+
+
+# ---------------------------------------------------------------- writing
+
+AWKWARD = {"name": "épreuve à 23 °C", "note": "two\nlines", "long": "word " * 40,
+           "quote": "it's: a \"test\"", "empty": "", "none": None, "flags": [True, False],
+           "numbers": [1, -2.5, 1e-12, 3e300, float("inf"), float("-inf")],
+           "nested": {"a": {"b": [{"c": 1}, {"d": [1, 2]}]}}, "yes": "yes",
+           "number-like": ["1e3", "0x10", "~", "null", "2026-11-28"]}
+
+
+@pytest.mark.skipif(yamlio.CSafeDumper is None, reason="PyYAML is built without libyaml here")
+def test_libyaml_writes_the_text_pyyamls_emitter_writes(monkeypatch) -> None:
+    """dump_yaml (libyaml's emitter) gives PyYAML's own text on every shipped config, resolved,
+    and on awkward values; both parsers read it back to the same values (a string that reads as a
+    number is quoted)."""
+    from bayes_dnlr.config import load_config
+
+    documents = [load_config(path).as_dict() for path in SHIPPED] + [AWKWARD]
+    assert len(documents) > 1
+    for data in documents:
+        text = yamlio.dump_yaml(data)
+        with monkeypatch.context() as m:
+            m.setattr(yamlio, "Dumper", yamlio.PythonDumper)
+            assert yamlio.dump_yaml(data) == text
+            m.setattr(yamlio, "Loader", yamlio.PythonLoader)
+            assert parse_yaml(text, "c.yaml") == data
+        assert parse_yaml(text, "c.yaml") == data
+    assert "- '1e3'" in yamlio.dump_yaml(AWKWARD)
