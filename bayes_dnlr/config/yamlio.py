@@ -78,7 +78,6 @@ else:
     Loader = PythonLoader               # the same, all in Python
 
 
-
 class PythonDumper(yaml.SafeDumper):
     """PyYAML's safe dumper, all in Python."""
 

@@ -91,6 +91,6 @@ def _attribute(value: Any) -> Any:
         return np.array([int(value)], dtype=np.int8)
     if isinstance(value, list):
         return np.array(value, dtype=object)
-    if isinstance(value, int | float | np.number) and not isinstance(value, bool):
+    if isinstance(value, int | float | np.number):
         return np.array([value])
     return value

@@ -92,3 +92,12 @@ def test_a_packed_variable_goes_through_xarray(tmp_path) -> None:
     assert results._read_draws_h5(tmp_path / "t.nc", None) == {}
     got = results.read_draws(tmp_path / "t.nc")
     np.testing.assert_allclose(got["G"], np.round(draws[:, :, 1].T / 0.5) * 0.5, equal_nan=True)
+
+
+def test_a_boolean_attribute_is_written_as_0_or_1(tmp_path) -> None:
+    """netCDF has no boolean type (h5netcdf refused one): True is written as the integer 1."""
+    names, draws, lp = _draws(4)
+    (tmp_path / "t.nc").write_bytes(PosteriorDraws(names, draws, lp, {"converged": True,
+                                                                      "stopped": False}).to_netcdf())
+    attrs = xr.open_datatree(tmp_path / "t.nc")["posterior"].attrs
+    assert (int(np.ravel(attrs["converged"])[0]), int(np.ravel(attrs["stopped"])[0])) == (1, 0)
