@@ -8,12 +8,16 @@
 2. The shipped example ``runs/hdpe-a-5e-3`` (copied; the shipped folder is not touched): ``sample``
    from an empty run folder.
 
-Each command's wall time and CPU time (user + system of the process and its threads and children)
-is printed for every repeat, with the minimum and the median, and the sum of ``sample`` and
-``report`` in reference jobs (``../shared/tools/refjob.py``, the median of 3 runs before and of 3
-after; their mean is the unit). Warm numba cache: one unmeasured run first compiles or loads what
-the commands need. The load average is printed before and after: on a shared machine read the CPU
-times and the ratios, which do not depend on the other jobs as much as the wall time does.
+Each command's wall time and CPU time (user + system of the process and its threads and children) is
+printed for every repeat, with the minimum and the median, and the sum of ``sample`` and ``report``
+in reference jobs (``../shared/tools/refjob.py``, the median of 3 runs before and of 3 after; their
+mean is the unit). The reference job is also timed once just before each measured round, and each
+round's time divided by it is printed too ("paired"): on this virtual machine the reference job took
+0.91-1.74 s within minutes, so the paired ratios show how far a ratio moves with it. Read their
+medians: their minimum picks the round whose reference job happened to be slow. Warm numba cache:
+one unmeasured run first compiles or loads what the commands need. The load average is printed
+before and after: on a shared machine read the CPU times and the ratios, which do not depend on the
+other jobs as much as the wall time does.
 
     .venv/bin/python benchmarks/user_workflow.py [--repeats 5] [--specimen 1] [--skip-shipped]
 """
@@ -83,12 +87,16 @@ def summary(label: str, values: list[tuple[float, float]], unit: float | None) -
 
 
 def workflow(config: Path, steps: list[tuple[str, list[str]]], repeats: int
-             ) -> dict[str, list[tuple[float, float]]]:
+             ) -> tuple[dict[str, list[tuple[float, float]]], list[float | None]]:
     """Every step of ``steps`` from an empty run folder, ``repeats`` times (after one unmeasured
-    round that warms numba's cache)."""
+    round that warms numba's cache); and the reference job timed just before each measured round
+    (None without it), for ratios that follow the machine's speed through the run."""
     times: dict[str, list[tuple[float, float]]] = {name: [] for name, _ in steps}
+    refs: list[float | None] = []
     for r in range(repeats + 1):
         empty(config.parent)
+        if r:
+            refs.append(seconds(1))
         row = []
         for name, args in steps:
             wall, cpu = command(*args)
@@ -96,8 +104,18 @@ def workflow(config: Path, steps: list[tuple[str, list[str]]], repeats: int
                 times[name].append((wall, cpu))
                 row.append(f"{name} {wall:5.2f} s ({cpu:5.2f} s CPU)")
         if r:
-            print(f"  run {r}: " + ", ".join(row), flush=True)
-    return times
+            ref = f"; reference job {refs[-1]:.2f} s" if refs[-1] else ""
+            print(f"  run {r}: " + ", ".join(row) + ref, flush=True)
+    return times, refs
+
+
+def paired(label: str, values: list[tuple[float, float]], refs: list[float | None]) -> str | None:
+    """Each run's wall time over the reference job timed just before it: min and median."""
+    if not refs or any(r is None for r in refs):
+        return None
+    ratios = [v[0] / r for v, r in zip(values, refs, strict=True)]
+    return (f"{label:34s} paired with its run's reference job: {min(ratios):5.2f} (min) / "
+            f"{statistics.median(ratios):5.2f} (median) ref. jobs")
 
 
 def main() -> None:
@@ -112,7 +130,7 @@ def main() -> None:
     print(f"reference job: {ref0} s" if ref0 else "reference job: not found (no ratios)")
     with tempfile.TemporaryDirectory(prefix="bd-workflow-") as tmp:
         tmp = Path(tmp)
-        results: dict[str, dict[str, list[tuple[float, float]]]] = {}
+        results: dict[str, tuple[dict[str, list[tuple[float, float]]], list[float | None]]] = {}
         real = real_data()
         if real is None:
             print("real curves absent: the real-curve workflow is skipped")
@@ -141,16 +159,25 @@ def main() -> None:
     unit = (ref0 + ref1) / 2 if ref0 and ref1 else None
     print(f"reference job after: {ref1} s; unit {unit:.3f} s" if unit else "no reference job")
     print(load())
+    lines: list[tuple[str, list[tuple[float, float]], list[float | None]]] = []
     if "real" in results:
-        r = results["real"]
+        r, refs = results["real"]
         both = [(a[0] + b[0], a[1] + b[1]) for a, b in zip(r["sample"], r["report"], strict=True)]
-        print(summary("real curve: sample (fit included)", r["sample"], unit))
-        print(summary("real curve: report", r["report"], unit))
-        print(summary("real curve: sample + report", both, unit))
+        lines += [("real curve: sample (fit included)", r["sample"], refs),
+                  ("real curve: report", r["report"], refs),
+                  ("real curve: sample + report", both, refs)]
     if "one" in results:
-        print(summary("real curve: sample --report", results["one"]["sample --report"], unit))
+        lines.append(("real curve: sample --report", results["one"][0]["sample --report"],
+                      results["one"][1]))
     if "shipped" in results:
-        print(summary("shipped example: sample (empty)", results["shipped"]["sample"], unit))
+        lines.append(("shipped example: sample (empty)", results["shipped"][0]["sample"],
+                      results["shipped"][1]))
+    for label, values, _ in lines:
+        print(summary(label, values, unit))
+    for label, values, refs in lines:
+        text = paired(label, values, refs)
+        if text:
+            print(text)
 
 
 if __name__ == "__main__":
