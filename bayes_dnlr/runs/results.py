@@ -19,6 +19,7 @@ from bayes_dnlr.config import Config, load_config
 from bayes_dnlr.inference.layout import Layout, joint_name
 from bayes_dnlr.runs.folder import find_config
 from bayes_dnlr.runs.layout import FIT_FILE, POSTERIOR_FILE, SMOOTHING_CACHE, SUMMARY_FILE
+from bayes_dnlr.runs.netcdf import SAMPLE_DIMS
 from bayes_dnlr.runs.records import Analysis, FitRecord, TestFit
 from bayes_dnlr.runs.testset import plain_names
 from bayes_dnlr.vocabulary import NOISE_NAMES, base_name
@@ -279,13 +280,14 @@ def _read_draws_h5(path: Path, names: Sequence[str] | None) -> dict[str, np.ndar
             if not isinstance(var, h5py.Dataset) or var.is_scale or (names is not None and k not in names):
                 continue
             dims = tuple(_dimension(var, axis) for axis in range(var.ndim))
-            if set(var.attrs) & {"scale_factor", "add_offset"} or sorted(map(str, dims)) != ["chain", "draw"]:
+            packed = set(var.attrs) & {"scale_factor", "add_offset"}
+            if packed or dims not in (SAMPLE_DIMS, SAMPLE_DIMS[::-1]):
                 return {}
             a = np.asarray(var[...], dtype=float)
             fill = var.attrs.get("_FillValue")
             if fill is not None and np.isfinite(np.asarray(fill, dtype=float)).all():
                 a = np.where(a == np.asarray(fill, dtype=float).ravel()[0], np.nan, a)
-            out[str(k)] = a if dims == ("chain", "draw") else a.T
+            out[str(k)] = a if dims == SAMPLE_DIMS else a.T
     return out
 
 
@@ -306,7 +308,7 @@ def _read_draws_xarray(path: Path, names: Sequence[str] | None) -> dict[str, np.
             if names is not None and k not in names:
                 continue
             da = post[k]
-            dims = [d for d in ("chain", "draw") if d in da.dims]
+            dims = [d for d in SAMPLE_DIMS if d in da.dims]
             if len(dims) == 2:
                 da = da.transpose("chain", "draw", ...)
             elif "draw" in da.dims:
