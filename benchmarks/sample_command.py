@@ -11,7 +11,7 @@ On a copy of the shipped run (the shipped folder is not touched), warm numba cac
 3. The loop against the old per-walker likelihood (one basis integration and a matrix product per
    walker in Python, ``TestLikelihood.log_likelihood_reference``), and against one thread, in the
    same process, alternately, best of ``--loops``.
-4. Issue 8: the discrepancy likelihood per ensemble step (32 walkers, 2000 points: two calls of
+4. The discrepancy likelihood per ensemble step (32 walkers, 2000 points: two calls of
    16, as emcee makes them) against the white one; and ``sample`` with the discrepancy to ESS >=
    1000 against the white likelihood, on the example re-simulated with a correlated model error
    (exp kernel, amplitude 0.5 MPa, length 20 s), loop times.

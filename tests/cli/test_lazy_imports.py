@@ -1,5 +1,5 @@
 """`fit` and `sample` import no plotting and none of the heavy modules they do not use, `report`
-not the fitting code: each command runs in a fresh process (for both noise models, one after the
+neither the fitting code nor numba: each command runs in a fresh process (for both noise models, one after the
 other), then the process lists what it imported."""
 
 from __future__ import annotations
@@ -13,9 +13,11 @@ from support.sampling import write_case
 HEAVY = ("matplotlib", "arviz", "arviz_plots", "arviz_stats", "scipy.stats", "distributed", "corner",
          "xarray", "pandas", "scipy.optimize", "scipy.special")
 FIT_NEEDS = ("scipy.optimize", "scipy.special")     # the fit optimises; sample reads fit.json
-# what a report of a finished run does not use: the fitting code, the sampler, ArviZ
+# what a report of a finished run does not use: the fitting code, the sampler, ArviZ, and no
+# compiled code at all: `sample` keeps the curves the report draws (runs/curve_cache.py), and
+# loading numba cost every report about a second
 NOT_IN_REPORT = ("bayes_dnlr.inference.lsq.run_fit", "bayes_dnlr.inference.lsq.optimize",
-                 "scipy.optimize", "emcee", "arviz", "xarray")
+                 "scipy.optimize", "emcee", "arviz", "xarray", "numba", "pandas")
 # the commands given run one after the other in one fresh process, which then lists what it imported:
 # the union of what each command imported
 RUN = ("import json, sys\n"

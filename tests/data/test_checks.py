@@ -163,7 +163,7 @@ def test_a_time_column_taken_for_strain_gets_the_right_hint(write_csv, make_conf
 
 
 def test_a_spike_is_named_by_its_line(write_csv, make_config):
-    """Issue 10: one force cell x1000 made the fit fail with 'singular matrix' and no cause."""
+    """One force cell x1000 made the fit fail with 'singular matrix' and no cause."""
     rng = np.random.default_rng(5)
     t = np.arange(0, 40.0, 0.1)
     e, s = elastic_plastic(t)

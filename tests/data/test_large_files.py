@@ -1,7 +1,8 @@
 """Large files: a 1 kHz test of 1000 s (1e6 rows, 40 MB) is read with the default
-settings and its strain smoothed (the GCV spline failed as 'ill-posed' at 1e6 samples before);
-the fit of it (data.reduce: auto, bins of 50 rows) is a slow test. Time and peak memory per size:
-benchmarks/large_files.py."""
+settings and its strain smoothed (the GCV spline failed as 'ill-posed' at 1e6 samples before), and
+fitted (data.reduce: auto, bins of 50 rows). Both are slow tests (a 1e6-row file: tests/README.md);
+the default suite smooths 1e6 samples in tests/data/test_testdata.py. Time and peak memory per
+size: benchmarks/large_files.py."""
 
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ def million(tmp_path_factory) -> Path:
     return write_test(tmp_path_factory.mktemp("large"), ROWS)
 
 
+@pytest.mark.slow
 def test_a_million_rows_load_and_the_smoothing_succeeds(million: Path) -> None:
     cfg = load_config(million)
     cfg.data.reduce = "none"

@@ -90,8 +90,10 @@ def test_rows_per_bin_below_one_is_a_config_error(long_test: Path) -> None:
         load_config(bad)
 
 
+@pytest.mark.slow
 def test_the_reduced_fit_keeps_e_within_a_tenth_of_its_sd(long_test: Path) -> None:
-    """Bins of 10 rows (0.33 s of a 1000 s test): E and its sd as with every row."""
+    """Bins of 10 rows (0.33 s of a 1000 s test): E and its sd as with every row (an accuracy
+    check of two fits of 30 000 rows: the slow suite)."""
     from bayes_dnlr.runs.fit import fit
 
     full = fit(_config(long_test, "none"), write=False).only

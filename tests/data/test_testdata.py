@@ -445,7 +445,7 @@ def test_state_space_spline_is_scipys_smoothing_spline_and_gcv_is_exact():
 
 
 def test_smoothing_a_million_samples_is_linear_and_does_not_fail():
-    """Issue 10: make_smoothing_spline's GCV fails on 1e6 samples ('ill-posed'); the state-space
+    """scipy's make_smoothing_spline's GCV fails on 1e6 samples ('ill-posed'); the state-space
     spline smooths a straight ramp to a straight line, to a small fraction of the noise."""
     rng = np.random.default_rng(0)
     t = np.arange(1_000_000) * 1e-3
@@ -456,7 +456,7 @@ def test_smoothing_a_million_samples_is_linear_and_does_not_fail():
 
 
 def test_sparse_hold_is_not_fitted_to_its_noise():
-    """Issue 9 item 9: a hold sampled every 0.2 s, then every 180 s. One spline over both follows
+    """A hold sampled every 0.2 s, then every 180 s. One spline over both follows
     the noise of the sparse samples (the model stress then jumps between them); split where the
     sampling changes, each part gets its own λ and the sparse part is smoothed."""
     rng = np.random.default_rng(4)
@@ -559,7 +559,7 @@ def test_smoothing_segments_follow_relaxation_start(write_csv, make_config, rs, 
     ({"time_min": 500.0, "time_max": 600.0}, "the stress there is not an unloaded baseline: it sits at 15."),
 ])
 def test_baseline_over_a_loaded_specimen_is_refused(write_csv, make_config, window, words):
-    """Issue 9 item 7: {baseline: {time_max: 2.0}} on a test loading from t = 0 gave 0.087 MPa,
+    """{baseline: {time_max: 2.0}} on a test loading from t = 0 gave 0.087 MPa,
     100 times the noise; a baseline in the hold of a relaxation test measures the relaxation."""
     t, e, _, _ = ramp_hold(rate=2.5e-5, hold=600.0, hz=20.0, sd=0.0)
     stress = 2000 * e * (1 - 0.3 * (t > 400) * (1 - np.exp(-(t - 400) / 100)))

@@ -29,10 +29,11 @@ def test_credible_intervals_cover_the_truth(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_discrepancy_intervals_cover_the_truth_under_model_error(tmp_path: Path) -> None:
-    """Issue 8 at reduced size: a smooth correlated error (Ornstein-Uhlenbeck, 0.5 MPa, 20 s) plus
-    white noise 0.3 MPa on 30 replicates of 1000 points. The default likelihood (discrepancy) holds
-    the truth in a calibrated share: Binomial(30, 0.9) falls below 22/30 with probability 0.008.
-    The white likelihood, on the same data, must not (benchmarks/calibration.py: 0.34 over 50)."""
+    """The calibration under model error at reduced size: a smooth correlated error
+    (Ornstein-Uhlenbeck, 0.5 MPa, 20 s) plus white noise 0.3 MPa on 30 replicates of 1000 points.
+    The default likelihood (discrepancy) holds the truth in a calibrated share: Binomial(30, 0.9)
+    falls below 22/30 with probability 0.008. The white likelihood, on the same data, must not
+    (benchmarks/calibration.py: 0.34 over 50)."""
     error = ("exp", 0.5, 20.0)
     kwargs = dict(jobs=2, base_seed=31_000, noise="residuals", error=error, n=1000)
     default = calibration(30, tmp_path / "default", discrepancy="default", **kwargs)

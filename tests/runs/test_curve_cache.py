@@ -1,13 +1,11 @@
 """The report's curves kept by ``sample`` (runs/curve_cache.py): the same arrays the report would
-compute, made again when an output changes, not made when asked not to, and a report from them
-that loads no compiled code."""
+compute, made again when an output changes, and not made when asked not to. That a report from
+them loads no compiled code is checked with what every command imports (tests/cli/test_lazy_imports.py)."""
 
 from __future__ import annotations
 
 import json
 import shutil
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -77,18 +75,6 @@ def test_a_changed_output_makes_the_curves_again(disc_run, tmp_path) -> None:
     assert len(after) == 1 and after != before           # the stale set is replaced, not kept beside
     _, fresh = compute_curves(view)
     assert np.array_equal(disc.mean, fresh.mean)
-
-
-def test_a_report_from_kept_curves_loads_no_compiled_code(disc_run, tmp_path) -> None:
-    """The report of a sampled run draws its figures without importing numba or scipy's optimizers
-    (about a second of every report)."""
-    run_dir = shutil.copytree(disc_run, tmp_path / "disc")
-    code = ("import sys; from bayes_dnlr.report import build_report; "
-            f"build_report({str(run_dir)!r}); "
-            "print(sorted(m for m in ('numba', 'scipy.optimize', 'pandas') if m in sys.modules))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "[]", out.stdout + out.stderr
-    assert "disc" in (run_dir / "report.html").read_text()
 
 
 def test_sample_asked_not_to_keeps_no_curves(tmp_path) -> None:

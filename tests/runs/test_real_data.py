@@ -53,7 +53,7 @@ def test_machine_export_is_read_as_it_is(tmp_path):
 
 
 def test_windowed_strain_rate_is_the_windows(tmp_path):
-    """Issue 9 item 6: 0.00287 1/s (the whole record) instead of about 0.0076 (the window)."""
+    """The rate was 0.00287 1/s (the whole record) instead of about 0.0076 (the window)."""
     test = load_test(rhdpe_config(tmp_path, window={"strain_max": 0.07}))
     assert 0.0072 < test.strain_rate < 0.0080
 
@@ -61,7 +61,7 @@ def test_windowed_strain_rate_is_the_windows(tmp_path):
 @pytest.mark.parametrize(("start", "low", "high"), [({"initial_state": "ramp-from-zero"}, 2000, 2500),
                                                     ({"toe": "compensate"}, 1900, 2500)])
 def test_cropped_toe_from_a_config_only(tmp_path, start, low, high):
-    """Issue 9 item 5: the export starts at 0.5 % strain and 6.7 MPa. Taken as unloaded there, the
+    """The export starts at 0.5 % strain and 6.7 MPa. Taken as unloaded there, the
     fit gives E near 4800 MPa; with an unloaded start before it (a config key, no hand-made row) E is
     near the 2269 MPa of a hand-made origin row. G is fixed: a pre-yield window does not identify it
     (the paper's interval I identifies E and tau_max)."""

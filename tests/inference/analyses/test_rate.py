@@ -32,7 +32,10 @@ def _verdict(tmp_path, name: str, per_decade: float, *, whole_page: bool):
     return ra, "".join(rate_section(run, ra))
 
 
+@pytest.mark.slow
 def test_one_e_is_consistent(tmp_path, monkeypatch):
+    """The size of the rate question (data made with one E are not called rate-dependent): a
+    statistical check, in the slow suite; its power, below, builds the rate section by default."""
     figures_not_drawn(monkeypatch)
     ra, page = _verdict(tmp_path, "one-e", 0.0, whole_page=True)
     assert ra.verdict == "consistent", ra.words
