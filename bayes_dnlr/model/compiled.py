@@ -2,8 +2,8 @@
 
 numba compiles the model the first time a clone runs it, for this machine's CPU, and keeps the
 result beside the source (``__pycache__``, or ``NUMBA_CACHE_DIR``): the first ``fit``,
-``sample`` or local ``batch`` of a clone waits about a minute (the demo's functions took 45-58 s
-of CPU on this project's 2-core machine, the discrepancy's filter 10-20 s more); every later run
+``sample`` or local ``batch`` of a clone waits up to a minute (the demo's functions took 36 s of
+CPU on this project's 2-core machine, the discrepancy's filter 10-20 s more); every later run
 loads the code in under a second. The commands say so before that wait, instead of a silent
 minute.
 """

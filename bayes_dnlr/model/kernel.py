@@ -220,6 +220,15 @@ def _phase_tables(grid, p, tau_max, relaxation, for_stress):
 
 _BLOCK = 32     # steps whose decays integrate computes in one call
 
+# The phase flags reach _phase_tables, and the first step _stress_phase, as run-time values, not as
+# literals: numba compiles a function once for every literal value it is called with, so the
+# first `sample` of a copy compiled _phase_tables four times and _stress_phase twice (the cold
+# compile of `sample` 52 -> 39 s of CPU; the same values to the bit, and the same speed). An
+# element of a global array is typed by its dtype, not by its value. _integrate_phase
+# keeps its literal phase flag: compiled once for both phases its gradients moved by an ulp.
+_FLAGS = np.array([False, True])      # _FLAGS[0] is False, _FLAGS[1] True: typed bool
+_STEP0 = np.zeros(1, dtype=np.int64)  # _STEP0[0] is 0: typed int64
+
 
 @njit(cache=True, fastmath=_FASTMATH)
 def _block_decays(i0, i1, grid, itau, ta, tom, a_out, om_out):
@@ -373,9 +382,9 @@ def stress_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, grid, out):
     D = np.zeros(n)
     j0t = 0
     if nt > 0:
-        tabs = _phase_tables(grid, p, tau_max, False, True)
+        tabs = _phase_tables(grid, p, tau_max, _FLAGS[0], _FLAGS[1])
         j0t = tabs.j0
-        _stress_phase(grid, 0, nt, grid.exact_t, tabs, E, G, 0.0, D[j0t:], out)
+        _stress_phase(grid, _STEP0[0], nt, grid.exact_t, tabs, E, G, 0.0, D[j0t:], out)
     if not relax:
         return True
     # the switch (section 4.1): D_j = σ_j - p_j σ_inf; the always-relaxed tensile modes leave
@@ -389,7 +398,7 @@ def stress_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, grid, out):
         h_sw = grid.h0
     for j in range(n):
         D[j] += p[j] * (G * h_sw - sigma_inf)
-    tabs = _phase_tables(grid, p, tau_max_R, True, True)
+    tabs = _phase_tables(grid, p, tau_max_R, _FLAGS[1], _FLAGS[1])
     _stress_phase(grid, nt, n_steps, grid.exact_r, tabs, E, 0.0, sigma_inf, D[tabs.j0:], out)
     return True
 
@@ -568,7 +577,7 @@ def integrate(tau_max, tau_max_R, alpha, grid, want_grad, out, grad_t, grad_r, g
     # ---- tensile phase (eq. 18)
     j0_t = 0
     if n_tensile > 0:
-        tabs = _phase_tables(grid, p, tau_max, False, False)
+        tabs = _phase_tables(grid, p, tau_max, _FLAGS[0], _FLAGS[0])
         j0_t = tabs.j0
         states = (A[j0_t:], B[j0_t:], C[j0_t:], gA[j0_t:], gB[j0_t:], gC[j0_t:], rA[j0_t:], rB[j0_t:])
         _integrate_phase(grid, tabs, False, 0, n_tensile, p, cw, states, want_grad, out, grad_t,
@@ -592,7 +601,7 @@ def integrate(tau_max, tau_max_R, alpha, grid, want_grad, out, grad_t, grad_r, g
             gB[j] = -p[j] * tau * rate_h
 
     # ---- relaxation phase (section 4.1): same E and weights, spectrum tau_max_R, σ^r = σ_inf
-    tabs = _phase_tables(grid, p, tau_max_R, True, False)
+    tabs = _phase_tables(grid, p, tau_max_R, _FLAGS[1], _FLAGS[0])
     j0 = tabs.j0
     states = (A[j0:], B[j0:], C[j0:], rA[j0:], rB[j0:], rC[j0:], gA[j0:], gB[j0:])
     _integrate_phase(grid, tabs, True, n_tensile, n_steps, p, cw, states, want_grad, out, grad_r,
