@@ -35,8 +35,7 @@ The derivatives with respect to ln(tau_max) and ln(tau_max_R) are carried forwar
 ``integrate`` (exact): d a/d ln tau = x a, d φ/d ln tau = φ - a.
 
 All njit functions stay in this one module: numba's on-disk cache does not notice changes in a
-helper imported from another module (inference/posterior/fused.py works around it for its own
-callees).
+helper imported from another module (inference/posterior/fused.py: ``numba_cache.depend_on``).
 """
 
 from __future__ import annotations
@@ -219,15 +218,7 @@ def _phase_tables(grid, p, tau_max, relaxation, for_stress):
 
 
 _BLOCK = 32     # steps whose decays integrate computes in one call
-
-# The phase flags reach _phase_tables, and the first step _stress_phase, as run-time values, not as
-# literals: numba compiles a function once for every literal value it is called with, so the
-# first `sample` of a copy compiled _phase_tables four times and _stress_phase twice (the cold
-# compile of `sample` 52 -> 39 s of CPU; the same values to the bit, and the same speed). An
-# element of a global array is typed by its dtype, not by its value. _integrate_phase
-# keeps its literal phase flag: compiled once for both phases its gradients moved by an ulp.
-_FLAGS = np.array([False, True])      # _FLAGS[0] is False, _FLAGS[1] True: typed bool
-_STEP0 = np.zeros(1, dtype=np.int64)  # _STEP0[0] is 0: typed int64
+_FLAGS, _STEP0 = np.array([False, True]), np.zeros(1, np.int64)  # run-time, not literal: docs/performance.md
 
 
 @njit(cache=True, fastmath=_FASTMATH)
