@@ -310,7 +310,7 @@ def _read_draws_xarray(path: Path, names: Sequence[str] | None) -> dict[str, np.
             da = post[k]
             dims = [d for d in SAMPLE_DIMS if d in da.dims]
             if len(dims) == 2:
-                da = da.transpose("chain", "draw", ...)
+                da = da.transpose(*SAMPLE_DIMS, ...)
             elif "draw" in da.dims:
                 da = da.expand_dims("chain").transpose("chain", "draw", ...)
             a = np.asarray(da.values, dtype=float)

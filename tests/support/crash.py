@@ -111,21 +111,18 @@ def _warm_up() -> None:
     import contextlib
     import io
     import tempfile
+    from unittest import mock
 
     import bayes_dnlr.cli as cli
     from bayes_dnlr.model import threads
     from support.sampling import write_case
 
-    allowed = threads.parallel_allowed
-    threads.parallel_allowed = lambda: False
-    try:
-        with tempfile.TemporaryDirectory() as tmp:
-            path = write_case(Path(tmp), n=300, sampler={"walkers": 8, "max_steps": 20,
-                                                          "checkpoint_every": 20, "target_ess": 1e9})
-            with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-                assert cli.main(["sample", str(path), "--quiet"]) == 0
-    finally:
-        threads.parallel_allowed = allowed
+    with (mock.patch.object(threads, "parallel_allowed", lambda: False),
+          tempfile.TemporaryDirectory() as tmp):
+        path = write_case(Path(tmp), n=300, sampler={"walkers": 8, "max_steps": 20,
+                                                      "checkpoint_every": 20, "target_ess": 1e9})
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            assert cli.main(["sample", str(path), "--quiet"]) == 0
 
 
 def _pace(seconds: float) -> None:
