@@ -1,9 +1,11 @@
 """Which emcee moves suit the DNLR posterior? Integrated autocorrelation time τ per move.
 
-On the 2000-point 3-parameter example (E-tau_max correlation about -0.998), 32 walkers, every move
-starts from the same draw of the linearized posterior and runs ``--steps`` steps; τ (emcee's
-estimator, c = 5) is measured after a burn-in of 5 τ. Fewer steps per τ means fewer steps to the
-same ESS; the cost of a step is the same for every move (one model evaluation per walker).
+On a run's posterior as ``sample`` builds it (the config's folder is copied and fitted there), 32
+walkers, every move starts from the same draw of the linearized posterior and runs ``--steps``
+steps; τ (emcee's estimator, c = 5) is measured after a burn-in of 5 τ. Fewer steps per τ means
+fewer steps to the same ESS; the cost of a step is about the same for every move (one model
+evaluation per walker). "de" is ``sample``'s default: DEMove with the Laplace move on a white
+chain, with the conditional move when the discrepancy's hyperparameters are sampled.
 
     .venv/bin/python benchmarks/moves.py [config.yaml] [--steps 4000] [--repeats 2]
 
@@ -24,51 +26,64 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 
-def variants():
+def variants(mapper, laplace):
+    """Each compared move set; ``de`` as ``sample`` makes it (with the Laplace move on a white
+    chain, the conditional move with sampled discrepancy hyperparameters)."""
     import emcee.moves as mv
+
+    from bayes_dnlr.inference.mcmc.ensemble import make_moves
 
     return {
         "stretch (a=2)": lambda: mv.StretchMove(),
-        "DE": lambda: mv.DEMove(),
+        "DE (de-plain)": lambda: mv.DEMove(),
         "DE(0.8)+snooker(0.2)": lambda: [(mv.DEMove(), 0.8), (mv.DESnookerMove(), 0.2)],
-        "DE(0.9)+snooker(0.1)": lambda: [(mv.DEMove(), 0.9), (mv.DESnookerMove(), 0.1)],
-        "DE(0.5)+snooker(0.5)": lambda: [(mv.DEMove(), 0.5), (mv.DESnookerMove(), 0.5)],
         "DE(0.8)+stretch(0.2)": lambda: [(mv.DEMove(), 0.8), (mv.StretchMove(), 0.2)],
+        "de (sample's default)": lambda: make_moves("de", mapper, laplace),
     }
 
 
 def setup(config: str | None):
-    from bayes_dnlr.config import load_config
-    from bayes_dnlr.data import load_test
-    from bayes_dnlr.inference.posterior.density import build_log_posterior
-    from bayes_dnlr.runs.fit import fit
+    """The config, and the run's target as ``sample`` builds it (fit.json written into a copy)."""
+    import json
+    import shutil
 
+    from bayes_dnlr.config import load_config
+    from bayes_dnlr.runs.fit import fit
+    from bayes_dnlr.runs.records import FitRecord
+    from bayes_dnlr.runs.target import build_target
+    from bayes_dnlr.runs.testset import load_tests
+
+    tmp = Path(tempfile.mkdtemp())
     if config is None:
         from support.sampling import write_case
 
-        config = str(write_case(Path(tempfile.mkdtemp()), "moves"))
+        config = str(write_case(tmp, "moves"))
+    else:        # its folder copied without outputs: the run's own fit.json is left as it is
+        src = Path(config).resolve()
+        shutil.copytree(src.parent, tmp / src.parent.name, ignore=shutil.ignore_patterns(
+            "fit.json", "chains.h5", "posterior.nc", "summary.json", "*.lock", ".cache", "figures"))
+        config = str(tmp / src.parent.name / src.name)
     cfg = load_config(config)
-    res = fit(cfg, write=False).only
-    fitd = res.to_dict()
-    test = load_test(cfg)
-    post = build_log_posterior(cfg, test, float(res.sigma0))
-    return cfg, fitd, post
+    tests = load_tests(cfg)
+    fit(cfg, test=tests)
+    fitd = json.loads((cfg.run_dir / "fit.json").read_text())
+    target = build_target(cfg, tests, FitRecord.from_dict(fitd, cfg.test_names))
+    return cfg, fitd, target
 
 
-def run(post, fitd, moves, steps: int, walkers: int, seed: int) -> tuple[np.ndarray, float, float]:
+def run(target, moves, steps: int, walkers: int, seed: int) -> tuple[np.ndarray, float, float]:
     import emcee
 
     from bayes_dnlr.inference.mcmc.ensemble import start_ensemble
-    from bayes_dnlr.runs.target import start_point
 
-    x0, cov = start_point(post, fitd, None)
-    coords, lp = start_ensemble(post, post.priors, x0, cov, walkers, seed)
+    post = target.post
+    coords, lp = start_ensemble(post, target.priors, target.x0, target.cov, walkers, seed)
     sampler = emcee.EnsembleSampler(walkers, post.ndim, post, moves=moves, vectorize=True)
     sampler._random.seed(seed)
     t0 = time.perf_counter()
     sampler.run_mcmc(emcee.State(coords, log_prob=lp), steps)
     wall = time.perf_counter() - t0
-    chain = post.priors.to_physical(sampler.get_chain())
+    chain = target.priors.to_physical(sampler.get_chain())
     tau0 = emcee.autocorr.integrated_time(chain, tol=0)
     burn = int(np.ceil(5 * tau0.max()))
     tau = emcee.autocorr.integrated_time(chain[burn:], tol=0)
@@ -82,18 +97,25 @@ def main() -> None:
     ap.add_argument("--walkers", type=int, default=32)
     ap.add_argument("--repeats", type=int, default=2)
     args = ap.parse_args()
-    cfg, fitd, post = setup(args.config)
-    post(post.priors.from_physical(np.array([[fitd["estimate"][k] for k in post.names]])))  # compile
-    names = post.names
-    print(f"{cfg.name}: {post.n} points, {args.walkers} walkers, {args.steps} steps, "
-          f"{args.repeats} seeds; GN correlation E-tau_max = "
-          f"{np.asarray(fitd['correlation'])[0, names.index('tau_max')]:.4f}")
+    cfg, fitd, target = setup(args.config)
+    from bayes_dnlr.inference.mcmc.ensemble import linearized_root
+
+    post, names = target.post, target.names
+    z0 = target.priors.from_physical(target.x0)
+    mapper = post.conditional_map(z0)
+    laplace = (linearized_root(target.priors, target.x0, target.cov) if target.near_linear
+               else None)
+    post(z0[None])  # compile
+    corr = np.asarray(fitd["correlation"], dtype=float)
+    rho = f"{corr[0, names.index('tau_max')]:.4f}" if corr.shape[0] == len(names) else "-"
+    print(f"{cfg.name}: {len(names)} parameters ({', '.join(names)}), {args.walkers} walkers, "
+          f"{args.steps} steps, {args.repeats} seeds; GN correlation E-tau_max = {rho}")
     head = f"{'moves':<22} " + " ".join(f"{'tau ' + k:>12}" for k in names)
     print(head + f" {'tau max':>8} {'accept':>7} {'ms/step':>8} {'ESS/s':>7}")
-    for label, make in variants().items():
+    for label, make in variants(mapper, laplace).items():
         taus, costs, accs = [], [], []
         for r in range(args.repeats):
-            tau, cost, acc = run(post, fitd, make(), args.steps, args.walkers, seed=11 + r)
+            tau, cost, acc = run(target, make(), args.steps, args.walkers, seed=11 + r)
             taus.append(tau)
             costs.append(cost)
             accs.append(acc)

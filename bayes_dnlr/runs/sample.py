@@ -30,7 +30,9 @@ from bayes_dnlr.errors import BayesDnlrError, StaleRunError
 from bayes_dnlr.inference.layout import Layout
 from bayes_dnlr.inference.mcmc.ensemble import (
     CONDITIONAL,
+    LAPLACE,
     MOVES,
+    linearized_root,
     make_moves,
     run_ensemble,
     start_ensemble,
@@ -242,6 +244,11 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
     walkers, ndim = sc.walkers, len(names)
     # the conditional move of `de` (inference/mcmc/blocks.py), from fit.json: the same on a resume
     mapper = post.conditional_map(priors.from_physical(target.x0)) if sc.moves == "de" else None
+    # else the Laplace move where the posterior is close to its linearization; a chain begun with
+    # DEMove alone (an earlier version) goes on so
+    laplace = (linearized_root(priors, target.x0, target.cov)
+               if sc.moves == "de" and target.near_linear
+               and (stored is None or stored.attrs.get("moves_detail") != MOVES["de"]) else None)
     if stored is None:
         coords, lp = start_ensemble(post, priors, target.x0, target.cov, walkers, sc.seed)
         state0 = SamplerState(coords, lp, np.random.RandomState(sc.seed).get_state())
@@ -252,7 +259,8 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
             "identity": identity.chain_record(cfg, test, before),
             "data_file": str(test.path), "version": _version(), "modes": cfg.model.modes,
             "decades": cfg.model.decades, "moves": sc.moves, "seed": sc.seed,
-            "moves_detail": CONDITIONAL if mapper is not None else MOVES.get(sc.moves, sc.moves),
+            "moves_detail": (CONDITIONAL if mapper is not None else LAPLACE if laplace is not None
+                             else MOVES.get(sc.moves, sc.moves)),
             "sigma0": _sigma0_attr(sigma0), "sigma0_source": json.dumps(sigma0_source),
             "created": datetime.now(UTC).isoformat(timespec="seconds"), **target.meta,
         }
@@ -276,7 +284,7 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
     try:
         out = run_ensemble(post, priors.to_physical, sc.moves, state, chain0, writer, rule,
                            fresh=fresh, elapsed0=elapsed0, evals0=evals0, progress=progress,
-                           mapper=mapper)
+                           mapper=mapper, laplace=laplace)
     except BaseException as err:
         steps = writer.steps
         writer.close()

@@ -42,6 +42,14 @@ class Target:
     def names(self) -> list[str]:
         return self.priors.names
 
+    @property
+    def near_linear(self) -> bool:
+        """Whether the posterior is expected close to its linearization (eq. 32), for the Laplace
+        move (inference/mcmc/blocks.py): not when the discrepancy's amplitude or length, or the
+        spectrum's exponent, is sampled; there it was accepted less often than DEMove (measured in
+        docs/sampling.md)."""
+        return not any(base_name(k) in (AMPLITUDE, LENGTH, "alpha") for k in self.names)
+
 
 def resolve_sigma0(cfg: Config, fit: TestFit, test) -> tuple[float | None, str, float | None]:
     """(σ0 for the likelihood or None when sampled, its source, a starting value when sampled) of

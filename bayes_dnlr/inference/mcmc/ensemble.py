@@ -44,15 +44,19 @@ MOVES = {
 }
 CONDITIONAL = ("DEMove (0.3) + the conditional move (0.7): the discrepancy's hyperparameters from "
                "the other walkers, the model parameters from their conditional given them")
+LAPLACE = "DEMove (0.3) + the Laplace move (0.7): every parameter from the linearized posterior"
 
 
 # ---------------------------------------------------------------- configuration
 
-def make_moves(kind: str, mapper: Any = None) -> Any:
-    """emcee moves for ``sampler.moves`` (benchmarks/moves.py compares them). ``mapper``: the
-    model parameters' conditional given the discrepancy's hyperparameters
-    (inference/posterior/conditional.py) when they are sampled; ``de`` then adds the conditional
-    move (inference/mcmc/blocks.py, benchmarks/chain_mixing.py), ``de-plain`` does not."""
+def make_moves(kind: str, mapper: Any = None, laplace: tuple[np.ndarray, np.ndarray] | None = None
+               ) -> Any:
+    """emcee moves for ``sampler.moves`` (benchmarks/moves.py compares them). ``de`` adds to
+    DEMove an independence move from the linearized posterior (inference/mcmc/blocks.py,
+    benchmarks/chain_mixing.py): the conditional move when ``mapper`` (the model parameters'
+    conditional given the discrepancy's hyperparameters, inference/posterior/conditional.py) is
+    given, else the Laplace move when ``laplace`` (the estimate and a square root of its
+    covariance, sampling coordinates: ``linearized_root``) is; ``de-plain`` is DEMove alone."""
     emcee = load_emcee()
 
     if kind == "stretch":
@@ -62,6 +66,10 @@ def make_moves(kind: str, mapper: Any = None) -> Any:
 
         return [(emcee.moves.DEMove(), 1.0 - CONDITIONAL_WEIGHT),
                 (ConditionalMove(mapper), CONDITIONAL_WEIGHT)]
+    if kind == "de" and laplace is not None:
+        from bayes_dnlr.inference.mcmc.blocks import LAPLACE_WEIGHT, LaplaceMove
+
+        return [(emcee.moves.DEMove(), 1.0 - LAPLACE_WEIGHT), (LaplaceMove(*laplace), LAPLACE_WEIGHT)]
     if kind in ("de", "de-plain"):
         return emcee.moves.DEMove()
     if kind == "de-snooker":
@@ -90,6 +98,51 @@ def _into_box(z: np.ndarray, zlo: np.ndarray, zhi: np.ndarray, inner: np.ndarray
     return np.clip(z, zlo + inner, zhi - inner)
 
 
+def _root(cov_z: np.ndarray, z0: np.ndarray, width: np.ndarray) -> np.ndarray:
+    """An invertible square root of the covariance ``cov_z`` (sampling coordinates): its
+    eigenvalues floored at 1e-12 of the largest; a parameter without a finite variance gets a
+    spread of 1e-3 of its prior ``width`` (or 1e-4 of its value when the prior is unbounded)."""
+    d = z0.size
+    ok = np.all(np.isfinite(cov_z), axis=0) & np.all(np.isfinite(cov_z), axis=1) & (np.diag(cov_z) > 0)
+    small = np.where(np.isfinite(width), 1e-3 * width, 1e-4 * np.maximum(np.abs(z0), 1e-3))
+    root = np.zeros((d, d))
+    if ok.any():
+        sub = cov_z[np.ix_(ok, ok)]
+        vals, vecs = np.linalg.eigh(0.5 * (sub + sub.T))
+        vals = np.clip(vals, max(vals.max(), 0.0) * 1e-12, None)
+        root[np.ix_(ok, ok)] = vecs * np.sqrt(vals)
+    root[~ok, ~ok] = small[~ok]
+    if not np.any(root):
+        root = np.diag(1e-4 * np.maximum(np.abs(z0), 1e-3))
+    return root
+
+
+def _linearized(priors, x0: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """The estimate in sampling coordinates (clipped into the support box: an estimate on a bound,
+    after the exp/log round trip) and a square root of its covariance there (delta method; None
+    when the estimate is not finite there)."""
+    zlo, zhi = support_box(priors)
+    width = zhi - zlo
+    inner = np.where(np.isfinite(width), 1e-9 * width, 0.0)
+    with np.errstate(divide="ignore"):
+        jac = priors.jacobian(x0)
+    z0 = priors.from_physical(x0)
+    if not np.all(np.isfinite(z0)):
+        return z0, None
+    z0 = np.clip(z0, zlo + inner, zhi - inner)
+    return z0, _root(np.asarray(cov, dtype=float) * np.outer(jac, jac), z0, width)
+
+
+def linearized_root(priors, x0: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """The linearized posterior (eq. 32) as the walkers start from it, in sampling coordinates:
+    (the estimate, an invertible square root of its covariance); None when the estimate is not
+    finite there."""
+    z0, root = _linearized(priors, np.asarray(x0, dtype=float), cov)
+    if root is None or not np.all(np.isfinite(root)) or np.linalg.det(root) == 0:
+        return None
+    return z0, root
+
+
 def start_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], priors, x0: np.ndarray,
                    cov: np.ndarray, walkers: int, seed: int,
                    scale: float = START_SCALE) -> tuple[np.ndarray, np.ndarray]:
@@ -108,29 +161,13 @@ def start_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], priors, x0: np.
     zlo, zhi = support_box(priors)
     width = zhi - zlo
     inner = np.where(np.isfinite(width), 1e-9 * width, 0.0)
-    with np.errstate(divide="ignore"):
-        jac = priors.jacobian(x0)
-    z0 = priors.from_physical(x0)
-    if np.all(np.isfinite(z0)):
-        z0 = np.clip(z0, zlo + inner, zhi - inner)   # an estimate on a bound, after exp/log round trip
-    if not np.all(np.isfinite(z0)) or not np.isfinite(log_prob(z0[None])[0]):
+    z0, root = _linearized(priors, x0, cov)
+    if root is None or not np.isfinite(log_prob(z0[None])[0]):
         raise RunError(
             "the least-squares estimate " + ", ".join(f"{k} = {v:.6g}" for k, v in zip(names, x0,
                                                                                       strict=True))
             + " has a zero posterior density (outside the prior support?): check the priors in "
             "parameters: and fit.json")
-    cov_z = np.asarray(cov, dtype=float) * np.outer(jac, jac)
-    ok = np.all(np.isfinite(cov_z), axis=0) & np.all(np.isfinite(cov_z), axis=1) & (np.diag(cov_z) > 0)
-    small = np.where(np.isfinite(width), 1e-3 * width, 1e-4 * np.maximum(np.abs(z0), 1e-3))
-    root = np.zeros((d, d))
-    if ok.any():
-        sub = cov_z[np.ix_(ok, ok)]
-        vals, vecs = np.linalg.eigh(0.5 * (sub + sub.T))
-        vals = np.clip(vals, max(vals.max(), 0.0) * 1e-12, None)
-        root[np.ix_(ok, ok)] = vecs * np.sqrt(vals)
-    root[~ok, ~ok] = small[~ok]
-    if not np.any(root):
-        root = np.diag(1e-4 * np.maximum(np.abs(z0), 1e-3))
     rng = np.random.default_rng([int(seed) % 2**63, 0x5A4D])
 
     def draw(k: int) -> np.ndarray:
@@ -235,7 +272,8 @@ def next_check(n: int, conv: Convergence | None, every: int) -> int:
 def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Callable, moves: str,
                  state: SamplerState, chain0: np.ndarray, writer: CheckpointSink, rule: StopRule, *,
                  fresh: bool, elapsed0: float = 0.0, evals0: int = 0,
-                 progress: bool = True, mapper: Any = None) -> RunOutcome:
+                 progress: bool = True, mapper: Any = None,
+                 laplace: tuple[np.ndarray, np.ndarray] | None = None) -> RunOutcome:
     """Sample from ``state`` until the stopping rule holds or ``rule.max_steps``.
 
     Every ``rule.checkpoint_every`` steps the block is committed to ``writer`` with the state after
@@ -243,7 +281,7 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
     continues the same chain bit-exactly. The stopping rule is checked more often, at the steps of
     ``next_check``; a run that stops inside a block commits the steps it did.
     ``chain0``: the steps already done (physical units). ``log_prob.n_evals`` (when present)
-    counts model evaluations. ``mapper``: see ``make_moves``.
+    counts model evaluations. ``mapper``, ``laplace``: see ``make_moves``.
 
     ``sampling_time`` (summary.json ``wall_time_s``) is the time of this loop only: the emcee
     steps, the likelihood, the checks of the stopping rule and the checkpoints; the imports, the
@@ -254,7 +292,7 @@ def run_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], to_physical: Call
     walkers, ndim = state.coords.shape
     chain = _Growing(chain0)
     sampler = emcee.EnsembleSampler(walkers, ndim, log_prob, vectorize=True,
-                                    moves=make_moves(moves, mapper))
+                                    moves=make_moves(moves, mapper, laplace))
     every = rule.checkpoint_every
     conv = None
     reason = None

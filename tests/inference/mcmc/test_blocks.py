@@ -1,13 +1,14 @@
-"""The conditional move keeps the target distribution, whatever its map (a deliberately wrong one
-here): a correlated Gaussian and a funnel (the spread of the model block grows with a
-hyperparameter) sampled to their moments; and it stays inside emcee's contract."""
+"""The independence moves keep the target distribution, whatever they propose from (a deliberately
+wrong map or linearization here): the conditional move on a correlated Gaussian and a funnel (the
+spread of the model block grows with a hyperparameter), the Laplace move on a correlated Gaussian
+and a skewed density, sampled to their moments; and both stay inside emcee's contract."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from bayes_dnlr.inference.mcmc.blocks import ConditionalMove
+from bayes_dnlr.inference.mcmc.blocks import ConditionalMove, LaplaceMove
 from bayes_dnlr.inference.mcmc.emcee_import import load_emcee
 from bayes_dnlr.inference.mcmc.ensemble import make_moves
 from bayes_dnlr.inference.mcmc.stopping import _tau
@@ -27,10 +28,17 @@ def _wrong_map() -> ConditionalMap:
     return ConditionalMap(axes, mu, chol, model=[0, 1], hyper=[2, 3])
 
 
-def _run(log_prob, start: np.ndarray, steps: int, seed: int = 3) -> np.ndarray:
+def _wrong_laplace(d: int) -> tuple[np.ndarray, np.ndarray]:
+    """A linearization that is not the target's: a shifted centre, a rotated, too narrow root."""
+    rng = np.random.default_rng(7)
+    q, _ = np.linalg.qr(rng.standard_normal((d, d)))
+    return np.full(d, 0.4), q * np.linspace(0.5, 0.9, d)
+
+
+def _run(log_prob, start: np.ndarray, steps: int, seed: int = 3, moves=None) -> np.ndarray:
     emcee = load_emcee()
     sampler = emcee.EnsembleSampler(start.shape[0], start.shape[1], log_prob, vectorize=True,
-                                    moves=make_moves("de", _wrong_map()))
+                                    moves=moves or make_moves("de", _wrong_map()))
     sampler._random.seed(seed)
     sampler.run_mcmc(start, steps, progress=False)
     return sampler.get_chain()
@@ -41,8 +49,7 @@ def _kept(chain: np.ndarray, burn: int = 200) -> tuple[np.ndarray, np.ndarray]:
     return kept.reshape(-1, kept.shape[-1]), kept.shape[0] * kept.shape[1] / _tau(kept)
 
 
-@pytest.mark.slow      # a statistical check of a long chain: 3000 steps of 32 walkers, 4 s of CPU
-def test_the_conditional_move_keeps_a_correlated_gaussian() -> None:
+def _gaussian_case():
     rng = np.random.default_rng(0)
     a = rng.standard_normal((4, 4))
     cov = a @ a.T + 0.5 * np.eye(4)            # correlated within and across the two blocks
@@ -54,11 +61,48 @@ def test_the_conditional_move_keeps_a_correlated_gaussian() -> None:
         return -0.5 * np.einsum("ij,jk,ik->i", d, prec, d)
 
     start = mean + rng.standard_normal((32, 4)) @ np.linalg.cholesky(cov).T
-    flat, ess = _kept(_run(log_prob, start, 3000))
+    return log_prob, start, mean, cov
+
+
+def _check_gaussian(chain: np.ndarray, mean: np.ndarray, cov: np.ndarray) -> None:
+    flat, ess = _kept(chain)
     sd = np.sqrt(np.diag(cov))
     assert np.all(np.abs(flat.mean(axis=0) - mean) < 4.5 * sd / np.sqrt(ess)), flat.mean(axis=0)
     assert np.all(np.abs(flat.std(axis=0) / sd - 1) < 6 / np.sqrt(2 * ess)), flat.std(axis=0) / sd
     assert np.all(np.abs(np.corrcoef(flat.T) - cov / np.outer(sd, sd)) < 0.08)
+
+
+@pytest.mark.slow      # a statistical check of a long chain: 3000 steps of 32 walkers, 4 s of CPU
+def test_the_conditional_move_keeps_a_correlated_gaussian() -> None:
+    log_prob, start, mean, cov = _gaussian_case()
+    _check_gaussian(_run(log_prob, start, 3000), mean, cov)
+
+
+@pytest.mark.slow      # a statistical check of a long chain: 3000 steps of 32 walkers, 3 s of CPU
+def test_the_laplace_move_keeps_a_correlated_gaussian() -> None:
+    log_prob, start, mean, cov = _gaussian_case()
+    _check_gaussian(_run(log_prob, start, 3000, moves=make_moves("de", laplace=_wrong_laplace(4))),
+                    mean, cov)
+
+
+@pytest.mark.slow      # a statistical check of a long chain: 4000 steps of 32 walkers, 4 s of CPU
+def test_the_laplace_move_keeps_a_skewed_density() -> None:
+    """x = ln y, y ~ Gamma(2, 1) (a skewed density, heavier on the left than a Gaussian), and
+    z | x ~ N(x, 0.3²): E x = ψ(2) = 1 - γ, Var x = ψ'(2) = π²/6 - 1; E z = E x, Var z = Var x +
+    0.09. The linearization proposes a Gaussian that is neither centred nor shaped like it."""
+    def log_prob(p):
+        x, z = p[:, 0], p[:, 1]
+        return 2.0 * x - np.exp(x) - 0.5 * ((z - x) / 0.3) ** 2
+
+    rng = np.random.default_rng(3)
+    x = np.log(rng.gamma(2.0, size=32))
+    start = np.column_stack([x, x + 0.3 * rng.standard_normal(32)])
+    moves = make_moves("de", laplace=(np.array([0.8, 0.6]), np.array([[0.6, 0.0], [0.55, 0.2]])))
+    flat, ess = _kept(_run(log_prob, start, 4000, moves=moves))
+    mean_x, var_x = 1.0 - np.euler_gamma, np.pi**2 / 6 - 1.0
+    mean, var = np.array([mean_x, mean_x]), np.array([var_x, var_x + 0.09])
+    assert np.all(np.abs(flat.mean(axis=0) - mean) < 4.5 * np.sqrt(var / ess)), flat.mean(axis=0)
+    assert np.all(np.abs(flat.var(axis=0) / var - 1) < 0.12), flat.var(axis=0) / var
 
 
 @pytest.mark.slow      # a statistical check of a long chain: 4000 steps of 32 walkers, 6 s of CPU
@@ -122,8 +166,30 @@ def test_the_move_changes_both_blocks_and_rejects_what_it_cannot_place() -> None
     assert f[0] == -np.inf and np.all(np.isfinite(f[1:]))
 
 
-def test_de_without_a_map_and_de_plain_are_plain_de() -> None:
+def test_the_laplace_moves_ratio_is_that_of_its_student_t() -> None:
+    """The Metropolis-Hastings factor is ln q(s) - ln q(proposal) of the multivariate Student t
+    (scipy's density), whatever the root (not triangular here)."""
+    from scipy.stats import multivariate_t
+
+    center, root = _wrong_laplace(3)
+    move = LaplaceMove(center, root, dof=6.0, scale=1.3)
+    rng = np.random.RandomState(8)
+    s = rng.randn(16, 3)
+    q, f = move.get_proposal(s, [rng.randn(16, 3)], rng)
+    t = multivariate_t(loc=center, shape=1.3**2 * root @ root.T, df=6.0)
+    np.testing.assert_allclose(f, t.logpdf(s) - t.logpdf(q), rtol=1e-10, atol=1e-10)
+    s[2, 1] = np.nan
+    q, f = move.get_proposal(s, [rng.randn(16, 3)], rng)
+    assert f[2] == -np.inf and np.all(np.isfinite(np.delete(f, 2)))
+
+
+def test_which_moves_de_makes() -> None:
+    """The conditional move with a map, else the Laplace move with a linearization, else DEMove;
+    ``de-plain`` is DEMove whatever is given."""
+    laplace = _wrong_laplace(4)
     assert type(make_moves("de")).__name__ == "DEMove"
-    assert type(make_moves("de-plain", _wrong_map())).__name__ == "DEMove"
-    kinds = [type(m).__name__ for m, _ in make_moves("de", _wrong_map())]
+    assert type(make_moves("de-plain", _wrong_map(), laplace)).__name__ == "DEMove"
+    kinds = [type(m).__name__ for m, _ in make_moves("de", _wrong_map(), laplace)]
     assert kinds == ["DEMove", "ConditionalMove"]
+    kinds = [type(m).__name__ for m, _ in make_moves("de", laplace=laplace)]
+    assert kinds == ["DEMove", "LaplaceMove"]

@@ -33,10 +33,10 @@ def test_check_schedule() -> None:
 @pytest.fixture(scope="module")
 def ess_bound_run(tmp_path_factory):
     """ESS is what binds: a short min_tau_multiple, checkpoints far apart. The target is high enough
-    that the run goes well past its first checkpoint (about 750 steps), which the resume test
+    that the run goes well past its first checkpoint (about 300 steps), which the resume test
     interrupts."""
     path = write_case(tmp_path_factory.mktemp("stop"), n=400, seed=3,
-                      sampler={"max_steps": 3000, "target_ess": 2000, "checkpoint_every": 500,
+                      sampler={"max_steps": 3000, "target_ess": 4000, "checkpoint_every": 100,
                                "min_tau_multiple": 10})
     post = sample(load_config(path), progress=False)
     return path, post
@@ -47,25 +47,25 @@ def test_stops_within_five_percent_of_the_target_ess(ess_bound_run) -> None:
     s = post.summary
     assert s["stop_reason"] == "converged"
     steps = s["steps"]
-    assert steps % 500 != 0                                # it stopped between two checkpoints
+    assert steps % 100 != 0                                # it stopped between two checkpoints
     kept_ess = [s["ess_autocorr"][k] for k in s["parameters"]]
     arviz = [min(s["posterior"][k]["ess_bulk"], s["posterior"][k]["ess_tail"]) for k in s["parameters"]]
     binding = min(min(kept_ess), min(arviz))
-    assert 2000 <= binding <= 1.05 * 2000
+    assert 4000 <= binding <= 1.05 * 4000
     assert read_run(path.parent / "chains.h5").steps == steps   # the partial block is committed
 
 
 def test_resume_after_an_early_stop_gives_the_same_chain(tmp_path, ess_bound_run) -> None:
     path, post = ess_bound_run
     ref = read_run(path.parent / "chains.h5")
-    assert ref.steps > 500              # the uninterrupted run went past the checkpoint stopped at
-    # the same run interrupted at its first checkpoint (max_steps 500), then continued
+    assert ref.steps > 200              # the uninterrupted run went past the checkpoint stopped at
+    # the same run interrupted at its second checkpoint (max_steps 200), then continued
     other = write_case(tmp_path, n=400, seed=3,
-                       sampler={"max_steps": 500, "target_ess": 2000, "checkpoint_every": 500,
+                       sampler={"max_steps": 200, "target_ess": 4000, "checkpoint_every": 100,
                                 "min_tau_multiple": 10})
     first = sample(load_config(other), progress=False)
     assert first.summary["stop_reason"] == "max_steps"
-    text = other.read_text().replace("max_steps: 500", "max_steps: 3000")
+    text = other.read_text().replace("max_steps: 200", "max_steps: 3000")
     other.write_text(text)
     again = sample(load_config(other), progress=False)
     run = read_run(other.parent / "chains.h5")

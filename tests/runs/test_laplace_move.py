@@ -1,0 +1,82 @@
+"""``sample`` with the white likelihood runs the Laplace move under `de`, says so, continues the same
+chain bit-exactly when a stopped run is taken further, and goes on with DEMove alone on a chain
+begun without it (by an earlier version)."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import h5py
+import numpy as np
+import yaml
+from support.sampling import write_case
+
+from bayes_dnlr.config import load_config
+from bayes_dnlr.inference.mcmc import ensemble
+from bayes_dnlr.runs.chains import read_run
+from bayes_dnlr.runs.sample import sample
+
+LAPLACE = "DEMove (0.3) + the Laplace move (0.7)"
+
+
+def _with(cfg: Path, **sampler) -> Path:
+    raw = yaml.safe_load(cfg.read_text())
+    raw["name"] = cfg.parent.name
+    raw["sampler"].update(sampler)
+    cfg.write_text(yaml.safe_dump(raw, sort_keys=False))
+    return cfg
+
+
+def _white(tmp_path: Path, name: str, **sampler) -> Path:
+    return write_case(tmp_path, name, n=300, seed=5,
+                      sampler={"max_steps": 40, "target_ess": 1e9, "checkpoint_every": 20, **sampler})
+
+
+def test_the_laplace_move_runs_and_a_longer_run_continues_the_same_chain(tmp_path: Path) -> None:
+    cfg = _white(tmp_path, "a")
+    post = sample(load_config(cfg), progress=False)
+    assert post.summary["moves"].startswith(LAPLACE), post.summary["moves"]
+    shutil.copytree(tmp_path / "a", tmp_path / "b")
+    one = _with(tmp_path / "b" / "config.yaml", max_steps=70)
+    for name in ("chains.h5", "posterior.nc", "summary.json"):
+        (one.parent / name).unlink()
+    sample(load_config(one), progress=False)
+    sample(load_config(_with(cfg, max_steps=70)), progress=False)
+    a, b = read_run(cfg.parent / "chains.h5"), read_run(one.parent / "chains.h5")
+    assert a.chain.shape == b.chain.shape == (70, 32, 3)
+    assert np.array_equal(a.chain, b.chain)
+
+
+def test_a_chain_begun_with_demove_alone_goes_on_with_it(tmp_path: Path, monkeypatch) -> None:
+    cfg = _white(tmp_path, "old")
+    sample(load_config(cfg), progress=False)
+    with h5py.File(cfg.parent / "chains.h5", "r+") as f:    # as an earlier version wrote it
+        f.attrs["moves_detail"] = "DEMove"
+    given = []
+    make = ensemble.make_moves
+    monkeypatch.setattr(ensemble, "make_moves", lambda kind, mapper=None, laplace=None: (
+        given.append(laplace), make(kind, mapper, laplace))[1])
+    post = sample(load_config(_with(cfg, max_steps=60)), progress=False)
+    assert given == [None]
+    assert post.summary["moves"] == "DEMove"
+    assert read_run(cfg.parent / "chains.h5").steps == 60
+
+
+def test_de_plain_keeps_demove_alone_on_a_white_chain(tmp_path: Path) -> None:
+    post = sample(load_config(_white(tmp_path, "p", moves="de-plain", max_steps=20)), progress=False)
+    assert post.summary["moves"].startswith("DEMove") and "Laplace" not in post.summary["moves"]
+
+
+def test_a_sampled_spectrum_exponent_keeps_demove_alone(tmp_path: Path) -> None:
+    """Where the posterior is far from its linearization (the spectrum's exponent sampled) the
+    Laplace move was accepted less often than DEMove: `de` is DEMove alone there."""
+    parameters = {"E": {"prior": "uniform", "low": 100, "high": 20000},
+                  "G": {"prior": "uniform", "low": 0, "high": 50},
+                  "tau_max": {"prior": "log-uniform", "low": 0.01, "high": 10000},
+                  "alpha": {"prior": "normal", "mean": 0.5, "sd": 0.05, "low": 0, "high": 1}}
+    cfg = write_case(tmp_path, "alpha", n=300, seed=5, parameters=parameters,
+                     sampler={"max_steps": 20, "target_ess": 1e9})
+    post = sample(load_config(cfg), progress=False)
+    assert "alpha" in post.summary["parameters"]
+    assert post.summary["moves"] == "DEMove"
