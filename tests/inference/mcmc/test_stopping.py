@@ -89,3 +89,20 @@ def test_tau_equals_emcee() -> None:
             ref = integrated_time(x[:, moving, j][:, :, None], c=5, tol=0, quiet=True)[0]
             assert ours[j] == pytest.approx(ref, rel=1e-12)
         assert ours[1] == np.inf
+
+
+def test_a_short_arviz_ess_puts_the_next_check_half_way_to_the_target(monkeypatch) -> None:
+    """emcee's criteria hold, ArviZ's ESS is half the target: the next check is half-way to the
+    step where ESS in proportion to the kept steps reaches it (kept / 2 steps on), not one step on."""
+    from bayes_dnlr.inference.mcmc import ess, stopping
+
+    chain = np.random.default_rng(0).standard_normal((400, 32, 2))      # white: τ ≈ 1
+    monkeypatch.setattr(ess, "diagnostics", lambda x: {"ess_bulk": 500.0, "ess_tail": 900.0,
+                                                       "r_hat": 1.0})
+    conv = stopping.convergence(chain, 5.0, 50.0, 1000.0)
+    assert not conv.converged and conv.arviz_ess == 500.0
+    assert conv.needed_steps == 400 + int(0.5 * conv.kept)
+    monkeypatch.setattr(ess, "diagnostics", lambda x: {"ess_bulk": 2000.0, "ess_tail": 2000.0,
+                                                       "r_hat": 1.02})
+    conv = stopping.convergence(chain, 5.0, 50.0, 1000.0)     # R-hat alone: the next step
+    assert not conv.converged and conv.needed_steps == 401
