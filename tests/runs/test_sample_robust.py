@@ -143,3 +143,23 @@ def test_a_changed_fit_method_points_at_what_sample_offers(tmp_path):
     # following the advice works
     assert main(["fit", "--force", "--quiet", str(path)]) == 0
     assert sample(load_config(path), progress=False).summary["steps"] == TINY["max_steps"]
+
+
+def test_the_laplace_move_is_left_out_where_its_linearization_meets_a_bound():
+    """Inside the box the linearization is the Laplace move's proposal (z0, an invertible root of
+    the covariance in sampling coordinates); an estimate within 2 sd of a bound, or on it with no
+    variance, gives none: the posterior is cut there and the linearization is not."""
+    from bayes_dnlr.inference.mcmc.ensemble import linearized_root
+
+    priors = _box(3)
+    cov = np.diag([0.01, 0.01, 0.04]) ** 2
+    x0 = np.array([0.5, 0.5, 1.0])
+    z0, root = linearized_root(priors, x0, cov)
+    np.testing.assert_allclose(z0, priors.from_physical(x0))
+    np.testing.assert_allclose(root @ root.T, cov * np.outer(priors.jacobian(x0), priors.jacobian(x0)),
+                               rtol=1e-10, atol=1e-14)
+    assert linearized_root(priors, np.array([0.5, 0.015, 1.0]), cov) is None     # 1.5 sd from 0
+    assert linearized_root(priors, np.array([0.5, 0.025, 1.0]), cov) is not None  # 2.5 sd
+    assert linearized_root(priors, np.array([0.5, 0.5, 0.011]), cov) is None     # log space
+    held = np.diag([1e-4, np.nan, 1e-6])
+    assert linearized_root(priors, np.array([0.5, 0.0, 1.0]), held) is None

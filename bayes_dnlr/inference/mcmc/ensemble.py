@@ -133,12 +133,21 @@ def _linearized(priors, x0: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np
     return z0, _root(np.asarray(cov, dtype=float) * np.outer(jac, jac), z0, width)
 
 
+INSIDE_SDS = 2.0   # the linearized posterior is a proposal only this many sd inside the support
+
+
 def linearized_root(priors, x0: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """The linearized posterior (eq. 32) as the walkers start from it, in sampling coordinates:
     (the estimate, an invertible square root of its covariance); None when the estimate is not
-    finite there."""
+    finite there, or when it lies within ``INSIDE_SDS`` linearized sd of a bound of the prior's
+    support (held on a bound by the fit, say): the posterior is then cut where the linearization
+    is not, and is no longer close to it."""
     z0, root = _linearized(priors, np.asarray(x0, dtype=float), cov)
     if root is None or not np.all(np.isfinite(root)) or np.linalg.det(root) == 0:
+        return None
+    zlo, zhi = support_box(priors)
+    sd = np.sqrt(np.sum(root * root, axis=1))
+    if np.any(z0 - INSIDE_SDS * sd < zlo) or np.any(z0 + INSIDE_SDS * sd > zhi):
         return None
     return z0, root
 
