@@ -32,6 +32,7 @@ from bayes_dnlr.inference.mcmc.ensemble import (
     CONDITIONAL,
     LAPLACE,
     MOVES,
+    clear_of_bounds,
     linearized_root,
     make_moves,
     run_ensemble,
@@ -72,7 +73,7 @@ from bayes_dnlr.runs.outputs import (
     write_outputs,
 )
 from bayes_dnlr.runs.records import FitRecord
-from bayes_dnlr.runs.target import build_target
+from bayes_dnlr.runs.target import Target, build_target
 from bayes_dnlr.runs.testset import TestSet, load_tests
 
 # config sections that change the posterior or the chain; max_steps, target_ess, checkpoint_every,
@@ -191,6 +192,27 @@ def _current_fit(cfg: Config, test, *, replace: bool, progress: bool) -> dict[st
     return load_fit(cfg.run_dir)
 
 
+def _independence_move(moves: str, target: Target, stored: StoredRun | None) -> tuple[Any, Any]:
+    """The independence move `de` adds to DEMove (inference/mcmc/blocks.py), from fit.json:
+    (the conditional map, the Laplace proposal), at most one of them given. The conditional move
+    with sampled discrepancy hyperparameters, the Laplace move where the posterior is close to its
+    linearization (``Target.near_linear``); neither where that linearization meets a bound of the
+    prior (of a model parameter; of any, for the Laplace move). A resumed chain goes on with the
+    moves it began with (its ``moves_detail``; DEMove alone for a chain of an earlier version)."""
+    if moves != "de":
+        return None, None
+    post, priors = target.post, target.priors
+    lin = linearized_root(priors, target.x0, target.cov)
+    if stored is None:
+        conditional = lin is not None and clear_of_bounds(priors, *lin, target.model_indices)
+        laplace = conditional and target.near_linear and clear_of_bounds(priors, *lin)
+    else:
+        began = stored.attrs.get("moves_detail")
+        conditional, laplace = began == CONDITIONAL, began == LAPLACE
+    mapper = post.conditional_map(priors.from_physical(target.x0)) if conditional else None
+    return mapper, (lin if laplace and mapper is None else None)
+
+
 def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before=None,
             report_curves: bool = True) -> Posterior:
     run_dir = cfg.run_dir
@@ -242,13 +264,7 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
                             "`sample --restart` discards it and starts again")
 
     walkers, ndim = sc.walkers, len(names)
-    # the conditional move of `de` (inference/mcmc/blocks.py), from fit.json: the same on a resume
-    mapper = post.conditional_map(priors.from_physical(target.x0)) if sc.moves == "de" else None
-    # else the Laplace move where the posterior is close to its linearization; a chain begun with
-    # DEMove alone (an earlier version) goes on so
-    laplace = (linearized_root(priors, target.x0, target.cov)
-               if sc.moves == "de" and target.near_linear
-               and (stored is None or stored.attrs.get("moves_detail") != MOVES["de"]) else None)
+    mapper, laplace = _independence_move(sc.moves, target, stored)
     if stored is None:
         coords, lp = start_ensemble(post, priors, target.x0, target.cov, walkers, sc.seed)
         state0 = SamplerState(coords, lp, np.random.RandomState(sc.seed).get_state())

@@ -43,6 +43,11 @@ class Target:
         return self.priors.names
 
     @property
+    def model_indices(self) -> list[int]:
+        """The positions of the model parameters (not σ0 nor the discrepancy's) in ``names``."""
+        return [j for j, k in enumerate(self.names) if base_name(k) not in NOISE_NAMES]
+
+    @property
     def near_linear(self) -> bool:
         """Whether the posterior is expected close to its linearization (eq. 32), for the Laplace
         move (inference/mcmc/blocks.py): not when the discrepancy's amplitude or length, or the

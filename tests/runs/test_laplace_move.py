@@ -80,3 +80,18 @@ def test_a_sampled_spectrum_exponent_keeps_demove_alone(tmp_path: Path) -> None:
     post = sample(load_config(cfg), progress=False)
     assert "alpha" in post.summary["parameters"]
     assert post.summary["moves"] == "DEMove"
+
+
+def test_an_estimate_held_on_a_bound_keeps_demove_alone(tmp_path: Path) -> None:
+    """G = 0 in the data: the fit puts G within 2 sd of its prior's bound, where the posterior is
+    cut and the linearization is not; `de` is DEMove alone (the white and the discrepancy
+    likelihood alike)."""
+    for name, extra in (("white", {}), ("disc", {"noise": "residuals", "discrepancy": "default",
+                                                 "error": ("exp", 0.5, 20.0)})):
+        cfg = write_case(tmp_path, name, n=300, seed=5, params={"E": 2854.0, "G": 0.0, "tau_max": 5.79},
+                         sampler={"max_steps": 20, "target_ess": 1e9}, **extra)
+        post = sample(load_config(cfg), progress=False)
+        gn = post.summary["gauss_newton"]
+        assert gn["estimate"]["G"] < 2 * gn["sd"]["G"], (name, gn["estimate"]["G"], gn["sd"]["G"])
+        assert post.summary["moves"] == "DEMove", (name, post.summary["moves"])
+        assert ("disc_amplitude" in post.summary["parameters"]) == (name == "disc")

@@ -145,11 +145,11 @@ def test_a_changed_fit_method_points_at_what_sample_offers(tmp_path):
     assert sample(load_config(path), progress=False).summary["steps"] == TINY["max_steps"]
 
 
-def test_the_laplace_move_is_left_out_where_its_linearization_meets_a_bound():
-    """Inside the box the linearization is the Laplace move's proposal (z0, an invertible root of
-    the covariance in sampling coordinates); an estimate within 2 sd of a bound, or on it with no
-    variance, gives none: the posterior is cut there and the linearization is not."""
-    from bayes_dnlr.inference.mcmc.ensemble import linearized_root
+def test_the_independence_moves_are_left_out_where_the_linearization_meets_a_bound():
+    """Inside the box the linearization is the independence moves' proposal (z0, an invertible root
+    of the covariance in sampling coordinates); an estimate within 2 sd of a bound, or on it with
+    no variance, is not clear of it: the posterior is cut there and the linearization is not."""
+    from bayes_dnlr.inference.mcmc.ensemble import clear_of_bounds, linearized_root
 
     priors = _box(3)
     cov = np.diag([0.01, 0.01, 0.04]) ** 2
@@ -158,8 +158,14 @@ def test_the_laplace_move_is_left_out_where_its_linearization_meets_a_bound():
     np.testing.assert_allclose(z0, priors.from_physical(x0))
     np.testing.assert_allclose(root @ root.T, cov * np.outer(priors.jacobian(x0), priors.jacobian(x0)),
                                rtol=1e-10, atol=1e-14)
-    assert linearized_root(priors, np.array([0.5, 0.015, 1.0]), cov) is None     # 1.5 sd from 0
-    assert linearized_root(priors, np.array([0.5, 0.025, 1.0]), cov) is not None  # 2.5 sd
-    assert linearized_root(priors, np.array([0.5, 0.5, 0.011]), cov) is None     # log space
+    assert clear_of_bounds(priors, z0, root)
+
+    def clear(x, c=cov, which=None):
+        return clear_of_bounds(priors, *linearized_root(priors, np.array(x), c), which)
+
+    assert not clear([0.5, 0.015, 1.0])                    # 1.5 sd from 0
+    assert clear([0.5, 0.025, 1.0])                        # 2.5 sd
+    assert not clear([0.5, 0.5, 0.011])                    # log space: ln 0.011 - 2 sd < ln 0.01
+    assert clear([0.5, 0.015, 1.0], which=[0, 2])          # the parameters asked about only
     held = np.diag([1e-4, np.nan, 1e-6])
-    assert linearized_root(priors, np.array([0.5, 0.0, 1.0]), held) is None
+    assert not clear([0.5, 0.0, 1.0], held)

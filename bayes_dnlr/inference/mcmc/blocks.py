@@ -1,14 +1,15 @@
 """Independence moves from the linearized posterior (eq. 32), for emcee:
 
 - ``LaplaceMove``, every parameter drawn afresh from a Student t around the start of the chain
-  (fit.json's estimate and covariance), when there is no discrepancy's hyperparameter to sample;
+  (fit.json's estimate and covariance), with the white likelihood;
 - ``ConditionalMove``, the discrepancy's hyperparameters drawn from the other walkers and the model
   parameters from their conditional given them.
 
-Both are Metropolis-Hastings with the proposal densities' ratio, so where the linearization is wrong
-they are only less often accepted, never biased; the differential evolution beside them still moves
-the walkers there. Both draw from emcee's ``RandomState`` only (the chain is reproducible and
-resumes bit-exactly).
+Both are Metropolis-Hastings with the proposal densities' ratio, so where the linearization is
+wrong they are only less often accepted, never biased; the differential evolution beside them still
+moves the walkers there. Where it is known to be wrong (a parameter near a bound of its prior, a
+sampled spectrum exponent) ``sample`` leaves them out (runs/sample.py, docs/sampling.md). Both draw
+from emcee's ``RandomState`` only (the chain is reproducible and resumes bit-exactly).
 
 ``LaplaceMove``: the least-squares posteriors of the DNLR model are close to their linearization
 (the shipped examples' posterior sd agree with the Gauss-Newton sd within 5 %) but narrow and

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -139,17 +139,24 @@ INSIDE_SDS = 2.0   # the linearized posterior is a proposal only this many sd in
 def linearized_root(priors, x0: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """The linearized posterior (eq. 32) as the walkers start from it, in sampling coordinates:
     (the estimate, an invertible square root of its covariance); None when the estimate is not
-    finite there, or when it lies within ``INSIDE_SDS`` linearized sd of a bound of the prior's
-    support (held on a bound by the fit, say): the posterior is then cut where the linearization
-    is not, and is no longer close to it."""
+    finite there."""
     z0, root = _linearized(priors, np.asarray(x0, dtype=float), cov)
     if root is None or not np.all(np.isfinite(root)) or np.linalg.det(root) == 0:
         return None
+    return z0, root
+
+
+def clear_of_bounds(priors, z0: np.ndarray, root: np.ndarray, which: Sequence[int] | None = None
+                    ) -> bool:
+    """Whether the linearized posterior (``linearized_root``) of the parameters ``which`` (default:
+    all) lies ``INSIDE_SDS`` sd inside its prior's support. Not for an estimate near a bound (held
+    on it by the fit, say): the posterior is cut there where the linearization is not, and an
+    independence move from it is mostly rejected (docs/sampling.md)."""
     zlo, zhi = support_box(priors)
     sd = np.sqrt(np.sum(root * root, axis=1))
-    if np.any(z0 - INSIDE_SDS * sd < zlo) or np.any(z0 + INSIDE_SDS * sd > zhi):
-        return None
-    return z0, root
+    idx = np.arange(z0.size) if which is None else np.asarray(which, dtype=int)
+    return bool(np.all(z0[idx] - INSIDE_SDS * sd[idx] >= zlo[idx])
+                and np.all(z0[idx] + INSIDE_SDS * sd[idx] <= zhi[idx]))
 
 
 def start_ensemble(log_prob: Callable[[np.ndarray], np.ndarray], priors, x0: np.ndarray,
