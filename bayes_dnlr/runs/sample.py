@@ -204,8 +204,9 @@ def _independence_move(moves: str, target: Target, stored: StoredRun | None) -> 
     post, priors = target.post, target.priors
     lin = linearized_root(priors, target.x0, target.cov)
     if stored is None:
-        conditional = lin is not None and clear_of_bounds(priors, *lin, target.model_indices)
-        laplace = conditional and target.near_linear and clear_of_bounds(priors, *lin)
+        clear = lin is not None and clear_of_bounds(priors, *lin, target.model_indices)
+        conditional = clear        # conditional_map is None where no hyperparameter is sampled
+        laplace = clear and target.near_linear and clear_of_bounds(priors, *lin)
     else:
         began = stored.attrs.get("moves_detail")
         conditional, laplace = began == CONDITIONAL, began == LAPLACE

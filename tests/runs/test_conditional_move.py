@@ -3,24 +3,13 @@ says so, and continues the same chain bit-exactly when a stopped run is taken fu
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import numpy as np
-import yaml
-from support.sampling import write_case
+from support.sampling import taken_further_and_in_one_go, write_case
 
 from bayes_dnlr.config import load_config
-from bayes_dnlr.runs.chains import read_run
 from bayes_dnlr.runs.sample import sample
-
-
-def _with(cfg: Path, **sampler) -> Path:
-    raw = yaml.safe_load(cfg.read_text())
-    raw["name"] = cfg.parent.name
-    raw["sampler"].update(sampler)
-    cfg.write_text(yaml.safe_dump(raw, sort_keys=False))
-    return cfg
 
 
 def test_the_conditional_move_runs_and_a_longer_run_continues_the_same_chain(tmp_path: Path) -> None:
@@ -32,13 +21,7 @@ def test_the_conditional_move_runs_and_a_longer_run_continues_the_same_chain(tmp
     assert names[-2:] == ["disc_amplitude", "disc_length"], names
     assert post.summary["moves"].startswith("DEMove (0.3) + the conditional move (0.7)")
     # the same run in one go, to 90 steps, against 60 steps then 30 more
-    shutil.copytree(tmp_path / "a", tmp_path / "b")
-    one = _with(tmp_path / "b" / "config.yaml", max_steps=90)
-    for name in ("chains.h5", "posterior.nc", "summary.json"):
-        (one.parent / name).unlink()
-    sample(load_config(one), progress=False)
-    sample(load_config(_with(cfg, max_steps=90)), progress=False)
-    a, b = read_run(cfg.parent / "chains.h5"), read_run(one.parent / "chains.h5")
+    a, b = taken_further_and_in_one_go(cfg, 90)
     assert a.chain.shape == b.chain.shape == (90, 32, len(names))
     assert np.array_equal(a.chain, b.chain)
     # and the hyperparameters move: every walker visits several values in 90 steps

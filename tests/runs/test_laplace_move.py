@@ -4,13 +4,11 @@ begun without it (by an earlier version)."""
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import h5py
 import numpy as np
-import yaml
-from support.sampling import write_case
+from support.sampling import taken_further_and_in_one_go, with_sampler, write_case
 
 from bayes_dnlr.config import load_config
 from bayes_dnlr.inference.mcmc import ensemble
@@ -18,14 +16,6 @@ from bayes_dnlr.runs.chains import read_run
 from bayes_dnlr.runs.sample import sample
 
 LAPLACE = "DEMove (0.3) + the Laplace move (0.7)"
-
-
-def _with(cfg: Path, **sampler) -> Path:
-    raw = yaml.safe_load(cfg.read_text())
-    raw["name"] = cfg.parent.name
-    raw["sampler"].update(sampler)
-    cfg.write_text(yaml.safe_dump(raw, sort_keys=False))
-    return cfg
 
 
 def _white(tmp_path: Path, name: str, **sampler) -> Path:
@@ -37,13 +27,7 @@ def test_the_laplace_move_runs_and_a_longer_run_continues_the_same_chain(tmp_pat
     cfg = _white(tmp_path, "a")
     post = sample(load_config(cfg), progress=False)
     assert post.summary["moves"].startswith(LAPLACE), post.summary["moves"]
-    shutil.copytree(tmp_path / "a", tmp_path / "b")
-    one = _with(tmp_path / "b" / "config.yaml", max_steps=70)
-    for name in ("chains.h5", "posterior.nc", "summary.json"):
-        (one.parent / name).unlink()
-    sample(load_config(one), progress=False)
-    sample(load_config(_with(cfg, max_steps=70)), progress=False)
-    a, b = read_run(cfg.parent / "chains.h5"), read_run(one.parent / "chains.h5")
+    a, b = taken_further_and_in_one_go(cfg, 70)
     assert a.chain.shape == b.chain.shape == (70, 32, 3)
     assert np.array_equal(a.chain, b.chain)
 
@@ -57,7 +41,7 @@ def test_a_chain_begun_with_demove_alone_goes_on_with_it(tmp_path: Path, monkeyp
     make = ensemble.make_moves
     monkeypatch.setattr(ensemble, "make_moves", lambda kind, mapper=None, laplace=None: (
         given.append(laplace), make(kind, mapper, laplace))[1])
-    post = sample(load_config(_with(cfg, max_steps=60)), progress=False)
+    post = sample(load_config(with_sampler(cfg, max_steps=60)), progress=False)
     assert given == [None]
     assert post.summary["moves"] == "DEMove"
     assert read_run(cfg.parent / "chains.h5").steps == 60

@@ -153,3 +153,32 @@ def coverage(results: list[dict[str, dict[str, float]]], truth: dict[str, float]
         out[k] = {"coverage": float(np.mean(inside)), "z_mean": float(z.mean()),
                   "z_sd": float(z.std(ddof=1)), "n": len(results)}
     return out
+
+
+def with_sampler(cfg: Path, **sampler) -> Path:
+    """``cfg`` with these ``sampler:`` keys (and its name set to its folder's, as a copied run's)."""
+    raw = yaml.safe_load(cfg.read_text())
+    raw["name"] = cfg.parent.name
+    raw["sampler"].update(sampler)
+    cfg.write_text(yaml.safe_dump(raw, sort_keys=False))
+    return cfg
+
+
+def taken_further_and_in_one_go(cfg: Path, steps: int):
+    """The finished short run of ``cfg`` taken further to ``steps``, and a copy of it sampled to
+    ``steps`` in one go from an empty run folder beside it: their two chains (StoredRun)."""
+    import shutil
+
+    from bayes_dnlr.config import load_config
+    from bayes_dnlr.runs.chains import read_run
+    from bayes_dnlr.runs.sample import sample
+
+    run = cfg.parent
+    one = with_sampler(Path(shutil.copytree(run, run.parent / f"{run.name}-one")) / cfg.name,
+                       max_steps=steps)
+    for name in ("chains.h5", "posterior.nc", "summary.json"):
+        (one.parent / name).unlink()
+    sample(load_config(one), progress=False)
+    sample(load_config(with_sampler(cfg, max_steps=steps)), progress=False)
+    return read_run(run / "chains.h5"), read_run(one.parent / "chains.h5")
+

@@ -57,16 +57,15 @@ LAPLACE_WEIGHT = 0.7      # share of the steps that make the Laplace move (the r
 _emcee = load_emcee()
 
 
-def t_logpdf(x: np.ndarray, mean: np.ndarray, chol: np.ndarray, dof: float) -> np.ndarray:
-    """log density of the multivariate Student t (location ``mean``, scale ``chol cholᵀ``, ``dof``
-    degrees of freedom) at the rows of x, up to a constant that cancels in a ratio."""
-    u = np.linalg.solve(chol, (x - mean).T)
-    return -0.5 * (dof + mean.size) * np.log1p(np.sum(u * u, axis=0) / dof)
-
-
 def _t_log_kernel(u: np.ndarray, dof: float) -> np.ndarray:
     """log density of the standard multivariate Student t at the rows of u, up to a constant."""
     return -0.5 * (dof + u.shape[1]) * np.log1p(np.sum(u * u, axis=1) / dof)
+
+
+def t_logpdf(x: np.ndarray, mean: np.ndarray, chol: np.ndarray, dof: float) -> np.ndarray:
+    """log density of the multivariate Student t (location ``mean``, scale ``chol cholᵀ``, ``dof``
+    degrees of freedom) at the rows of x, up to a constant that cancels in a ratio."""
+    return _t_log_kernel(np.linalg.solve(chol, (x - mean).T).T, dof)
 
 
 class LaplaceMove(_emcee.moves.RedBlueMove):
