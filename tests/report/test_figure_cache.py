@@ -139,6 +139,7 @@ def test_other_runnable_counts_the_tasks_running_now(monkeypatch, tmp_path):
         return real_open(loadavg if path == "/proc/loadavg" else path, *args, **kwargs)
 
     monkeypatch.setattr(builtins, "open", fake_open)
+    monkeypatch.setattr(machine_load, "own_runnable", lambda: 1)
     monkeypatch.setattr(machine_load.os, "getloadavg", lambda: (1.25, 1.0, 1.0))
     loadavg.write_text("1.90 1.50 1.20 3/120 999\n")
     assert machine_load.other_runnable() == 2
@@ -155,6 +156,39 @@ def test_a_task_runnable_for_an_instant_is_not_a_load(monkeypatch):
 
     counts = iter([3, 1, 2])
     monkeypatch.setattr(machine_load, "_runnable_now", lambda: next(counts))
+    monkeypatch.setattr(machine_load, "own_runnable", lambda: 1)
     assert machine_load.other_runnable() == 0
     counts = iter([2, 2, 3])
     assert machine_load.other_runnable() == 1
+
+
+def test_this_process_threads_are_not_another_task(monkeypatch):
+    """A thread of this process still running after a parallel call (numba's OpenMP pool spins a
+    moment before it sleeps) is not a load: it took the figure worker away from a report made
+    right after `sample` in the same process."""
+    from bayes_dnlr import machine_load
+
+    monkeypatch.setattr(machine_load, "_runnable_now", lambda: 3)
+    monkeypatch.setattr(machine_load, "own_runnable", lambda: 2)
+    assert machine_load.other_runnable() == 1
+    monkeypatch.setattr(machine_load, "own_runnable", lambda: 3)
+    assert machine_load.other_runnable() == 0
+
+
+def test_own_runnable_counts_the_threads_in_state_r(tmp_path):
+    """The threads of /proc/<pid>/task whose state is R; at least 1 (the caller), also where the
+    folder cannot be read or a thread ended since the listing."""
+    from bayes_dnlr import machine_load
+
+    def task(tid: str, comm: str, state: str | None) -> None:
+        (tmp_path / tid).mkdir()
+        if state is not None:
+            (tmp_path / tid / "stat").write_text(f"{tid} ({comm}) {state} 1 2 3 4\n")
+
+    task("10", "python", "R")
+    task("11", "numba (omp) R", "S")       # a name with ') R' in it: the state is after the last ')'
+    task("12", "python", "R")
+    task("13", "python", None)             # ended: its stat is gone
+    assert machine_load.own_runnable(str(tmp_path)) == 2
+    assert machine_load.own_runnable(str(tmp_path / "absent")) == 1
+    assert machine_load.own_runnable() >= 1         # this process, the real /proc
