@@ -7,6 +7,10 @@
    ``shared/data/real`` beside or above the clone).
 2. The shipped example ``runs/hdpe-a-5e-3`` (copied; the shipped folder is not touched): ``sample``
    from an empty run folder.
+3. The same real curves from Python, as a notebook would: one process runs ``bd.sample`` and
+   ``build_report`` on the three ETFE specimens from empty run folders, ``--repeats`` rounds; the
+   first curve pays the imports and numba's first dispatch, every later one only its own work
+   (``--skip-session`` leaves it out).
 
 Each command's wall time and CPU time (user + system of the process and its threads and children) is
 printed for every repeat, with the minimum and the median, and the sum of ``sample`` and ``report``
@@ -20,11 +24,13 @@ before and after: on a shared machine read the CPU times and the ratios, which d
 other jobs as much as the wall time does.
 
     .venv/bin/python benchmarks/user_workflow.py [--repeats 5] [--specimen 1] [--skip-shipped]
+                                                 [--skip-session]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import resource
 import shutil
@@ -109,6 +115,45 @@ def workflow(config: Path, steps: list[tuple[str, list[str]]], repeats: int
     return times, refs
 
 
+SESSION = r"""
+import json, sys, time
+import bayes_dnlr as bd
+from bayes_dnlr.report import build_report
+for run in sys.argv[1:]:
+    t = time.perf_counter()
+    bd.sample(bd.load_config(run + "/config.yaml"), progress=False)
+    s = time.perf_counter()
+    build_report(run)
+    print(json.dumps({"run": run, "sample": s - t, "report": time.perf_counter() - s}), flush=True)
+"""
+
+
+def session(tmp: Path, real: Path, repeats: int) -> list[dict]:
+    """Per curve, (sample, report) seconds of the three ETFE specimens in one Python process,
+    ``repeats`` rounds from empty run folders (the first curve of the process first)."""
+    runs = []
+    for k in (1, 2, 3):
+        config = tmp / f"session-{k}" / "config.yaml"
+        command("init", str(real / ETFE), "--out", str(config))
+        config.write_text(config.read_text().replace("specimen: 1 ", f"specimen: {k} "))
+        runs.append(config.parent)
+    for run in runs:
+        empty(run)
+    rounds = [str(r) for _ in range(repeats) for r in runs]
+    # each round again from an empty folder: a small driver empties it before its turn
+    driver = SESSION.replace("    t = time.perf_counter()\n",
+                             "    import shutil, pathlib\n"
+                             "    for n in OUTPUTS:\n"
+                             "        p = pathlib.Path(run) / n\n"
+                             "        shutil.rmtree(p) if p.is_dir() else p.unlink(missing_ok=True)\n"
+                             "    t = time.perf_counter()\n")
+    out = subprocess.run([sys.executable, "-c", f"OUTPUTS = {OUTPUTS!r}\n" + driver, *rounds],
+                         capture_output=True, text=True, check=False)
+    if out.returncode != 0:
+        sys.exit(f"the session failed:\n{out.stdout}\n{out.stderr}")
+    return [json.loads(line) for line in out.stdout.splitlines() if line.startswith("{")]
+
+
 def paired(label: str, values: list[tuple[float, float]], refs: list[float | None]) -> str | None:
     """Each run's wall time over the reference job timed just before it: min and median."""
     if not refs or any(r is None for r in refs):
@@ -123,6 +168,7 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--specimen", type=int, default=1, help="ETFE specimen (1-3), as init numbers them")
     ap.add_argument("--skip-shipped", action="store_true", help="only the real curve")
+    ap.add_argument("--skip-session", action="store_true", help="no Python session (part 3)")
     args = ap.parse_args()
 
     print(load())
@@ -147,6 +193,9 @@ def main() -> None:
             print("the same in one process: sample --report")
             results["one"] = workflow(config, [("sample --report",
                                                 ["sample", str(config), "--report"])], args.repeats)
+        if real is not None and not args.skip_session:
+            print("the three specimens in one Python session (bd.sample, build_report)")
+            results["session"] = session(tmp, real, args.repeats)
         if not args.skip_shipped:
             run = tmp / "hdpe-a-5e-3"
             shutil.copytree(ROOT / "runs" / "hdpe-a-5e-3", run,
@@ -178,6 +227,17 @@ def main() -> None:
         text = paired(label, values, refs)
         if text:
             print(text)
+    if "session" in results:
+        first, *later = results["session"]
+        print(f"Python session, the first curve (the imports and numba's first dispatch in it): "
+              f"sample {first['sample']:.2f} s + report {first['report']:.2f} s")
+        both = [r["sample"] + r["report"] for r in later]
+        ratio = (f" = {min(both) / unit:5.2f} (min) / {statistics.median(both) / unit:5.2f} "
+                 "(median) ref. jobs" if unit else "")
+        print(f"Python session, each later curve ({len(later)}): sample + report min "
+              f"{min(both):.2f} s, median {statistics.median(both):.2f} s{ratio}; sample median "
+              f"{statistics.median(r['sample'] for r in later):.2f} s, report median "
+              f"{statistics.median(r['report'] for r in later):.2f} s")
 
 
 if __name__ == "__main__":
