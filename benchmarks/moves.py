@@ -5,7 +5,8 @@ walkers, every move starts from the same draw of the linearized posterior and ru
 steps; τ (emcee's estimator, c = 5) is measured after a burn-in of 5 τ. Fewer steps per τ means
 fewer steps to the same ESS; the cost of a step is about the same for every move (one model
 evaluation per walker). "de" is ``sample``'s default: DEMove with the Laplace move on a white
-chain, with the conditional move when the discrepancy's hyperparameters are sampled.
+chain, with the conditional move when the discrepancy's hyperparameters are sampled, with the
+complement move where neither linearization can be trusted.
 
     .venv/bin/python benchmarks/moves.py [config.yaml] [--steps 4000] [--repeats 2]
 
@@ -26,9 +27,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 
-def variants(mapper, laplace):
-    """Each compared move set; ``de`` as ``sample`` makes it (with the Laplace move on a white
-    chain, the conditional move with sampled discrepancy hyperparameters)."""
+def variants(chosen):
+    """Each compared move set; ``de`` as ``sample`` makes it (``chosen``: its independence move,
+    runs.sample.independence_moves: the Laplace move on a white chain, the conditional move with
+    sampled discrepancy hyperparameters, the complement move where neither applies)."""
     import emcee.moves as mv
 
     from bayes_dnlr.inference.mcmc.ensemble import make_moves
@@ -38,7 +40,7 @@ def variants(mapper, laplace):
         "DE (de-plain)": lambda: mv.DEMove(),
         "DE(0.8)+snooker(0.2)": lambda: [(mv.DEMove(), 0.8), (mv.DESnookerMove(), 0.2)],
         "DE(0.8)+stretch(0.2)": lambda: [(mv.DEMove(), 0.8), (mv.StretchMove(), 0.2)],
-        "de (sample's default)": lambda: make_moves("de", mapper, laplace),
+        "de (sample's default)": lambda: make_moves("de", *chosen),
     }
 
 
@@ -98,13 +100,11 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=2)
     args = ap.parse_args()
     cfg, fitd, target = setup(args.config)
-    from bayes_dnlr.inference.mcmc.ensemble import linearized_root
+    from bayes_dnlr.runs.sample import independence_moves
 
     post, names = target.post, target.names
     z0 = target.priors.from_physical(target.x0)
-    mapper = post.conditional_map(z0)
-    laplace = (linearized_root(target.priors, target.x0, target.cov) if target.near_linear
-               else None)
+    chosen = independence_moves("de", target, None, args.walkers)   # as sample chooses
     post(z0[None])  # compile
     corr = np.asarray(fitd["correlation"], dtype=float)
     rho = f"{corr[0, names.index('tau_max')]:.4f}" if corr.shape[0] == len(names) else "-"
@@ -112,7 +112,7 @@ def main() -> None:
           f"{args.steps} steps, {args.repeats} seeds; GN correlation E-tau_max = {rho}")
     head = f"{'moves':<22} " + " ".join(f"{'tau ' + k:>12}" for k in names)
     print(head + f" {'tau max':>8} {'accept':>7} {'ms/step':>8} {'ESS/s':>7}")
-    for label, make in variants(mapper, laplace).items():
+    for label, make in variants(chosen).items():
         taus, costs, accs = [], [], []
         for r in range(args.repeats):
             tau, cost, acc = run(target, make(), args.steps, args.walkers, seed=11 + r)

@@ -29,10 +29,12 @@ from bayes_dnlr.digests import digest
 from bayes_dnlr.errors import BayesDnlrError, StaleRunError
 from bayes_dnlr.inference.layout import Layout
 from bayes_dnlr.inference.mcmc.ensemble import (
+    COMPLEMENT,
     CONDITIONAL,
     LAPLACE,
     MOVES,
     clear_of_bounds,
+    complement_fits,
     linearized_root,
     make_moves,
     run_ensemble,
@@ -192,26 +194,32 @@ def _current_fit(cfg: Config, test, *, replace: bool, progress: bool) -> dict[st
     return load_fit(cfg.run_dir)
 
 
-def _independence_move(moves: str, target: Target, stored: StoredRun | None) -> tuple[Any, Any]:
-    """The independence move `de` adds to DEMove (inference/mcmc/blocks.py), from fit.json:
-    (the conditional map, the Laplace proposal), at most one of them given. The conditional move
-    with sampled discrepancy hyperparameters, the Laplace move where the posterior is close to its
-    linearization (``Target.near_linear``); neither where that linearization meets a bound of the
-    prior (of a model parameter; of any, for the Laplace move). A resumed chain goes on with the
-    moves it began with (its ``moves_detail``; DEMove alone for a chain of an earlier version)."""
+def independence_moves(moves: str, target: Target, stored: StoredRun | None,
+                       walkers: int) -> tuple[Any, Any, bool]:
+    """The independence move `de` adds to DEMove (inference/mcmc/blocks.py): (the conditional
+    map, the Laplace proposal, the complement move), at most one of them given. The conditional
+    move with sampled discrepancy hyperparameters, the Laplace move where the posterior is close to
+    its linearization (``Target.near_linear``), both from fit.json; where that linearization meets
+    a bound of the prior (of a model parameter; of any, for the Laplace move), or neither applies,
+    the complement move, when half of the ``walkers`` are enough for it (``complement_fits``). A
+    resumed chain goes on with the moves it began with (its ``moves_detail``; DEMove alone for a
+    chain of an earlier version)."""
     if moves != "de":
-        return None, None
+        return None, None, False
     post, priors = target.post, target.priors
     lin = linearized_root(priors, target.x0, target.cov)
     if stored is None:
         clear = lin is not None and clear_of_bounds(priors, *lin, target.model_indices)
         conditional = clear        # conditional_map is None where no hyperparameter is sampled
         laplace = clear and target.near_linear and clear_of_bounds(priors, *lin)
+        complement = complement_fits(walkers, len(target.names))
     else:
         began = stored.attrs.get("moves_detail")
         conditional, laplace = began == CONDITIONAL, began == LAPLACE
+        complement = began == COMPLEMENT
     mapper = post.conditional_map(priors.from_physical(target.x0)) if conditional else None
-    return mapper, (lin if laplace and mapper is None else None)
+    lap = lin if laplace and mapper is None else None
+    return mapper, lap, complement and mapper is None and lap is None
 
 
 def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before=None,
@@ -265,7 +273,7 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
                             "`sample --restart` discards it and starts again")
 
     walkers, ndim = sc.walkers, len(names)
-    mapper, laplace = _independence_move(sc.moves, target, stored)
+    mapper, laplace, complement = independence_moves(sc.moves, target, stored, walkers)
     if stored is None:
         coords, lp = start_ensemble(post, priors, target.x0, target.cov, walkers, sc.seed)
         state0 = SamplerState(coords, lp, np.random.RandomState(sc.seed).get_state())
@@ -277,7 +285,7 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
             "data_file": str(test.path), "version": _version(), "modes": cfg.model.modes,
             "decades": cfg.model.decades, "moves": sc.moves, "seed": sc.seed,
             "moves_detail": (CONDITIONAL if mapper is not None else LAPLACE if laplace is not None
-                             else MOVES.get(sc.moves, sc.moves)),
+                             else COMPLEMENT if complement else MOVES.get(sc.moves, sc.moves)),
             "sigma0": _sigma0_attr(sigma0), "sigma0_source": json.dumps(sigma0_source),
             "created": datetime.now(UTC).isoformat(timespec="seconds"), **target.meta,
         }
@@ -301,7 +309,7 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
     try:
         out = run_ensemble(post, priors.to_physical, sc.moves, state, chain0, writer, rule,
                            fresh=fresh, elapsed0=elapsed0, evals0=evals0, progress=progress,
-                           mapper=mapper, laplace=laplace)
+                           mapper=mapper, laplace=laplace, complement=complement)
     except BaseException as err:
         steps = writer.steps
         writer.close()

@@ -147,7 +147,7 @@ def test_a_changed_fit_method_points_at_what_sample_offers(tmp_path):
 
 def test_the_independence_moves_are_left_out_where_the_linearization_meets_a_bound():
     """Inside the box the linearization is the independence moves' proposal (z0, an invertible root
-    of the covariance in sampling coordinates); an estimate within 2 sd of a bound, or on it with
+    of the covariance in sampling coordinates); an estimate within 1 sd of a bound, or on it with
     no variance, is not clear of it: the posterior is cut there and the linearization is not."""
     from bayes_dnlr.inference.mcmc.ensemble import clear_of_bounds, linearized_root
 
@@ -163,9 +163,10 @@ def test_the_independence_moves_are_left_out_where_the_linearization_meets_a_bou
     def clear(x, c=cov, which=None):
         return clear_of_bounds(priors, *linearized_root(priors, np.array(x), c), which)
 
-    assert not clear([0.5, 0.015, 1.0])                    # 1.5 sd from 0
-    assert clear([0.5, 0.025, 1.0])                        # 2.5 sd
-    assert not clear([0.5, 0.5, 0.011])                    # log space: ln 0.011 - 2 sd < ln 0.01
-    assert clear([0.5, 0.015, 1.0], which=[0, 2])          # the parameters asked about only
+    assert not clear([0.5, 0.005, 1.0])                    # 0.5 sd from 0
+    assert clear([0.5, 0.015, 1.0])                        # 1.5 sd
+    assert not clear([0.5, 0.5, 0.02])                     # log space: ln 0.02 - 2 < ln 0.01
+    assert clear([0.5, 0.5, 0.05])                         # ln 0.05 - 0.8 > ln 0.01
+    assert clear([0.5, 0.005, 1.0], which=[0, 2])          # the parameters asked about only
     held = np.diag([1e-4, np.nan, 1e-6])
     assert not clear([0.5, 0.0, 1.0], held)

@@ -1,15 +1,18 @@
-"""Independence moves from the linearized posterior (eq. 32), for emcee:
+"""Independence moves for emcee, from the linearized posterior (eq. 32) or from the other walkers:
 
 - ``LaplaceMove``, every parameter drawn afresh from a Student t around the start of the chain
   (fit.json's estimate and covariance), with the white likelihood;
 - ``ConditionalMove``, the discrepancy's hyperparameters drawn from the other walkers and the model
-  parameters from their conditional given them.
+  parameters from their conditional given them;
+- ``ComplementMove``, every parameter from a Student t fitted to the other walkers, where no
+  linearization can be trusted.
 
-Both are Metropolis-Hastings with the proposal densities' ratio, so where the linearization is
-wrong they are only less often accepted, never biased; the differential evolution beside them still
-moves the walkers there. Where it is known to be wrong (a parameter near a bound of its prior, a
-sampled spectrum exponent) ``sample`` leaves them out (runs/sample.py, docs/sampling.md). Both draw
-from emcee's ``RandomState`` only (the chain is reproducible and resumes bit-exactly).
+All are Metropolis-Hastings with the proposal densities' ratio, so where their proposal is poor
+they are only less often accepted, never biased; the differential evolution beside them still
+moves the walkers there. Where the linearization is known to be wrong (a parameter near a bound of
+its prior, a sampled spectrum exponent) ``sample`` makes the complement move instead of the first
+two (runs/sample.py, docs/sampling.md). All draw from emcee's ``RandomState`` only (the chain is
+reproducible and resumes bit-exactly).
 
 ``LaplaceMove``: the least-squares posteriors of the DNLR model are close to their linearization
 (the shipped examples' posterior sd agree with the Gauss-Newton sd within 5 %) but narrow and
@@ -38,6 +41,15 @@ The proposal density is t(h') · t(u') / det A(h'), so the Metropolis-Hastings r
 ln t(h) + ln t(u) - ln det A(h) - (the same at the proposal), u = A(h)⁻¹ (θ - μ(h)). Everything the
 proposal uses comes from the other half of the ensemble and from fit.json (emcee's red-blue split),
 so each half's update leaves the posterior invariant, as emcee's KDEMove does.
+
+``ComplementMove``: where the posterior is cut by a bound of its prior (an estimate held on G = 0,
+say) or far from its linearization (the spectrum exponent sampled), the linearized proposals are
+hardly ever accepted and ``DEMove`` alone needed τ ≈ 23-47 steps. The complementary half of the
+ensemble is a sample of the posterior itself: θ' from a Student t with its mean and covariance
+(× ``T_SCALE``², ``T_DOF`` degrees of freedom), as the conditional move draws h, for every walker of
+the half, brought τ to 8-22 on those posteriors (docs/sampling.md). It needs a covariance of full
+rank from the half: ``ensemble.complement_fits`` asks for at least 2 d + 2 walkers in it (d parameters),
+else ``sample`` keeps ``DEMove`` alone.
 """
 
 from __future__ import annotations
@@ -54,12 +66,23 @@ CONDITIONAL_WEIGHT = 0.7  # share of the steps that make the conditional move (t
 LAPLACE_DOF = 10.0        # the Laplace move's Student t: tails a little heavier than a Gaussian's
 LAPLACE_SCALE = 1.1       # × the linearized covariance's square root
 LAPLACE_WEIGHT = 0.7      # share of the steps that make the Laplace move (the rest: DEMove)
+COMPLEMENT_WEIGHT = 0.7   # share of the steps that make the complement move (the rest: DEMove)
 _emcee = load_emcee()
 
 
 def _t_log_kernel(u: np.ndarray, dof: float) -> np.ndarray:
     """log density of the standard multivariate Student t at the rows of u, up to a constant."""
     return -0.5 * (dof + u.shape[1]) * np.log1p(np.sum(u * u, axis=1) / dof)
+
+
+def complement_t(comp: np.ndarray, scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """The mean of the rows of ``comp`` (walkers of the other half) and the Cholesky factor of
+    their covariance × ``scale``², kept positive definite for a flat complement."""
+    mean = comp.mean(axis=0)
+    dev = comp - mean
+    cov = dev.T @ dev * (scale**2 / (comp.shape[0] - 1))
+    cov += np.eye(comp.shape[1]) * (1e-300 + 1e-9 * float(np.max(np.diag(cov))))
+    return mean, np.linalg.cholesky(cov)
 
 
 def t_logpdf(x: np.ndarray, mean: np.ndarray, chol: np.ndarray, dof: float) -> np.ndarray:
@@ -107,13 +130,8 @@ class ConditionalMove(_emcee.moves.RedBlueMove):
 
     def get_proposal(self, s: np.ndarray, c: list[np.ndarray],
                      random: Any) -> tuple[np.ndarray, np.ndarray]:
-        comp = np.concatenate(c, axis=0)[:, self.hyper]
         ns, d, p = s.shape[0], self.hyper.size, self.model.size
-        mean = comp.mean(axis=0)
-        dev = comp - mean
-        cov = dev.T @ dev * (self.scale**2 / (comp.shape[0] - 1))
-        cov += np.eye(d) * (1e-300 + 1e-9 * float(np.max(np.diag(cov))))   # a flat complement
-        chol = np.linalg.cholesky(cov)
+        mean, chol = complement_t(np.concatenate(c, axis=0)[:, self.hyper], self.scale)
         h_new = mean + (random.randn(ns, d) @ chol.T) / np.sqrt(
             random.chisquare(self.dof, size=ns) / self.dof)[:, None]
         u_new = random.randn(ns, p) / np.sqrt(random.chisquare(self.dof, size=ns) / self.dof)[:, None]
@@ -127,6 +145,29 @@ class ConditionalMove(_emcee.moves.RedBlueMove):
         lt_u = _t_log_kernel(np.concatenate([u_old, u_new]), self.dof)
         factors = lt_h[:ns] - lt_h[ns:] + lt_u[:ns] - lt_u[ns:] + ld_new - ld_old
         bad = ~np.isfinite(factors)          # a walker far outside the map's reach: rejected
+        q[bad] = s[bad]
+        factors[bad] = -np.inf
+        return q, factors
+
+
+class ComplementMove(_emcee.moves.RedBlueMove):
+    """Independence proposal of every parameter from a Student t (``dof``) fitted to the
+    complementary half of the ensemble (its mean, its covariance × ``scale``²)."""
+
+    def __init__(self, dof: float = T_DOF, scale: float = T_SCALE) -> None:
+        super().__init__()
+        self.dof = float(dof)
+        self.scale = float(scale)
+
+    def get_proposal(self, s: np.ndarray, c: list[np.ndarray],
+                     random: Any) -> tuple[np.ndarray, np.ndarray]:
+        ns, d = s.shape
+        mean, chol = complement_t(np.concatenate(c, axis=0), self.scale)
+        q = mean + (random.randn(ns, d) @ chol.T) / np.sqrt(
+            random.chisquare(self.dof, size=ns) / self.dof)[:, None]
+        lt = t_logpdf(np.concatenate([s, q]), mean, chol, self.dof)
+        factors = lt[:ns] - lt[ns:]
+        bad = ~np.isfinite(factors)          # a walker at a non-finite point: rejected
         q[bad] = s[bad]
         factors[bad] = -np.inf
         return q, factors

@@ -1,16 +1,17 @@
 """The independence moves keep the target distribution, whatever they propose from (a deliberately
 wrong map or linearization here): the conditional move on a correlated Gaussian and a funnel (the
 spread of the model block grows with a hyperparameter), the Laplace move on a correlated Gaussian
-and a skewed density, sampled to their moments; and both stay inside emcee's contract."""
+and a skewed density, the complement move on a correlated Gaussian and a density cut by a bound,
+sampled to their moments; and all stay inside emcee's contract."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from bayes_dnlr.inference.mcmc.blocks import ConditionalMove, LaplaceMove
+from bayes_dnlr.inference.mcmc.blocks import ComplementMove, ConditionalMove, LaplaceMove
 from bayes_dnlr.inference.mcmc.emcee_import import load_emcee
-from bayes_dnlr.inference.mcmc.ensemble import make_moves
+from bayes_dnlr.inference.mcmc.ensemble import complement_fits, make_moves
 from bayes_dnlr.inference.mcmc.stopping import _tau
 from bayes_dnlr.inference.posterior.conditional import ConditionalMap
 
@@ -105,6 +106,31 @@ def test_the_laplace_move_keeps_a_skewed_density() -> None:
     assert np.all(np.abs(flat.var(axis=0) / var - 1) < 0.12), flat.var(axis=0) / var
 
 
+@pytest.mark.slow      # a statistical check of a long chain: 3000 steps of 32 walkers, 3 s of CPU
+def test_the_complement_move_keeps_a_correlated_gaussian() -> None:
+    log_prob, start, mean, cov = _gaussian_case()
+    _check_gaussian(_run(log_prob, start, 3000, moves=make_moves("de", complement=True)), mean, cov)
+
+
+@pytest.mark.slow      # a statistical check of a long chain: 4000 steps of 32 walkers, 3 s of CPU
+def test_the_complement_move_keeps_a_density_cut_by_a_bound() -> None:
+    """As G held at 0 by its prior: x ~ N(0, 1) cut to x > 0 (E x = √(2/π), Var x = 1 - 2/π) and
+    z | x ~ N(x, 0.5²) (E z = E x, Var z = Var x + 0.25). The walkers' own Student t proposes
+    across the bound half the time; those proposals are rejected, the others keep the density."""
+    def log_prob(p):
+        x, z = p[:, 0], p[:, 1]
+        return np.where(x > 0, -0.5 * x**2 - 0.5 * ((z - x) / 0.5) ** 2, -np.inf)
+
+    rng = np.random.default_rng(6)
+    x = np.abs(rng.standard_normal(32))
+    start = np.column_stack([x, x + 0.5 * rng.standard_normal(32)])
+    flat, ess = _kept(_run(log_prob, start, 4000, moves=make_moves("de", complement=True)))
+    mean_x, var_x = np.sqrt(2 / np.pi), 1 - 2 / np.pi
+    mean, var = np.array([mean_x, mean_x]), np.array([var_x, var_x + 0.25])
+    assert np.all(np.abs(flat.mean(axis=0) - mean) < 4.5 * np.sqrt(var / ess)), flat.mean(axis=0)
+    assert np.all(np.abs(flat.var(axis=0) / var - 1) < 0.12), flat.var(axis=0) / var
+
+
 @pytest.mark.slow      # a statistical check of a long chain: 4000 steps of 32 walkers, 6 s of CPU
 def test_the_conditional_move_keeps_a_funnel() -> None:
     """h = (h1, h2) ~ N(0, I); the model block θ | h ~ N(0, exp(h1) I): E θ = 0,
@@ -184,12 +210,41 @@ def test_the_laplace_moves_ratio_is_that_of_its_student_t() -> None:
 
 
 def test_which_moves_de_makes() -> None:
-    """The conditional move with a map, else the Laplace move with a linearization, else DEMove;
-    ``de-plain`` is DEMove whatever is given."""
+    """The conditional move with a map, else the Laplace move with a linearization, else the
+    complement move when asked, else DEMove; ``de-plain`` is DEMove whatever is given."""
     laplace = _wrong_laplace(4)
     assert type(make_moves("de")).__name__ == "DEMove"
-    assert type(make_moves("de-plain", _wrong_map(), laplace)).__name__ == "DEMove"
-    kinds = [type(m).__name__ for m, _ in make_moves("de", _wrong_map(), laplace)]
+    assert type(make_moves("de-plain", _wrong_map(), laplace, True)).__name__ == "DEMove"
+    kinds = [type(m).__name__ for m, _ in make_moves("de", _wrong_map(), laplace, True)]
     assert kinds == ["DEMove", "ConditionalMove"]
-    kinds = [type(m).__name__ for m, _ in make_moves("de", laplace=laplace)]
+    kinds = [type(m).__name__ for m, _ in make_moves("de", laplace=laplace, complement=True)]
     assert kinds == ["DEMove", "LaplaceMove"]
+    kinds = [type(m).__name__ for m, _ in make_moves("de", complement=True)]
+    assert kinds == ["DEMove", "ComplementMove"]
+
+
+def test_the_complement_move_needs_a_half_of_2d_plus_2_walkers() -> None:
+    assert complement_fits(32, 7) and not complement_fits(32, 8)
+    assert complement_fits(16, 3) and not complement_fits(15, 3)
+
+
+def test_the_complement_moves_ratio_is_that_of_the_other_walkers_student_t() -> None:
+    """The proposal comes from the other half only (the same draws whatever the walkers moved),
+    and the Metropolis-Hastings factor is ln q(s) - ln q(proposal) of the multivariate Student t
+    with the other half's mean and covariance × scale² (scipy's density); a walker at a
+    non-finite point is rejected."""
+    from scipy.stats import multivariate_t
+
+    move = ComplementMove(dof=5.0, scale=1.3)
+    rng = np.random.RandomState(9)
+    s, c = rng.randn(16, 3), [rng.randn(10, 3), rng.randn(6, 3) + 1.0]
+    q, f = move.get_proposal(s, c, np.random.RandomState(1))
+    q2, _ = move.get_proposal(s + 5.0, c, np.random.RandomState(1))
+    assert np.array_equal(q, q2)
+    comp = np.concatenate(c)
+    t = multivariate_t(loc=comp.mean(axis=0), shape=1.3**2 * np.cov(comp.T), df=5.0)
+    np.testing.assert_allclose(f, t.logpdf(s) - t.logpdf(q), rtol=1e-8, atol=1e-8)
+    s[3, 2] = np.nan
+    q, f = move.get_proposal(s, c, rng)
+    assert f[3] == -np.inf and np.array_equal(q[3], s[3], equal_nan=True)
+    assert np.all(np.isfinite(np.delete(f, 3)))
