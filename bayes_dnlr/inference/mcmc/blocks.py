@@ -75,6 +75,27 @@ def _t_log_kernel(u: np.ndarray, dof: float) -> np.ndarray:
     return -0.5 * (dof + u.shape[1]) * np.log1p(np.sum(u * u, axis=1) / dof)
 
 
+def _standard_t(random: Any, n: int, d: int, dof: float) -> np.ndarray:
+    """n rows of the standard d-variate Student t (``dof``): normals over √(χ²/dof)."""
+    return random.randn(n, d) / np.sqrt(random.chisquare(dof, size=n) / dof)[:, None]
+
+
+def _located_t(random: Any, mean: np.ndarray, chol: np.ndarray, n: int, dof: float) -> np.ndarray:
+    """n rows of the Student t (``dof``) with location ``mean`` and scale ``chol cholᵀ``."""
+    return mean + (random.randn(n, mean.size) @ chol.T) / np.sqrt(
+        random.chisquare(dof, size=n) / dof)[:, None]
+
+
+def _rejecting_non_finite(q: np.ndarray, s: np.ndarray,
+                          factors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The proposal and its factors, a walker whose factor is not finite (a non-finite point, one
+    beyond a map's reach) kept where it is and rejected."""
+    bad = ~np.isfinite(factors)
+    q[bad] = s[bad]
+    factors[bad] = -np.inf
+    return q, factors
+
+
 def complement_t(comp: np.ndarray, scale: float) -> tuple[np.ndarray, np.ndarray]:
     """The mean of the rows of ``comp`` (walkers of the other half) and the Cholesky factor of
     their covariance × ``scale``², kept positive definite for a flat complement."""
@@ -105,15 +126,11 @@ class LaplaceMove(_emcee.moves.RedBlueMove):
 
     def get_proposal(self, s: np.ndarray, c: list[np.ndarray],
                      random: Any) -> tuple[np.ndarray, np.ndarray]:
-        ns, d = s.shape
-        u_new = random.randn(ns, d) / np.sqrt(random.chisquare(self.dof, size=ns) / self.dof)[:, None]
+        u_new = _standard_t(random, *s.shape, self.dof)
         q = self.center + u_new @ self.root.T
         u_old = np.linalg.solve(self.root, (s - self.center).T).T
-        factors = _t_log_kernel(u_old, self.dof) - _t_log_kernel(u_new, self.dof)
-        bad = ~np.isfinite(factors)          # a walker at a non-finite point: rejected
-        q[bad] = s[bad]
-        factors[bad] = -np.inf
-        return q, factors
+        return _rejecting_non_finite(q, s, _t_log_kernel(u_old, self.dof)
+                                     - _t_log_kernel(u_new, self.dof))
 
 
 class ConditionalMove(_emcee.moves.RedBlueMove):
@@ -130,11 +147,10 @@ class ConditionalMove(_emcee.moves.RedBlueMove):
 
     def get_proposal(self, s: np.ndarray, c: list[np.ndarray],
                      random: Any) -> tuple[np.ndarray, np.ndarray]:
-        ns, d, p = s.shape[0], self.hyper.size, self.model.size
+        ns, p = s.shape[0], self.model.size
         mean, chol = complement_t(np.concatenate(c, axis=0)[:, self.hyper], self.scale)
-        h_new = mean + (random.randn(ns, d) @ chol.T) / np.sqrt(
-            random.chisquare(self.dof, size=ns) / self.dof)[:, None]
-        u_new = random.randn(ns, p) / np.sqrt(random.chisquare(self.dof, size=ns) / self.dof)[:, None]
+        h_new = _located_t(random, mean, chol, ns, self.dof)
+        u_new = _standard_t(random, ns, p, self.dof)
         h_old = s[:, self.hyper]
         u_old, ld_old, theta_new, ld_new = self.mapper.standardize_and_place(
             h_old, s[:, self.model], h_new, u_new)
@@ -143,11 +159,8 @@ class ConditionalMove(_emcee.moves.RedBlueMove):
         q[:, self.model] = theta_new
         lt_h = t_logpdf(np.concatenate([h_old, h_new]), mean, chol, self.dof)
         lt_u = _t_log_kernel(np.concatenate([u_old, u_new]), self.dof)
-        factors = lt_h[:ns] - lt_h[ns:] + lt_u[:ns] - lt_u[ns:] + ld_new - ld_old
-        bad = ~np.isfinite(factors)          # a walker far outside the map's reach: rejected
-        q[bad] = s[bad]
-        factors[bad] = -np.inf
-        return q, factors
+        return _rejecting_non_finite(q, s, lt_h[:ns] - lt_h[ns:] + lt_u[:ns] - lt_u[ns:]
+                                     + ld_new - ld_old)
 
 
 class ComplementMove(_emcee.moves.RedBlueMove):
@@ -161,13 +174,8 @@ class ComplementMove(_emcee.moves.RedBlueMove):
 
     def get_proposal(self, s: np.ndarray, c: list[np.ndarray],
                      random: Any) -> tuple[np.ndarray, np.ndarray]:
-        ns, d = s.shape
+        ns = s.shape[0]
         mean, chol = complement_t(np.concatenate(c, axis=0), self.scale)
-        q = mean + (random.randn(ns, d) @ chol.T) / np.sqrt(
-            random.chisquare(self.dof, size=ns) / self.dof)[:, None]
+        q = _located_t(random, mean, chol, ns, self.dof)
         lt = t_logpdf(np.concatenate([s, q]), mean, chol, self.dof)
-        factors = lt[:ns] - lt[ns:]
-        bad = ~np.isfinite(factors)          # a walker at a non-finite point: rejected
-        q[bad] = s[bad]
-        factors[bad] = -np.inf
-        return q, factors
+        return _rejecting_non_finite(q, s, lt[:ns] - lt[ns:])
