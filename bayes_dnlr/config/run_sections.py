@@ -54,6 +54,28 @@ class TruthModelForm(Strict):
     strength: Literal["mild", "strong"] | float = "mild"
 
 
+class TruthCycles(Strict):
+    """Loading-unloading cycles for ``simulate``: each cycle loads at the ramp's rate to its peak
+    strain, then unloads at the same rate until the stress falls to ``unload_stress`` (as a machine
+    that reverses at a force), and the next cycle loads from there. The last peak is
+    ``truth.strain_max``."""
+
+    count: Whole | None = Field(default=None, ge=1, description="peaks evenly spaced up to strain_max")
+    peaks: list[float] | None = Field(default=None, description="Hencky strains, increasing")
+    unload_stress: float = Field(default=0.0, description="MPa: the stress at which unloading stops")
+
+    @model_validator(mode="after")
+    def _one_form(self) -> TruthCycles:
+        if (self.count is None) == (self.peaks is None):
+            raise ValueError("give exactly one of count or peaks")
+        if self.peaks is not None:
+            if not self.peaks or any(not p > 0 for p in self.peaks):
+                raise ValueError("peaks must be positive Hencky strains")
+            if any(b <= a for a, b in zip(self.peaks, self.peaks[1:], strict=False)):
+                raise ValueError("peaks must increase")
+        return self
+
+
 class TruthNoise(Strict):
     strain_sd: float = Field(default=1.0e-4, ge=0)
     stress_sd: float = Field(default=0.3, ge=0, description="MPa, on the observable stress")
@@ -68,6 +90,8 @@ class TruthConfig(Strict):
     strain_rate: float = Field(gt=0, description="true (Hencky) strain rate of the ramp, 1/s")
     strain_max: float = Field(gt=0, description="Hencky strain at the end of the ramp")
     hold: float = Field(default=0.0, ge=0, description="length of the relaxation hold, s")
+    cycles: TruthCycles | None = Field(
+        default=None, description="loading-unloading cycles instead of one ramp (needs sample_rate)")
     n_points: Whole | None = Field(default=None, ge=3)
     sample_rate: float | None = Field(default=None, gt=0, description="Hz")
     time_jitter: float = Field(default=0.0, ge=0, lt=0.5, description="relative, uniform ±")
@@ -97,7 +121,25 @@ class TruthConfig(Strict):
             raise ValueError("give exactly one of n_points or sample_rate")
         if self.hold > 0 and not all(k in self.params for k in RELAXATION_PARAMETERS):
             raise ValueError("a hold needs params sigma_inf and tau_max_R")
+        if self.cycles is not None:
+            if self.sample_rate is None:
+                raise ValueError("cycles need sample_rate (their length is known only once each "
+                                 "unloading has reached its stress)")
+            if self.hold > 0:
+                raise ValueError("give either cycles or a hold, not both")
+            if self.cycles.peaks is not None and self.cycles.peaks[-1] > self.strain_max:
+                raise ValueError(f"cycles.peaks end at {self.cycles.peaks[-1]:g}, above strain_max "
+                                 f"{self.strain_max:g}")
         return self
+
+    def cycle_peaks(self) -> list[float]:
+        """The peak strain of every cycle (the last is strain_max)."""
+        if self.cycles is None:
+            return [self.strain_max]
+        if self.cycles.peaks is not None:
+            return list(self.cycles.peaks)
+        n = int(self.cycles.count)
+        return [self.strain_max * (k + 1) / n for k in range(n)]
 
 
 class PulseEchoCheck(Strict):

@@ -1,7 +1,9 @@
 """Synthetic tests: ``simulate_test(cfg)`` writes the CSV that ``cfg.data`` describes, from ``cfg.truth``.
 
 The protocol is the paper's: a ramp at a constant true (Hencky) strain rate up to ``strain_max``,
-then optionally a hold (relaxation, section 4.1 and Fig. 10). The true stress is the DNLR model
+then optionally a hold (relaxation, section 4.1 and Fig. 10); or loading-unloading cycles
+(``truth.cycles``): each cycle loads at the same rate to its peak and unloads until the stress falls
+to ``unload_stress``, as a machine that reverses at a force. The true stress is the DNLR model
 (eq. 18) driven by the noise-free strain; the file holds what a real test would give: the *noisy
 measured* strain (Gaussian, sd ``strain_sd``), the force computed so that σ* (eq. 6) or σ (eq. 2)
 from the file equals the true stress plus Gaussian noise of sd ``stress_sd``, plus ``force_sd`` on
@@ -23,6 +25,7 @@ from __future__ import annotations
 import csv
 import io
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -91,6 +94,10 @@ class SimulationResult:
         tr = self.truth
         hold = (f", then a {tr.hold:g} s hold from t = {self.relaxation_start:g} s"
                 if self.relaxation_start is not None else "")
+        if tr.cycles is not None:
+            peaks = ", ".join(f"{p:g}" for p in tr.cycle_peaks())
+            hold = (f"; {len(tr.cycle_peaks())} loading-unloading cycles to {peaks}, each unloaded "
+                    f"to {tr.cycles.unload_stress:g} MPa")
         peak = self.considere()
         peak_text = ("none (the nominal stress never falls)" if peak is None else
                      f"strain {peak[0]:.4f}, true stress {peak[1]:.2f} MPa")
@@ -161,6 +168,45 @@ def protocol(truth: TruthConfig, rng: np.random.Generator) -> Protocol:
     kink = time[n_ramp]
     strain = truth.strain_max * np.minimum(time, kink) / kink
     return Protocol(time, strain, kink if n_hold else None)
+
+
+def cyclic_protocol(truth: TruthConfig, rng: np.random.Generator,
+                    stress_of: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> Protocol:
+    """Loading-unloading cycles (``truth.cycles``) at ``truth.strain_rate``, sampled at
+    ``truth.sample_rate``, every turning point on a sample.
+
+    Each unloading runs at the loading's rate until ``stress_of(time, strain)`` (the true stress of
+    the whole history so far) falls to ``unload_stress``, or the strain to zero; the sample where it
+    does is the next turning point. ``stress_of`` is called once per cycle.
+    """
+    rate, fs = truth.strain_rate, float(truth.sample_rate)
+    target = truth.cycles.unload_stress
+    time, strain = np.zeros(1), np.zeros(1)
+
+    def leg(t0: float, e0: float, e1: float) -> tuple[np.ndarray, np.ndarray]:
+        duration = abs(e1 - e0) / rate
+        steps = max(1, round(duration * fs))
+        t = t0 + np.cumsum(_segment(duration, steps, truth.time_jitter, rng))
+        t[-1] = t0 + duration                     # the turning point exactly on a sample
+        return t, e0 + (e1 - e0) * (t - t0) / duration
+
+    for peak in truth.cycle_peaks():
+        if peak <= strain[-1]:
+            raise ConfigError(f"truth.cycles: peak {peak:g} is not above the strain {strain[-1]:.4g} "
+                              "where the previous unloading stopped")
+        t_up, e_up = leg(time[-1], strain[-1], peak)
+        t_dn, e_dn = leg(t_up[-1], peak, 0.0)
+        t_all = np.concatenate([time, t_up, t_dn])
+        e_all = np.concatenate([strain, e_up, e_dn])
+        s_dn = stress_of(_rounded(t_all), e_all)[-t_dn.size:]
+        below = np.flatnonzero(s_dn <= target)
+        stop = int(below[0]) + 1 if below.size else t_dn.size
+        time = np.concatenate([time, t_up, t_dn[:stop]])
+        strain = np.concatenate([strain, e_up, e_dn[:stop]])
+    time = _rounded(time)
+    if np.any(np.diff(time) <= 0):
+        raise ConfigError("truth: the sampling is too fine for the file's precision (steps below 1e-9 s)")
+    return Protocol(time, strain, None)
 
 
 def _check(cfg: Config) -> TruthConfig:
@@ -400,15 +446,22 @@ def simulate_test(cfg: Config, overwrite: bool = False) -> SimulationResult:
 
     truth = _check(cfg)
     rng = np.random.default_rng(truth.seed)
-    p = protocol(truth, rng)
-    measured = None
-    if truth.model_form is None:
-        stress = simulate(p.time, p.strain, truth.params, modes=cfg.model.modes,
-                          decades=cfg.model.decades, relaxation_start=p.relaxation_start)
+    kind = None if truth.model_form is None else truth.model_form.kind
+    strength = "mild" if truth.model_form is None else truth.model_form.strength
+
+    def made(time: np.ndarray, strain: np.ndarray, relaxation_start: float | None):
+        if kind is None:
+            return simulate(time, strain, truth.params, modes=cfg.model.modes,
+                            decades=cfg.model.decades, relaxation_start=relaxation_start), None
+        form = generate(time, strain, truth.params, relaxation_start, kind, strength,
+                        cfg.model.modes, cfg.model.decades)
+        return form.stress, form.measured_strain
+
+    if truth.cycles is None:
+        p = protocol(truth, rng)
     else:
-        form = generate(p.time, p.strain, truth.params, p.relaxation_start, truth.model_form.kind,
-                        truth.model_form.strength, cfg.model.modes, cfg.model.decades)
-        stress, measured = form.stress, form.measured_strain
+        p = cyclic_protocol(truth, rng, lambda t, e: made(t, e, None)[0])
+    stress, measured = made(p.time, p.strain, p.relaxation_start)
     columns = _columns(cfg, truth, p, stress, rng, measured)
     source = cfg.source if cfg.source is not None else "the config"
     data = _csv_bytes(cfg, columns, truth.layout)

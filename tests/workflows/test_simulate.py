@@ -234,3 +234,42 @@ def test_bluehill_layout_writes_quoted_thousands_and_a_units_row(make_config):
 def test_layout_refuses_format_keys_that_contradict_it(make_config):
     with pytest.raises(ConfigError, match="truth.layout: zwick writes its own format; remove data.delimiter"):
         simulate_test(make_config(truth=truth(layout="zwick"), delimiter=","))
+
+
+def cyclic_truth(**kw):
+    return truth(**{"params": {"E": 2000.0, "G": 5.0, "tau_max": 20.0}, "strain_rate": 1e-3,
+                    "strain_max": 0.02, "n_points": None, "sample_rate": 5.0,
+                    "cycles": {"count": 4}, **kw})
+
+
+def test_cycles_turn_on_samples_and_unload_to_the_stress(make_config):
+    res = simulate_test(make_config(truth=cyclic_truth()))
+    np.testing.assert_array_equal(res.stress, simulate(res.time, res.strain, cyclic_truth()["params"]))
+    d = np.diff(res.strain)
+    turns = np.flatnonzero(np.sign(d[1:]) != np.sign(d[:-1])) + 1
+    peaks, valleys = res.strain[turns[::2]], res.strain[turns[1::2]]
+    np.testing.assert_allclose(peaks, [0.005, 0.01, 0.015, 0.02], rtol=1e-9)
+    # each unloading stops at the first sample where the stress reaches 0, not before
+    assert np.all(res.stress[turns[1::2]] <= 0.0) and valleys.min() > 0.0
+    assert np.all(res.stress[turns[1::2] - 1] > 0.0)
+    # loading and unloading at the ramp's rate
+    np.testing.assert_allclose(np.abs(d) / np.diff(res.time), 1e-3, rtol=1e-6)
+    assert "4 loading-unloading cycles to 0.005, 0.01, 0.015, 0.02" in res.summary()
+
+
+def test_cycles_with_a_richer_model_and_explicit_peaks(make_config):
+    cfg = make_config(truth=cyclic_truth(cycles={"peaks": [0.01, 0.02], "unload_stress": 1.0},
+                                         model_form={"kind": "two-process"}))
+    res = simulate_test(cfg)
+    d = np.diff(res.strain)
+    turns = np.flatnonzero(np.sign(d[1:]) != np.sign(d[:-1])) + 1
+    assert turns.size == 3 and np.all(res.stress[turns[1::2]] <= 1.0)
+
+
+def test_cycles_refuse_what_they_cannot_make(make_config):
+    with pytest.raises(ConfigError, match="cycles need sample_rate"):
+        make_config(truth=cyclic_truth(sample_rate=None, n_points=500))
+    with pytest.raises(ConfigError, match="peaks must increase"):
+        make_config(truth=cyclic_truth(cycles={"peaks": [0.02, 0.01]}))
+    with pytest.raises(ConfigError, match="above strain_max"):
+        make_config(truth=cyclic_truth(cycles={"peaks": [0.01, 0.03]}))
