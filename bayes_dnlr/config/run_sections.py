@@ -32,6 +32,10 @@ class FitConfig(Strict):
     method: Literal["lm", "gauss-newton"] = "lm"
     multistart: Whole = Field(default=8, ge=0)
     max_iterations: Whole = Field(default=200, ge=1)
+    hold_unidentified: bool = Field(
+        default=True, description="hold G at 0 where its normalised sensitivity on the window is "
+                                  "below 5 % of the largest (paper 4.2, interval I) instead of "
+                                  "leaving it to its prior box")
 
 
 class TruthCorrelated(Strict):
@@ -208,3 +212,18 @@ class CrossCheckConfig(Strict):
 
 class OutputConfig(Strict):
     dir: str | None = None
+    modulus_at: list[float] | None = Field(
+        default=None, description="times (s after the loading began) at which to report E(t), "
+                                  "the relaxation modulus; null: the shortest time the test resolves")
+
+    @field_validator("modulus_at")
+    @classmethod
+    def _positive_times(cls, v: list[float] | None) -> list[float] | None:
+        if v is None:
+            return None
+        if not v:
+            raise ValueError("give at least one time (s), or leave modulus_at out for the default")
+        bad = [t for t in v if not (t > 0 and t < float("inf"))]
+        if bad:
+            raise ValueError(f"times must be positive numbers of seconds, got {bad}")
+        return sorted(set(float(t) for t in v))

@@ -3,6 +3,7 @@ single-test views. All defaults live in the section modules; the keys are a cont
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -149,7 +150,8 @@ class Config(Strict):
             name=spec.name, data=spec.data, tests=None, model=self.model, parameters=params,
             noise=spec.noise, sampler=self.sampler, fit=self.fit, truth=spec.truth,
             crosscheck=self.crosscheck,
-            output=OutputConfig(dir=str(self.run_dir / "tests" / spec.name)), source=self.source)
+            output=OutputConfig(dir=str(self.run_dir / "tests" / spec.name),
+                                modulus_at=self.output.modulus_at), source=self.source)
         return view
 
     def test_configs(self) -> list[Config]:
@@ -160,6 +162,16 @@ class Config(Strict):
     def parameter_names(self) -> list[str]:
         """All model parameters, in the canonical order."""
         return [k for k in PARAMETER_NAMES if k in self.parameters]
+
+    def with_holds(self, held: Mapping[str, float]) -> Config:
+        """This config with the parameters of ``held`` fixed at the given values (a parameter the
+        window cannot identify, held by the fit: inference/lsq/sensitivity.py ``unidentified``)."""
+        if not held:
+            return self
+        params = dict(self.parameters)
+        for k, v in held.items():
+            params[k] = ParameterSpec(value=float(v))
+        return self.model_copy(update={"parameters": params})
 
     @property
     def free_parameters(self) -> list[str]:

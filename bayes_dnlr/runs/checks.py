@@ -35,18 +35,11 @@ from bayes_dnlr.config import Config
 from bayes_dnlr.inference.checks import bounds, physical, power_scaling, predictive
 from bayes_dnlr.inference.layout import Layout
 from bayes_dnlr.inference.posterior.likelihood import build_model, window_rows
-from bayes_dnlr.numbers import fmt
 from bayes_dnlr.runs.testset import TestSet
+from bayes_dnlr.runs.verdict import SCORE_Z, SHIFT_SD, prior_shaped_e, verdict
 from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS, PARAMETER_NAMES, base_name
 
 N_CURVES = 200              # posterior draws pushed through the model for the predictive band
-COVERAGE_LOW = 0.80         # overall share below this: the band is too narrow for the data
-COVERAGE_HIGH = 0.97        # above this: wider than the scatter (said, not a failure)
-E_WEIGHTED_LOW = 0.99       # the misfit lies where E draws more than 1 % of its information: it reaches E
-SEGMENT_LOW = 0.50          # a segment (with enough points) below this: the model fails there
-SEGMENT_MIN_POINTS = 20
-SHIFT_SD = 1.0              # widening a bound moves E by more than this many posterior sd
-SCORE_Z = 2.5               # the data pull alpha from ½ by more than this many sd: a model-form error
 
 
 def _column(draws: np.ndarray, names: list[str], name: str) -> np.ndarray | None:
@@ -228,28 +221,6 @@ def prior_sources(draws: np.ndarray, names: list[str], priors, flagged: list[str
     return out
 
 
-def prior_shaped_e(sensitivity: dict[str, float]) -> dict[str, float]:
-    """The E (one, or one per test) whose posterior the prior shapes: power-scaling sensitivity
-    above ``power_scaling.SENSITIVE``."""
-    return {k: v for k, v in sensitivity.items() if base_name(k) == "E" and v > power_scaling.SENSITIVE}
-
-
-def _prior_words(sensitive: dict[str, float], sources: dict[str, dict[str, float]]) -> str:
-    """The sentence of a prior that shapes E's interval, naming the priors that do it."""
-    by = {n: v for k in sensitive for n, v in (sources.get(k) or {}).items()
-          if v > power_scaling.SENSITIVE}
-    text = ("The prior shapes E's interval: power-scaling sensitivity "
-            + ", ".join(f"{k} {v:.2f}" for k, v in sensitive.items())
-            + f" (above {power_scaling.SENSITIVE})")
-    if not by:
-        return text + "; widen the informative priors or give more data."
-    named = ", ".join(f"{n} ({v:.2f})" for n, v in sorted(by.items(), key=lambda kv: -kv[1]))
-    if all(base_name(n) == "E" for n in by):
-        return text + f", through the prior of {named}; give E a wider prior or more data."
-    return (text + f", through the prior of {named}, not E's own: widen that prior, fix the parameter, "
-            "or give more data.")
-
-
 def bound_check(cfg: Config, tests: TestSet, draws: np.ndarray, names: list[str], priors,
                 fit: dict[str, Any], uses_discrepancy: bool, post_sd: dict[str, float]) -> list[dict]:
     """The parameters piled against a prior bound, with the move of E when it is widened ×10."""
@@ -302,172 +273,6 @@ def _shift_of_e(cfg: Config, tests: TestSet, name: str, low: float, high: float,
         if base_name(k) == "E" and k in before.estimate and k in after.estimate and sd > 0:
             shifts[k] = (after.estimate[k] - before.estimate[k]) / sd
     return shifts or None
-
-
-# ---------------------------------------------------------------------------------------------
-# the verdict
-
-def _share(x: float) -> str:
-    return f"{100 * x:.0f} %"
-
-
-def _cap(text: str) -> str:
-    """A sentence's first letter capitalised (a symbol such as σ∞ stays as it is)."""
-    return text[:1].upper() + text[1:] if text[:1].isascii() else text
-
-
-def _coverage_reaches_e(c: dict) -> bool:
-    """Whether a test's misfit lies where E draws its information (the E-weighted coverage below
-    E_WEIGHTED_LOW; without the weights, any misfit counts)."""
-    w = c.get("E_weighted")
-    return w is None or w < E_WEIGHTED_LOW
-
-
-def _coverage_words(test: str, c: dict, several: bool) -> tuple[bool, str]:
-    who = f"{test}: " if several else ""
-    low_segments = [(name, s["share"]) for name, s in c["segments"].items()
-                    if s["share"] is not None and s["points"] >= SEGMENT_MIN_POINTS
-                    and s["share"] < SEGMENT_LOW]
-    ok = c["overall"] >= COVERAGE_LOW and not low_segments
-    text = f"{who}the 90 % predictive band holds {_share(c['overall'])} of the points"
-    if ok and c["overall"] > COVERAGE_HIGH:
-        return True, text + (" (80-97 % expected): the band is wider than the data's scatter, so the "
-                             "intervals lean to the safe side.")
-    if ok:
-        return True, text + " (80-97 % expected)."
-    where = ", ".join(f"{_share(s)} in the {name}" for name, s in low_segments)
-    text += ((f", {where}" if where else "")
-             + ": the model with its noise model does not describe this test there")
-    if not _coverage_reaches_e(c):
-        return False, (text + f", but E draws little of its information from there (the band holds "
-                       f"{_share(c['E_weighted'])} of the points weighted by their share of E's "
-                       "variance): E's interval stands; the other parameters', and any prediction "
-                       "there, do not. A model or window that describes that part would tell.")
-    return False, (text + ", and E's interval rests on a misfit the likelihood does not model. Look at "
-                   "the residuals of that part (a toe, a second process, a window past yield) and "
-                   "fix the start or the window.")
-
-
-def _plausibility_words(test: str, checks: dict, several: bool) -> list[tuple[str, bool, str]]:
-    """(kind, ok, sentence) per physical check; kind 'adequate' or 'trust'."""
-    who = f"{test}: " if several else ""
-    out = []
-    s = checks.get("sigma_inf")
-    if s is not None and not s["ok"]:
-        out.append(("adequate", False,
-                    f"{who}σ∞ = {fmt(s['sigma_inf_median'], 4)} MPa lies above the last stress of the "
-                    f"hold ({fmt(s['last_stress'], 4)} MPa), which still falls: impossible. The model's "
-                    "relaxation does not describe this hold (a second, slower process?); a longer hold "
-                    "or a relaxation spectrum of its own would tell."))
-    for k in ("tau_max", "tau_max_R"):
-        c = checks.get(k)
-        if c is not None and not c["ok"]:
-            out.append(("trust", False,
-                        f"{who}{k} = {fmt(c['median'], 3)} s is more than {physical.SPAN_FACTOR:g}× the "
-                        f"test's duration ({fmt(c['test_duration'], 3)} s): the test does not measure "
-                        "it, and what trades off with it comes from the prior box."))
-    c = checks.get("E_chord")
-    if c is not None and not c["ok"]:
-        out.append(("adequate", False,
-                    f"{who}E's 95 % quantile ({fmt(c['E_q95'])} MPa) lies below the standards' chord "
-                    f"({fmt(c['chord'])} MPa), a lower bound of the instantaneous modulus: impossible. "
-                    "The model does not describe the start of this curve (a toe, a preload)."))
-    return out
-
-
-def _noise_model_words(test: str, c: dict, several: bool) -> tuple[bool, str | None]:
-    if c["ok"]:
-        return True, None
-    who = f"{test}: " if several else ""
-    return False, (f"{who}the residuals of the fit are signed waves, not noise, and this posterior used "
-                   "the white likelihood (noise.discrepancy: none): E's interval ignores the model "
-                   "error, so it is too narrow, and its centre follows the waves. Sample with the "
-                   "discrepancy (leave noise.discrepancy out: the default).")
-
-
-def _model_form_words(test: str, c: dict, several: bool) -> tuple[bool, str | None]:
-    if c["ok"]:
-        return True, None
-    who = f"{test}: " if several else ""
-    rel = c.get("E_relative_per_tenth")
-    moves = (f"; E moves by {100 * rel:+.0f} % per +0.1 of the exponent" if rel is not None else "")
-    if c.get("E_shift_sd") is not None:
-        moves += f", {c['E_shift_sd']:+.1f} posterior sd at the exponent the data prefer"
-    return False, (f"{who}the data pull the spectrum's exponent away from Cunat's ½ by {c['z']:+.1f} sd "
-                   f"(score test, {c['likelihood']}){moves}: the model's form does not fit (a strain toe, "
-                   "a second process, another spectrum shape) and E's interval does not carry it. "
-                   "Sample the exponent (parameters.alpha, docs/model-form.md), fix the start of the "
-                   "curve, or check E against an independent measurement (crosscheck:).")
-
-
-def _bound_words(entries: list[dict]) -> tuple[bool, list[str]]:
-    ok, words = True, []
-    for b in entries:
-        shift = b.get("E_shift_sd") or {}
-        big = {k: v for k, v in shift.items() if abs(v) > SHIFT_SD}
-        where = f"its prior's {b['side']} bound ({fmt(b['bound'], 4)})"
-        if big:
-            ok = False
-            moves = ", ".join(f"{k} by {v:+.1f} posterior sd" for k, v in big.items())
-            words.append(f"The posterior of {b['parameter']} piles against {where}; widening it ×10 "
-                         f"moves {moves}: the "
-                         f"prior box decides E. Widen parameters.{base_name(b['parameter'])} and run "
-                         "again, or fix it if the window does not identify it.")
-        elif b.get("note"):
-            words.append(f"The posterior of {b['parameter']} piles against {where} ({b['note']}).")
-        else:
-            words.append(f"The posterior of {b['parameter']} piles against {where}; widening it ×10 "
-                         f"moves E by less than {SHIFT_SD:g} sd.")
-    return ok, words
-
-
-def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[bool, bool, str, list[str]]:
-    """(adequate, trust_interval, the verdict's first sentence, one sentence per check) from the
-    checks; summary.json's ``verdict`` is the sentences joined."""
-    adequate, trust, words = True, True, []
-    reaches_e = implausible = False
-    for t, c in checks["predictive_coverage"].items():
-        ok, text = _coverage_words(t, c, several)
-        adequate &= ok
-        reaches_e |= not ok and _coverage_reaches_e(c)
-        words.append(text)
-    for t, c in checks["plausibility"].items():
-        for kind, ok, text in _plausibility_words(t, c, several):
-            words.append(text)
-            if kind == "adequate":
-                adequate &= ok
-                implausible |= not ok
-            else:
-                trust &= ok
-    for t, c in (checks.get("noise_model") or {}).items():
-        ok, text = _noise_model_words(t, c, several)
-        trust &= ok
-        if text:
-            words.append(text)
-    for t, c in (checks.get("model_form") or {}).items():
-        ok, text = _model_form_words(t, c, several)
-        trust &= ok
-        if text:
-            words.append(text)
-    ok, bound_words = _bound_words(checks["bound_limited"])
-    trust &= ok
-    words += bound_words
-    sens = prior_shaped_e(checks["prior_sensitivity"])
-    if sens:
-        trust = False
-        words.append(_prior_words(sens, checks.get("prior_sources") or {}))
-    if not converged:
-        trust = False
-        words.append("The chain has not converged: its intervals are not final (raise "
-                     "sampler.max_steps and run `sample` again).")
-    trust &= not reaches_e
-    trust &= not implausible
-    head = ("Use E's interval as it is." + ("" if adequate else " The model does not describe all "
-                                            "of this test (below), but not where E is measured.")
-            if trust else
-            "The model describes this test, but do not use E's interval as it is." if adequate else
-            "The model does not describe this test: E's interval is not reliable.")
-    return adequate, trust, head, [_cap(w) for w in words]
 
 
 def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, names: list[str],

@@ -202,3 +202,26 @@ def generate(time: np.ndarray, strain: np.ndarray, params: Mapping[str, float],
         measured = e + value * float(np.max(e)) * ((t - t[0]) / span) ** 2
     stress = integrate(t, e, relaxed, params, processes, relaxation_start)
     return Generated(stress, measured)
+
+
+def relaxation_modulus(t: np.ndarray | float, params: Mapping[str, float], kind: str | None,
+                       strength: str | float = "mild", modes: int = 50,
+                       decades: float = 6.0) -> np.ndarray:
+    """The specimen's relaxation modulus E(t) under the model form ``kind`` (None: eq. 12):
+    3G + (E − 3G) Σ P_j exp(−t/τ_j) over every process's modes (model/modulus.py). The strain
+    kinds (toe, drift) change what the file reports, not the specimen, and the Langevin hardening
+    has the slope G at ε = 0, so their E(t) is the fitted model's form at the true parameters."""
+    times = np.atleast_1d(np.asarray(t, dtype=float))
+    value = strength_value(kind, strength) if kind is not None else 0.5
+    shape = 10.0 ** _log10_shape(modes, decades)
+    base = spectrum_weights("", 0.5, modes, decades)
+    if kind is not None and kind.startswith("spectrum-"):
+        processes = (Process(1.0, spectrum_weights(kind, value, modes, decades), shape),)
+    elif kind == "two-process":
+        processes = (Process(1.0 - value, base, shape), Process(value, base, shape, SLOW_RATIO))
+    else:
+        processes = (Process(1.0, base, shape),)
+    E, G, tau = float(params["E"]), float(params["G"]), float(params["tau_max"])
+    fast = sum(pr.share * np.exp(-times[:, None] / (tau * pr.ratio * pr.shape[None, :])) @ pr.weights
+               for pr in processes)
+    return 3.0 * G + (E - 3.0 * G) * fast

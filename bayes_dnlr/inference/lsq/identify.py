@@ -32,6 +32,8 @@ from bayes_dnlr.inference.lsq import optimize
 from bayes_dnlr.inference.lsq.plausibility import plausibility_warnings, singular_message
 from bayes_dnlr.inference.lsq.problem import LsqProblem
 from bayes_dnlr.inference.lsq.sensitivity import (
+    HOLD_AT,
+    NEGLIGIBLE_SENSITIVITY,
     StochasticAnalysis,
     alpha_dependence,
     alpha_score,
@@ -40,7 +42,9 @@ from bayes_dnlr.inference.lsq.sensitivity import (
     bound_side,
     bound_warning,
     derivative,
+    hold_words,
     identifiability_warnings,
+    unidentified,
 )
 from bayes_dnlr.inference.lsq.sigma0 import resolve_sigma0
 from bayes_dnlr.inference.lsq.start import (
@@ -51,6 +55,7 @@ from bayes_dnlr.inference.lsq.start import (
     spread_starts,
 )
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
+from bayes_dnlr.inference.modulus import fit_block, fit_lines
 from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd
 from bayes_dnlr.vocabulary import UNITS, UNIVERSAL_EXPONENT
 
@@ -102,6 +107,8 @@ class FitResult:
     data_notes: list[str] = field(default_factory=list)   # from the data layer (e.g. a detected hold)
     discrepancy: dict[str, Any] | None = None   # the model-discrepancy (GLS) analysis, or None (white)
     spectrum_exponent: dict[str, Any] | None = None   # how the estimate depends on alpha (eq. 12)
+    modulus_at: dict[str, Any] | None = None   # E(t), the relaxation modulus (inference/modulus.py)
+    identifiability: dict[str, Any] | None = None   # parameters held where the window cannot identify them
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able content of fit.json."""
@@ -147,6 +154,8 @@ class FitResult:
             "wall_time_s": self.wall_time_s,
             "discrepancy": self.discrepancy,
             "spectrum_exponent": self.spectrum_exponent,
+            "modulus_at": self.modulus_at,
+            "identifiability": self.identifiability,
         }
         return jsonable(d)
 
@@ -196,6 +205,7 @@ class FitResult:
             lines.append(f"De_max = tau_max · rate = {self.deborah_max:.4g} (eq. 45)")
         if self.spectrum_exponent is not None:
             lines.append(spectrum_line(self.spectrum_exponent, self.estimate))
+        lines += fit_lines(self.modulus_at)
         if self.warnings:
             lines.append("warnings:")
             lines.extend(f"  - {m}" for m in self.warnings)
@@ -337,6 +347,8 @@ def fit_test(cfg: Config, test) -> FitResult:
         if sa is None:
             raise BayesDnlrError(singular_message(X, names, values, on_bound, bounds)) from None
 
+    if cfg.fit.hold_unidentified and (hold := unidentified(sa, list(on_bound))):
+        return _refit_holding(cfg, test, hold, params, t_start)
     warnings: list[str] = []
     if not main.converged:
         warnings.append(f"the fit from the physics start did not converge ({main.message}); "
@@ -366,6 +378,7 @@ def fit_test(cfg: Config, test) -> FitResult:
     rate = float(test.strain_rate)
     tau = params.get("tau_max")
     spectrum = _spectrum_dependence(problem, params, names, X, values, residuals, sigma0)
+    modulus = fit_block(cfg, test, params, names, sa.covariance, disc) if "E" in params else None
     return FitResult(
         name=cfg.name, names=names, estimate=params,
         sd=dict(zip(names, (float(x) for x in sa.sd), strict=True)),
@@ -382,7 +395,22 @@ def fit_test(cfg: Config, test) -> FitResult:
         strain_rate=rate, relaxation_start=test.relaxation_start, window=_window_info(cfg, test, problem),
         start=start, start_notes=notes, fixed=dict(cfg.fixed_values),
         wall_time_s=_time.perf_counter() - t_start, data_notes=list(test.notes), discrepancy=disc,
-        spectrum_exponent=spectrum)
+        spectrum_exponent=spectrum, modulus_at=modulus)
+
+
+def _refit_holding(cfg: Config, test, hold: Mapping[str, float], free: Mapping[str, float],
+                   t_start: float) -> FitResult:
+    """The fit again with the parameters of ``hold`` (name -> its normalised sensitivity) held at
+    their ``HOLD_AT`` values; its ``identifiability`` block says what was held, why, and where the
+    fit with them free had put them and E."""
+    again = fit_test(cfg.with_holds({k: HOLD_AT[k] for k in hold}), test)
+    held = {k: {"value": HOLD_AT[k], "sensitivity": float(s), "threshold": NEGLIGIBLE_SENSITIVITY,
+                "free_estimate": float(free[k]), "E_free": float(free["E"]) if "E" in free else None}
+            for k, s in hold.items()}
+    again.identifiability = {"held": held, "words": hold_words(held)}
+    again.warnings.insert(0, hold_words(held))
+    again.wall_time_s = _time.perf_counter() - t_start
+    return again
 
 
 def _spectrum_dependence(problem: LsqProblem, params: Mapping[str, float], names: list[str],

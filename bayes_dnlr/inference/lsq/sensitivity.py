@@ -30,6 +30,11 @@ RELATIVE_ERROR_WARN = 0.5
 NEGLIGIBLE_ERR = 0.1     # ... and only for a parameter whose Err is above 10 %: a well-determined
 #                          parameter's sensitivity is not negligible, however small next to E's
 ZERO_VALUE = 1.0e-12     # |β_j|·|X_j| below this fraction of the largest: β_j counts as zero
+# The parameters a fit holds where the window cannot identify them, and the value it holds them
+# at: G at 0, the relaxed state left out, as the paper does on interval I ("the sensitivity to G
+# is only 5 % of the maximum sensitivities of E and tau_max and therefore, this parameter can be
+# omitted", section 4.2); the threshold is the paper's NEGLIGIBLE_SENSITIVITY.
+HOLD_AT = {"G": 0.0}
 
 
 def _nonlinear_derivative(basis: Basis, params: Mapping[str, float], name: str) -> np.ndarray:
@@ -326,3 +331,33 @@ def identifiability_warnings(a: StochasticAnalysis, held: Sequence[str] = ()) ->
         if k not in skip and e > RELATIVE_ERROR_WARN:
             out.append(f"Err({k}) = {100 * e:.0f} %: {k} is poorly determined by these data")
     return out
+
+
+def unidentified(a: StochasticAnalysis, on_bound: Sequence[str] = ()) -> dict[str, float]:
+    """The parameters of ``HOLD_AT`` the window does not identify: name -> its normalised
+    sensitivity (eq. 37) at the estimate as a fraction of the largest.
+
+    Such a parameter's sensitivity is below NEGLIGIBLE_SENSITIVITY of the largest (the paper omits
+    G on such a window, 4.2) *and* the data do not place it: its estimate sits on a bound of its
+    prior (``on_bound``), or its Err (eq. 33) is above RELATIVE_ERROR_WARN. Left free, its prior box
+    decides it and, through its correlations, E. A G that a small-strain window still places inside
+    its box (the paper's interval I on synthetic data: G 2.4 ± 0.7) stays free: held at 0 it would
+    move E by several sd."""
+    top = float(np.max(a.max_normalised)) if a.max_normalised.size else 0.0
+    if not top > 0:
+        return {}
+    out = {}
+    for k, m, e in zip(a.names, a.max_normalised, a.err, strict=True):
+        placed = k not in on_bound and np.isfinite(e) and e <= RELATIVE_ERROR_WARN
+        if k in HOLD_AT and m < NEGLIGIBLE_SENSITIVITY * top and not placed:
+            out[k] = float(m / top)
+    return out
+
+
+def hold_words(held: Mapping[str, Mapping[str, float]]) -> str:
+    """One sentence: which parameters the fit holds, where and why."""
+    parts = [f"{k} held at {v['value']:g} (its normalised sensitivity on this window is "
+             f"{100 * v['sensitivity']:.1f} % of the largest, below the paper's "
+             f"{100 * NEGLIGIBLE_SENSITIVITY:.0f} %: the window does not identify it, as G on the "
+             "paper's interval I, section 4.2)" for k, v in held.items()]
+    return "; ".join(parts) + (". fit.hold_unidentified: false leaves it to its prior instead")
