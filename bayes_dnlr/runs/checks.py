@@ -27,13 +27,16 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from bayes_dnlr.config import Config
 from bayes_dnlr.inference.checks import bounds, physical, power_scaling, predictive
+from bayes_dnlr.inference.checks.start import StartCheck, start_check
 from bayes_dnlr.inference.layout import Layout
+from bayes_dnlr.inference.modulus import resolved_window
 from bayes_dnlr.inference.posterior.likelihood import build_model, window_rows
 from bayes_dnlr.runs.testset import TestSet
 from bayes_dnlr.runs.verdict import SCORE_Z, SHIFT_SD, prior_shaped_e, verdict
@@ -74,9 +77,25 @@ def _noise_var(summary_noise: dict[str, Any], flat: np.ndarray, names: list[str]
     return var
 
 
-def coverage_check(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, names: list[str],
-                   noise: dict[str, dict], sigma0: dict[str, float], seed: int = 0) -> dict[str, dict]:
-    """Each test's predictive coverage."""
+@dataclass(frozen=True)
+class Band:
+    """One test's 90 % posterior predictive band against its data on the window."""
+
+    inside: np.ndarray          # which compared samples lie inside the band
+    time: np.ndarray            # their times, s
+    strain: np.ndarray          # the strain that drives the model there
+    relaxation_start: float | None
+    X: np.ndarray | None        # the Jacobian (eq. 22) at the posterior median, rows = samples
+    free: list[str]             # its columns
+    point: dict[str, float]     # the posterior median (fixed parameters at their values)
+    start: StartCheck | None = None   # the data's ISO chord against the model curves'
+
+
+def predictive_bands(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray,
+                     names: list[str], noise: dict[str, dict], sigma0: dict[str, float],
+                     seed: int = 0) -> dict[str, Band]:
+    """Each test's predictive band (N_CURVES draws pushed through the model) and the Jacobian at
+    the posterior median, which tells the samples each quantity draws its information from."""
     flat = draws.reshape(-1, draws.shape[-1])
     pick = np.random.default_rng(seed).choice(flat.shape[0], size=min(N_CURVES, flat.shape[0]),
                                               replace=False)
@@ -89,23 +108,58 @@ def coverage_check(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarra
         inside = predictive.inside_band(y, curves, var)
         rows = window_rows(data)
         time = np.asarray(data.time[: data.model_end], dtype=float)[rows]
-        out[t] = predictive.coverage(inside, predictive.segments(time, data.relaxation_start))
-        w = _e_weights(cfg, data, layout, t, flat, names, inside.size)
-        if w is not None:
-            out[t]["E_weighted"] = predictive.weighted_share(inside, w)
+        strain = np.asarray(data.strain_input[: data.model_end], dtype=float)[rows]
+        X, free, point = _jacobian_at_median(cfg, data, layout, t, flat, names, inside.size)
+        out[t] = Band(inside, time, strain, data.relaxation_start, X, free, point,
+                      _start(data, rows, curves, var))
     return out
 
 
-def _e_weights(cfg: Config, data, layout: Layout, test: str, flat: np.ndarray, names: list[str],
-               n: int) -> np.ndarray | None:
-    """Each compared sample's share of E's least-squares variance at the posterior median (None when
-    E is not free or the Jacobian does not line up with the compared samples)."""
+def _start(data, rows: slice | np.ndarray, curves: np.ndarray, noise_var: float) -> StartCheck | None:
+    """The start check of a test whose window begins at its first measured sample: the data's
+    ISO chord against the model curves' (inference/checks/start.py)."""
+    first = int(getattr(data, "virtual_start", 0))
+    rows = np.arange(data.model_end)[rows]
+    if rows.size == 0 or int(rows[0]) != first or not math.isfinite(noise_var):
+        return None
+    time = np.asarray(data.time, dtype=float)[rows]
+    loading = time <= data.relaxation_start if data.relaxation_start is not None else np.ones(
+        rows.size, dtype=bool)
+    observed = np.asarray(data.stress, dtype=float)[rows][loading]
+    strain = np.asarray(data.strain, dtype=float)[rows][loading]
+    nominal = (np.asarray(data.nominal_stress, dtype=float)[rows][loading]
+               if data.nominal_stress is not None else observed * np.exp(-strain))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(observed != 0, nominal / observed, np.exp(-strain))
+    window = resolved_window(data.time, data.strain_input, data.window, data.strain_rate)
+    return start_check(np.asarray(data.nominal_strain, dtype=float)[rows][loading], nominal,
+                       curves[:, loading] * ratio, noise_var, time[loading], window.origin)
+
+
+def coverage_check(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, names: list[str],
+                   noise: dict[str, dict], sigma0: dict[str, float], seed: int = 0,
+                   bands: dict[str, Band] | None = None) -> dict[str, dict]:
+    """Each test's predictive coverage, overall and per segment, and weighted by E's information."""
+    if bands is None:
+        bands = predictive_bands(cfg, tests, layout, draws, names, noise, sigma0, seed)
+    out = {}
+    for t, b in bands.items():
+        out[t] = predictive.coverage(b.inside, predictive.segments(b.time, b.relaxation_start,
+                                                                    strain=b.strain))
+        if b.X is not None and "E" in b.free:
+            out[t]["E_weighted"] = predictive.weighted_share(
+                b.inside, predictive.weights(b.X, b.free.index("E")))
+    return out
+
+
+def _jacobian_at_median(cfg: Config, data, layout: Layout, test: str, flat: np.ndarray,
+                        names: list[str], n: int) -> tuple[np.ndarray | None, list[str], dict]:
+    """The Jacobian (eq. 22) of a test's free parameters at the posterior median, with its columns
+    and that point (X None when it does not line up with the compared samples)."""
     from bayes_dnlr.inference.lsq.problem import LsqProblem
 
     view = cfg.for_test(test)
     free = view.free_parameters
-    if "E" not in free:
-        return None
     point = dict(view.fixed_values)
     for k in free:
         name = layout.name(k, test)
@@ -113,9 +167,7 @@ def _e_weights(cfg: Config, data, layout: Layout, test: str, flat: np.ndarray, n
             point[k] = float(np.median(flat[:, names.index(name)]))
     problem = LsqProblem.for_config(view, data)
     X = problem.jacobian(point)
-    if X.shape[0] != n:
-        return None
-    return predictive.weights(X, free.index("E"))
+    return (X if X.shape[0] == n else None), free, point
 
 
 def plausibility_check(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray,
@@ -246,14 +298,19 @@ def bound_check(cfg: Config, tests: TestSet, draws: np.ndarray, names: list[str]
         else:
             lo, hi = bounds.widened(p.low, p.high, side, p.log_space)
             entry["widened"] = [lo, hi]
-            entry["E_shift_sd"] = _shift_of_e(cfg, tests, k, lo, hi, fit, uses_discrepancy, post_sd)
+            refit = _refit_widened(cfg, tests, k, lo, hi, fit, uses_discrepancy)
+            entry["E_shift_sd"] = _shift_of_e(refit, post_sd)
+            if refit is not None:
+                entry["estimates"] = {"before": refit[0], "after": refit[1]}
         out.append(entry)
     return out
 
 
-def _shift_of_e(cfg: Config, tests: TestSet, name: str, low: float, high: float, fit: dict[str, Any],
-                uses_discrepancy: bool, post_sd: dict[str, float]) -> dict[str, float] | None:
-    """How far E (each E of the run) moves, in posterior sd, when ``name``'s bound is widened."""
+def _refit_widened(cfg: Config, tests: TestSet, name: str, low: float, high: float,
+                   fit: dict[str, Any], uses_discrepancy: bool
+                   ) -> tuple[dict[str, float], dict[str, float]] | None:
+    """The run's least-squares estimates (the analysis the run samples from: generalized under
+    model error) before and after ``name``'s bound is widened to [low, high]."""
     from bayes_dnlr.errors import BayesDnlrError
     from bayes_dnlr.inference.lsq.run_fit import fit_run
     from bayes_dnlr.runs.records import FitRecord
@@ -268,24 +325,38 @@ def _shift_of_e(cfg: Config, tests: TestSet, name: str, low: float, high: float,
     after = again.start_analysis(uses_discrepancy)
     if before is None or after is None:
         return None
+    return dict(before.estimate), dict(after.estimate)
+
+
+def _shift_of_e(refit: tuple[dict[str, float], dict[str, float]] | None,
+                post_sd: dict[str, float]) -> dict[str, float] | None:
+    """How far E (each E of the run) moves, in posterior sd, when a bound is widened."""
+    if refit is None:
+        return None
+    before, after = refit
     shifts = {}
     for k, sd in post_sd.items():
-        if base_name(k) == "E" and k in before.estimate and k in after.estimate and sd > 0:
-            shifts[k] = (after.estimate[k] - before.estimate[k]) / sd
+        if base_name(k) == "E" and k in before and k in after and sd > 0:
+            shifts[k] = (after[k] - before[k]) / sd
     return shifts or None
 
 
 def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, names: list[str],
                priors, fit: dict[str, Any], summary: dict[str, Any],
-               sigma0: dict[str, float]) -> dict[str, Any]:
-    """The ``checks`` block of summary.json for a sampled run (``draws`` (steps, walkers, ndim) kept)."""
+               sigma0: dict[str, float]) -> tuple[dict[str, Any], list | dict]:
+    """The ``checks`` block of summary.json for a sampled run (``draws`` (steps, walkers, ndim) kept),
+    and its ``modulus_at`` (E(t) with its own trust, runs/modulus.py)."""
+    from bayes_dnlr.runs.modulus import modulus_block
+
     noise = layout.expand(summary.get("noise")) if layout.plain else (summary.get("noise") or {}).get(
         "tests") or {}
     standards = layout.expand(summary.get("standards"))
     post_sd = {k: v["sd"] for k, v in (summary.get("posterior") or {}).items()}
     uses_disc = any((n or {}).get("model") == "discrepancy" for n in noise.values())
+    bands = predictive_bands(cfg, tests, layout, draws, names, noise, sigma0)
     checks: dict[str, Any] = {
-        "predictive_coverage": coverage_check(cfg, tests, layout, draws, names, noise, sigma0),
+        "predictive_coverage": coverage_check(cfg, tests, layout, draws, names, noise, sigma0,
+                                              bands=bands),
         "bound_limited": bound_check(cfg, tests, draws, names, priors, fit, uses_disc, post_sd),
         "prior_sensitivity": prior_sensitivity_check(draws, names, priors),
         "plausibility": plausibility_check(cfg, tests, layout, draws, names, standards),
@@ -295,10 +366,18 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
     checks["prior_sources"] = prior_sources(draws, names, priors,
                                             list(prior_shaped_e(checks["prior_sensitivity"])))
     adequate, trust, head, points = verdict(checks, bool(summary.get("converged")), not layout.plain)
+    modulus = modulus_block(cfg, tests, layout, draws, names, bands, checks,
+                            _log_prior(draws, priors), bool(summary.get("converged")))
     if layout.plain:
         for k in ("predictive_coverage", "plausibility", "noise_model"):
             checks[k] = layout.collapse(checks[k])
         checks["model_form"] = checks["model_form"].get(layout.tests[0])      # None: no score test
     checks.update(adequate=adequate, trust_interval=trust, verdict=" ".join([head, *points]),
                   verdict_points=points)
-    return checks
+    return checks, modulus
+
+
+def _log_prior(draws: np.ndarray, priors) -> np.ndarray | None:
+    """The log prior of every kept draw (None when it cannot be evaluated)."""
+    lp = priors.log_prior(priors.from_physical(draws.reshape(-1, draws.shape[-1])))
+    return lp if np.all(np.isfinite(lp)) else None

@@ -118,9 +118,12 @@ def _standards(test) -> dict[str, float | None] | None:
 
 
 def stopping_settings(cfg: Config) -> dict[str, Any]:
+    """The settings a finished chain's outputs depend on beyond the chain itself: the stopping rule
+    and the times of E(t) (summary.json ``settings``; outputs made with others are rebuilt)."""
     s = cfg.sampler
     return {"burn_in_tau": s.burn_in_tau, "min_tau_multiple": s.min_tau_multiple,
-            "target_ess": s.target_ess, "max_steps": s.max_steps}
+            "target_ess": s.target_ess, "max_steps": s.max_steps,
+            "modulus_at": cfg.output.modulus_at}
 
 
 def _remove_outputs(run_dir: Path) -> None:
@@ -558,8 +561,9 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
         summary["noise"]["projection"] = jsonable(offsets)
         summary["noise"]["verdict"] = verdict(summary["noise"])
     priors = build_target(cfg, test, FitRecord.from_dict(fit, cfg.test_names), run).priors
-    summary["checks"] = jsonable(run_checks(cfg, test, layout, draws, names, priors, fit, summary,
-                                            sigma0))
+    checks, modulus = run_checks(cfg, test, layout, draws, names, priors, fit, summary, sigma0)
+    summary["checks"] = jsonable(checks)
+    summary["modulus_at"] = jsonable(modulus)
     if summary["noise"]["model"] == "discrepancy" and fit.get("discrepancy"):
         summary["generalized_least_squares"] = gauss_newton_block(
             {"parameters": fit.get("parameters"), **fit["discrepancy"]})

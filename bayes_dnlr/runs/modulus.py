@@ -1,0 +1,212 @@
+"""summary.json's ``modulus_at``: E(t), the relaxation modulus of the identified model
+(model/modulus.py), from every kept posterior draw at the run's times, each with a trust of its own.
+
+E(t) inside the times a test resolves is what its data determine; E = E(0) is its extrapolation
+through the spectrum's fast end. So E(t)'s trust does not inherit E's flags about that fast end
+(the score test of the spectrum's exponent): it rests on checks of where E(t) draws its
+information (docs/sampling.md, "E(t) and its trust"):
+
+- ``inside_window``: t lies inside the times the test resolves (else E(t) is an extrapolation);
+- ``band``: the 90 % predictive band holds the samples that carry E(t)'s information (each sample
+  weighted by its share of E(t)'s least-squares variance) as a calibrated band would: a weighted
+  share below 0.9 − BAND_Z · sqrt(0.09 / n_eff) fails (a one-sided 1 % binomial test, n_eff the
+  weights' effective number of samples);
+- ``start``: the data's ISO 527-1 chord against the model curves' (inference/checks/start.py), for
+  the times up to where the chord is measured and beyond: the model follows the start of the curve;
+- ``bounds``: widening a prior bound the posterior piles against moves E(t) by at most SHIFT_SD
+  of its posterior sd (the prior box does not decide it);
+- ``prior``: E(t)'s own power-scaling sensitivity to the prior is below the package's threshold;
+- ``noise_model``: a white likelihood was not used on residuals that are not white;
+- ``converged``: the chain reached its stopping rule.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from bayes_dnlr.config import Config
+from bayes_dnlr.inference.checks import power_scaling
+from bayes_dnlr.inference.layout import Layout
+from bayes_dnlr.inference.modulus import (
+    MODULUS_PARAMETERS,
+    draw_stats,
+    gradient,
+    information_weights,
+    modulus_draws,
+    times_for,
+)
+from bayes_dnlr.model.modulus import relaxation_modulus
+from bayes_dnlr.numbers import fmt
+from bayes_dnlr.runs.checks import Band
+from bayes_dnlr.runs.testset import TestSet
+from bayes_dnlr.runs.verdict import SHIFT_SD
+from bayes_dnlr.vocabulary import SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT
+
+BAND_Z = 2.326          # one-sided 1 % quantile of the standard normal
+CALIBRATED = 0.90       # the share of the data a calibrated 90 % band holds
+
+
+def band_floor(n_eff: float) -> float:
+    """The weighted share below which a 90 % band is too narrow where the weights lie."""
+    return CALIBRATED - BAND_Z * math.sqrt(CALIBRATED * (1 - CALIBRATED) / max(n_eff, 1e-12))
+
+
+def test_columns(cfg: Config, layout: Layout, test: str, draws: np.ndarray,
+                 names: list[str]) -> dict[str, np.ndarray | float]:
+    """E, G, tau_max and alpha of one test, from the draws (steps, walkers, ndim) or the fixed
+    values."""
+    view = cfg.for_test(test)
+    flat = draws.reshape(-1, draws.shape[-1])
+    out: dict[str, np.ndarray | float] = {}
+    for k in MODULUS_PARAMETERS:
+        name = layout.name(k, test)
+        if name in names:
+            out[k] = flat[:, names.index(name)]
+        elif k in view.fixed_values:
+            out[k] = float(view.fixed_values[k])
+        elif k == SPECTRUM_EXPONENT:
+            out[k] = UNIVERSAL_EXPONENT
+        elif k == "G":
+            out[k] = 0.0
+    return out
+
+
+def _band_check(band: Band | None, t: float) -> dict[str, Any] | None:
+    if band is None or band.X is None:
+        return None
+    g = gradient(band.point, band.free, [t])[0]
+    if not np.any(g):
+        return None
+    w = information_weights(band.X, g)
+    share = float(np.sum(w * band.inside))
+    n_eff = float(1.0 / np.sum(w**2))
+    floor = band_floor(n_eff)
+    # where E(t) draws most of its information: the samples holding 90 % of its weight
+    order = np.argsort(w)[::-1]
+    top = order[: int(np.searchsorted(np.cumsum(w[order]), 0.9)) + 1]
+    span = [float(band.time[top].min()), float(band.time[top].max())]
+    return {"share": share, "n_eff": n_eff, "floor": floor, "ok": share >= floor,
+            "information_times": span}
+
+
+def _bound_shift(bound_limited: list[dict], layout: Layout, test: str, t: float, sd: float,
+                 cfg: Config) -> dict[str, float]:
+    """E(t)'s move, in its posterior sd, when each piled-up bound is widened (the bound check's
+    refits)."""
+    out = {}
+    if not sd > 0:
+        return out
+    view = cfg.for_test(test)
+    for b in bound_limited:
+        est = b.get("estimates")
+        if not est:
+            continue
+        values = []
+        for side in ("before", "after"):
+            e = est[side]
+            params = {k: e.get(layout.name(k, test), view.fixed_values.get(k)) for k in
+                      MODULUS_PARAMETERS}
+            params = {k: (v if v is not None else (UNIVERSAL_EXPONENT if k == SPECTRUM_EXPONENT else 0.0))
+                      for k, v in params.items()}
+            values.append(float(relaxation_modulus([t], params["E"], params["G"], params["tau_max"],
+                                                   params[SPECTRUM_EXPONENT], cfg.model.modes,
+                                                   cfg.model.decades)[0]))
+        out[b["parameter"]] = (values[1] - values[0]) / sd
+    return out
+
+
+def _reasons(row: dict[str, Any], who: str) -> list[str]:
+    """The sentences of the checks that withdraw E(t)'s trust."""
+    t = f"E({fmt(row['t'], 3)} s)"
+    c = row["checks"]
+    out = []
+    if not c["inside_window"]:
+        lo, hi = row["resolved"]
+        out.append(f"{who}{t} lies outside the times the test resolves ({fmt(lo, 3)}-{fmt(hi, 4)} s): "
+                   "an extrapolation through the model's spectrum, not a measurement")
+    band = c.get("band")
+    if band and not band["ok"]:
+        lo, hi = band["information_times"]
+        out.append(f"{who}the 90 % band holds {100 * band['share']:.0f} % of the samples that carry "
+                   f"{t}'s information (t = {fmt(lo, 3)}-{fmt(hi, 3)} s; at least "
+                   f"{100 * max(band['floor'], 0):.0f} % expected of a calibrated band): the model "
+                   "misses the data where this modulus is measured")
+    start = c.get("start")
+    if start and not start["ok"]:
+        out.append(f"{who}the data's ISO 527-1 chord ({fmt(start['data_chord'])} MPa, measured "
+                   f"{fmt(start['times'][0], 2)}-{fmt(start['times'][1], 2)} s into the loading) is "
+                   f"{abs(start['z']):.1f} sd from the model's ({fmt(start['model_chord'])} MPa): the "
+                   "model does not follow the start of this curve (a toe, a preload, a loading it "
+                   "misses)")
+    big = {k: v for k, v in (c.get("bounds") or {}).items() if abs(v) > SHIFT_SD}
+    if big:
+        moves = ", ".join(f"{k} moves it by {v:+.1f} sd" for k, v in big.items())
+        out.append(f"{who}the prior box decides {t}: widening the bound of {moves}")
+    prior = c.get("prior")
+    if prior is not None and prior > power_scaling.SENSITIVE:
+        out.append(f"{who}the prior shapes {t} (power-scaling sensitivity {prior:.2f})")
+    if c.get("noise_model") is False:
+        out.append(f"{who}a white likelihood on residuals that are not white: {t}'s interval ignores "
+                   "the model error")
+    if not c["converged"]:
+        out.append(f"{who}the chain has not converged")
+    return out
+
+
+def modulus_block(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, names: list[str],
+                  bands: Mapping[str, Band], checks: Mapping[str, Any], log_prior: np.ndarray | None,
+                  converged: bool) -> list[dict] | dict[str, Any]:
+    """``modulus_at`` of summary.json: per test, a list of {t, mean, sd, median, hdi_90, trust,
+    trust_reasons, checks, resolved, why}; a run with one test gives its list, a run with several
+    {"tests": {name: list}}."""
+    per_test: dict[str, list[dict]] = {}
+    noise_ok = checks.get("noise_model") or {}
+    for test in layout.tests:
+        data = tests.tests[test]
+        view = cfg.for_test(test)
+        if not ({"E", "tau_max"} <= set(view.parameters)):
+            continue
+        times, why, window = times_for(view, data)
+        values = modulus_draws(test_columns(cfg, layout, test, draws, names), times,
+                               cfg.model.modes, cfg.model.decades)
+        band = bands.get(test)
+        start = band.start.to_dict() if band is not None and band.start is not None else None
+        rows = []
+        for i, t in enumerate(times):
+            stats = draw_stats(values[:, i])
+            prior = None
+            if log_prior is not None and np.all(np.isfinite(log_prior)) and np.ptp(log_prior) > 0:
+                prior = power_scaling.sensitivity({"E(t)": values[:, i]}, log_prior)["E(t)"]
+            row_checks = {
+                "inside_window": window.contains(t),
+                "band": _band_check(band, t),
+                "start": start,
+                "bounds": _bound_shift(checks.get("bound_limited") or [], layout, test, t,
+                                       float(stats["sd"]), cfg),
+                "prior": prior,
+                "noise_model": (noise_ok.get(test) or {}).get("ok", True),
+                "converged": bool(converged),
+            }
+            row = {"t": float(t), **stats, "resolved": [window.shortest, window.longest],
+                   "why": why, "checks": row_checks}
+            row["trust_reasons"] = _reasons(row, "" if layout.plain else f"{test}: ")
+            row["trust"] = not row["trust_reasons"]
+            rows.append(row)
+        per_test[test] = rows
+    if layout.plain:
+        return next(iter(per_test.values()), [])
+    return {"tests": per_test}
+
+
+def entries(summary: Mapping[str, Any]) -> dict[str, list[dict]]:
+    """summary.json's ``modulus_at`` per test (a run with one test under its own name, '')."""
+    block = summary.get("modulus_at")
+    if not block:
+        return {}
+    if isinstance(block, list):
+        return {"": block}
+    return dict(block.get("tests") or {})
