@@ -30,6 +30,7 @@ from bayes_dnlr.report.figure_cache import figure_session, keep_long_lived
 from bayes_dnlr.report.figures import import_figure_modules
 from bayes_dnlr.report.headline import headline as _headline
 from bayes_dnlr.report.headline import warnings as _warnings
+from bayes_dnlr.report.modulus_section import section as modulus_section
 from bayes_dnlr.report.page_parts import CSS, bullets, embed
 from bayes_dnlr.runs.curve_cache import report_curves
 from bayes_dnlr.runs.curves import model_curves, run_white_curve
@@ -108,6 +109,8 @@ SECTIONS = (
     Section("tables_3_5", "Tables 3 and 5 of the paper, from the run's posterior", True,
             lambda page: [tables_3_5(page.run).html()]),
     Section("rate", "Is E rate-independent?", True, _rate),
+    Section("modulus", "E(t): the modulus the data determine", False,
+            lambda page: modulus_section(page.run, page.figdir)),
     Section("fit", "Fit and residuals", False, _per_test(ts.fit_section),
             title_of_tests="Fit and residuals of every test"),
     Section("model_error", "Model error: the two analyses and the checks", False, _model_error,

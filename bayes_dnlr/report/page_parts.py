@@ -18,7 +18,7 @@ h1{font-size:1.7em;margin:0 0 4px}h2{font-size:1.3em;margin:34px 0 10px;border-b
 padding-bottom:4px}h3{font-size:1.05em;margin:20px 0 6px}
 .meta{color:#666;font-size:.9em;margin-bottom:18px}
 .box{background:#f5f7fa;border:1px solid #dde3ea;border-radius:6px;padding:12px 16px;margin:14px 0}
-.warn{background:#fff6e5;border-color:#f0c36d}.bad{color:#a61b1b;font-weight:600}.ok{background:#eef8f0;border-color:#a6d8b0}
+.warn{background:#fff6e5;border-color:#f0c36d}.bad{color:#a61b1b;font-weight:600}.good{color:#1d6b33;font-weight:600}.ok{background:#eef8f0;border-color:#a6d8b0}
 .stale{background:#fde8e8;border:2px solid #c9302c;color:#5a1010}
 table{border-collapse:collapse;margin:10px 0 6px;font-size:.92em}
 caption{text-align:left;font-weight:600;padding:4px 0;color:#333}

@@ -174,3 +174,17 @@ class FitRecord:
         """Where the walkers start: the generalized analysis when the likelihood has a discrepancy
         (and the fit made one), else the white one."""
         return (self.generalized if uses_discrepancy else None) or self.white
+
+
+def held_parameters(fit: Mapping[str, Any] | None) -> dict[str, float]:
+    """The parameters fit.json holds because the window cannot identify them (its
+    ``identifiability`` block): name -> the value held at."""
+    held = ((fit or {}).get("identifiability") or {}).get("held") or {}
+    return {k: float(v["value"]) for k, v in held.items()}
+
+
+def held_config(cfg, fit: Mapping[str, Any] | None):
+    """The config as the run fits and samples it: ``cfg`` with fit.json's held parameters fixed
+    (``Config.with_holds``). Identity and staleness stay with ``cfg`` itself: the holds follow
+    from it and the data."""
+    return cfg.with_holds(held_parameters(fit))

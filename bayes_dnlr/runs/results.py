@@ -20,7 +20,7 @@ from bayes_dnlr.inference.layout import Layout, joint_name
 from bayes_dnlr.runs.folder import find_config
 from bayes_dnlr.runs.layout import FIT_FILE, POSTERIOR_FILE, SMOOTHING_CACHE, SUMMARY_FILE
 from bayes_dnlr.runs.netcdf import SAMPLE_DIMS
-from bayes_dnlr.runs.records import Analysis, FitRecord, TestFit
+from bayes_dnlr.runs.records import Analysis, FitRecord, TestFit, held_config
 from bayes_dnlr.runs.testset import plain_names
 from bayes_dnlr.vocabulary import NOISE_NAMES, base_name
 
@@ -354,6 +354,7 @@ def load_run(run_dir: Path | str, load_data: bool = True, source: Path | str | N
         from bayes_dnlr.runs.provenance import stale_results
 
         run.stale = stale_results(run_dir, cfg, run.fit, run.summary, source)
+    run.cfg = held_config(cfg, run.fit)       # as the run fitted and sampled it
     return run
 
 

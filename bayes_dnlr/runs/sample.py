@@ -74,7 +74,7 @@ from bayes_dnlr.runs.outputs import (
     summarize,
     write_outputs,
 )
-from bayes_dnlr.runs.records import FitRecord
+from bayes_dnlr.runs.records import FitRecord, held_config
 from bayes_dnlr.runs.target import Target, build_target
 from bayes_dnlr.runs.testset import TestSet, load_tests
 
@@ -264,10 +264,11 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
     fit = _current_fit(cfg, test, replace=restart, progress=progress)
     t_fit = time.perf_counter() - t_fit
     prepare_run_dir(cfg)
-    target = build_target(cfg, test, FitRecord.from_dict(fit, cfg.test_names), stored)
+    used = held_config(cfg, fit)          # the parameters the window cannot identify held
+    target = build_target(used, test, FitRecord.from_dict(fit, cfg.test_names), stored)
     post, priors, names = target.post, target.priors, target.names
     sigma0, sigma0_source = target.sigma0, target.sigma0_source
-    check_sampler(cfg, names)
+    check_sampler(used, names)
     if stored is not None and (stored.names != names or [bool(v) for v in stored.attrs.get(
             "log_space", [])] != [bool(v) for v in priors.log_space]):
         raise StaleRunError(f"{chains} holds parameters {stored.names} sampled in other coordinates "
@@ -331,7 +332,7 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
     t_finish = time.perf_counter() - t_finish
     t_out = time.perf_counter()
     run = read_run(chains)
-    post = _write_result(cfg, run, fit, conv, reason, fp, test, sigma0_source,
+    post = _write_result(used, run, fit, conv, reason, fp, test, sigma0_source,
                          wall_time=elapsed, store_time=store_time, evals=evals0 + out.evals,
                          check_time=out.check_time, record=record)
     t_out = time.perf_counter() - t_out + t_finish
@@ -427,7 +428,7 @@ def _finished_result(cfg: Config, test, stored: StoredRun, fp: str,
         return load_posterior(cfg.run_dir, note=note)
     # outputs missing or made with other burn-in/stopping settings: rebuild them from the chain
     fit = _current_fit(cfg, test, replace=False, progress=False)
-    post = _write_result(cfg, stored, fit, conv, reason, fp, test,
+    post = _write_result(held_config(cfg, fit), stored, fit, conv, reason, fp, test,
                          _json_attr(stored.attrs.get("sigma0_source", "")), wall_time=stored.elapsed,
                          store_time=stored.store_time, evals=stored.n_evals, record=record)
     post.note = note + "; summary.json and posterior.nc rewritten from the chain"
@@ -567,6 +568,8 @@ def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Conver
     if summary["noise"]["model"] == "discrepancy" and fit.get("discrepancy"):
         summary["generalized_least_squares"] = gauss_newton_block(
             {"parameters": fit.get("parameters"), **fit["discrepancy"]})
+    if fit.get("identifiability"):
+        summary["identifiability"] = jsonable(fit["identifiability"])
     spectrum = _spectrum_block(cfg, fit, names, draws)
     if spectrum is not None:
         summary["spectrum_exponent"] = jsonable(spectrum)

@@ -65,6 +65,7 @@ class RunFit:
     data_sha256: str = ""
     wall_time_s: float = 0.0
     plain: bool = False                    # one test, plain names: fit.json is that test's fit
+    identifiability: dict[str, Any] | None = None   # parameters held: no test identifies them
 
     @classmethod
     def of_one_test(cls, fit: FitResult) -> RunFit:
@@ -106,13 +107,15 @@ class RunFit:
             "single_fits": {t: {k: v for k, v in r.to_dict().items()
                                 if k in ("estimate", "sd", "err", "sigma0", "sigma0_source", "residuals",
                                          "warnings", "discrepancy", "strain_rate", "deborah_max",
-                                         "n_points", "relaxation_start", "data_notes", "spectrum_exponent")}
+                                         "n_points", "relaxation_start", "data_notes", "spectrum_exponent",
+                                         "modulus_at", "identifiability")}
                             for t, r in self.singles.items()},
             "criterion": self.criterion, "converged": self.converged, "message": self.message,
             "iterations": self.iterations, "condition_number": self.condition_number,
             "warnings": self.warnings, "discrepancy": self.discrepancy,
             "config_digest": self.config_digest, "config_sections": self.config_sections,
             "data_sha256": self.data_sha256, "version": __version__, "wall_time_s": self.wall_time_s,
+            "identifiability": self.identifiability,
         })
 
     def table(self) -> str:
@@ -208,6 +211,10 @@ def fit_run(cfg: Config, tests: dict[str, Any], plain: bool) -> RunFit:
         return RunFit.of_one_test(fit_test(cfg, test))
     views = {t: cfg.for_test(t) for t in cfg.test_names}
     singles = {t: _fit_single(i, views[t], tests[t]) for i, t in enumerate(views)}
+    identifiability = _held_by_every_test(singles)
+    if identifiability is not None:
+        cfg = cfg.with_holds({k: v["value"] for k, v in identifiability["held"].items()})
+        views = {t: cfg.for_test(t) for t in cfg.test_names}
     layout = Layout.build({t: views[t].free_parameters for t in views}, cfg.per_test_parameters)
     bounds = {g: cfg.parameters[base_name(g)].bounds() for g in layout.names}
     blocks = _blocks(views, tests)
@@ -242,7 +249,22 @@ def fit_run(cfg: Config, tests: dict[str, Any], plain: bool) -> RunFit:
         tests=info, singles=singles, criterion=float(opt.criterion), converged=bool(opt.converged),
         message=opt.message, iterations=int(opt.iterations), condition_number=sa.condition_number,
         warnings=warnings, discrepancy=disc, per_test=cfg.per_test_parameters,
-        wall_time_s=time.perf_counter() - t0)
+        wall_time_s=time.perf_counter() - t0, identifiability=identifiability)
+
+
+def _held_by_every_test(singles: Mapping[str, FitResult]) -> dict[str, Any] | None:
+    """The parameters every test's own fit held (no test's window identifies them), to hold in the
+    joint fit too; each with the tests' sensitivities. None when there are none: a parameter one
+    test identifies stays free, that test places it."""
+    held = [set((r.identifiability or {}).get("held") or {}) for r in singles.values()]
+    common = set.intersection(*held) if held else set()
+    if not common:
+        return None
+    out = {k: {"value": next(iter(singles.values())).identifiability["held"][k]["value"],
+               "sensitivity": {t: r.identifiability["held"][k]["sensitivity"]
+                               for t, r in singles.items()}} for k in sorted(common)}
+    words = "; ".join(f"{k} held at {v['value']:g}: no test's window identifies it" for k, v in out.items())
+    return {"held": out, "words": words}
 
 
 def _joint_gls(cfg: Config, problem: RunProblem, white: dict[str, float],
