@@ -231,7 +231,58 @@ def replicate(args: tuple) -> dict[str, Any]:
         out["corr_E_alpha"] = float(np.corrcoef(d["E"], d["alpha"])[0, 1])
         out["truth_alpha"] = cfg.truth.params.get("alpha")
     out["spectrum_exponent"] = s.get("spectrum_exponent")
+    out["modulus_at"] = modulus_records(cfg, s)
     return out
+
+
+def modulus_records(cfg, summary: dict[str, Any]) -> list[dict[str, Any]]:
+    """E(t) at each of the run's times (summary.json ``modulus_at``) beside the truth of the
+    generating model (truth_forms.relaxation_modulus): covered by the 90 % HDI, trusted."""
+    from bayes_dnlr.workflows.truth_forms import relaxation_modulus
+
+    rows = summary.get("modulus_at") or []
+    if not isinstance(rows, list) or not rows:
+        return []
+    form = cfg.truth.model_form
+    truth = relaxation_modulus([r["t"] for r in rows], cfg.truth.params,
+                               None if form is None else form.kind,
+                               "mild" if form is None else form.strength,
+                               cfg.model.modes, cfg.model.decades)
+    out = []
+    for r, true in zip(rows, truth, strict=True):
+        lo, hi = r["hdi_90"]
+        out.append({"t": r["t"], "mean": r["mean"], "sd": r["sd"], "lo": lo, "hi": hi,
+                    "truth": float(true), "covered": bool(lo <= true <= hi),
+                    "trust": bool(r.get("trust")), "reasons": [
+                        k for k, v in (r.get("checks") or {}).items()
+                        if (isinstance(v, dict) and v.get("ok") is False) or v is False]})
+    return out
+
+
+def modulus_table(results: list[dict[str, Any]]) -> str:
+    """One row per kind × likelihood × time: E(t)'s coverage, covered or flagged, flagged, bias, sd
+    and the checks that withdrew its trust."""
+    groups: dict[tuple, list[dict]] = {}
+    for r in results:
+        for m in r.get("modulus_at") or []:
+            groups.setdefault((r["kind"], r["strength"], r["likelihood"], m["t"]), []).append(m)
+    if not groups:
+        return ""
+    lines = [f"{'E(t)':<20}{'strength':<9}{'likelihood':<11}{'t (s)':>7}{'n':>4}{'raw':>6}{'cover':>7}"
+             f"{'cov|flag':>9}{'flag':>6}{'bias %':>8}{'sd %':>7}{'med|z|':>8}  checks that withdrew trust"]
+    for (kind, strength, lik, t), ms in groups.items():
+        n = len(ms)
+        raw = sum(m["covered"] for m in ms)
+        cov = sum(m["covered"] and m["trust"] for m in ms)
+        flag = sum(not m["trust"] for m in ms)
+        bias = np.mean([100 * (m["mean"] / m["truth"] - 1) for m in ms])
+        sdp = np.mean([100 * m["sd"] / m["truth"] for m in ms])
+        z = np.median([abs(m["mean"] - m["truth"]) / m["sd"] for m in ms if m["sd"] > 0] or [math.nan])
+        why = Counter(k for m in ms for k in m["reasons"])
+        lines.append(f"{kind:<20}{strength:<9}{lik:<11}{t:>7.3g}{n:>4}{raw / n:>6.2f}{cov / n:>7.2f}"
+                     f"{(cov + flag) / n:>9.2f}{flag / n:>6.2f}{bias:>+8.2f}{sdp:>7.2f}{z:>8.2f}  "
+                     + ", ".join(f"{k} {v}/{n}" for k, v in sorted(why.items())))
+    return "\n".join(lines)
 
 
 # ---------------------------------------------------------------- tables
@@ -307,7 +358,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="print the tables of saved records instead of running")
     args = ap.parse_args(argv)
     if args.source is not None:
-        print(table(json.loads(args.source.read_text())))
+        saved = json.loads(args.source.read_text())
+        print(table(saved))
+        print(modulus_table(saved))
         return 0
     kinds = args.kinds or (list(QUICK_KINDS) if args.quick else list(KINDS))
     reps = 3 if args.quick else args.replicates
@@ -333,6 +386,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.out is not None:
         args.out.write_text(json.dumps(results, indent=1, default=float))
     print(table(results))
+    print(modulus_table(results))
     print(f"wall time {time.perf_counter() - t0:.0f} s")
     return 0
 

@@ -27,7 +27,6 @@ import numpy as np
 from bayes_dnlr.config import Config, ConfigError
 from bayes_dnlr.digests import digest
 from bayes_dnlr.errors import BayesDnlrError, StaleRunError
-from bayes_dnlr.inference.layout import Layout
 from bayes_dnlr.inference.mcmc.ensemble import (
     COMPLEMENT,
     CONDITIONAL,
@@ -43,38 +42,30 @@ from bayes_dnlr.inference.mcmc.ensemble import (
 from bayes_dnlr.inference.mcmc.state import SamplerState
 from bayes_dnlr.inference.mcmc.stopping import (
     MIN_STEPS_FOR_TAU,
-    Convergence,
     StopRule,
     convergence,
-    shortfall,
     stop_reason,
 )
 from bayes_dnlr.inference.posterior.priors import build_priors
 from bayes_dnlr.interrupt import Interrupted
 from bayes_dnlr.runs import identity
 from bayes_dnlr.runs.chains import ChainWriter, StoredRun, read_attrs, read_run, release_stale_writer
-from bayes_dnlr.runs.checks import run_checks
 from bayes_dnlr.runs.folder import (
     check_output_dir,
     discard_if_empty,
-    jsonable,
     make_dir,
     prepare_run_dir,
     resolved_config_text,
 )
 from bayes_dnlr.runs.layout import CHAINS_FILE, FIT_FILE, POSTERIOR_FILE, SAMPLE_LOCK, SUMMARY_FILE
 from bayes_dnlr.runs.lock import run_lock
-from bayes_dnlr.runs.netcdf import PosteriorDraws
-from bayes_dnlr.runs.noise_summary import noise_summary, residual_warnings, verdict
 from bayes_dnlr.runs.outputs import (
     Posterior,
-    gauss_newton_block,
     load_posterior,
     read_summary,
-    summarize,
-    write_outputs,
 )
 from bayes_dnlr.runs.records import FitRecord, held_config
+from bayes_dnlr.runs.result import json_attr, package_version, stopping_settings, write_result
 from bayes_dnlr.runs.target import Target, build_target
 from bayes_dnlr.runs.testset import TestSet, load_tests
 
@@ -104,27 +95,6 @@ def fingerprint_parts(cfg: Config, data_sha256: str) -> dict[str, str]:
 
 
 # ---------------------------------------------------------------- helpers
-
-def _standards(test) -> dict[str, float | None] | None:
-    try:
-        from bayes_dnlr.standards import standard_moduli
-    except ImportError:
-        return None
-    try:
-        return standard_moduli(test)
-    except Exception as err:  # noqa: BLE001 - a failed standard modulus must not lose a posterior
-        print(f"note: standard moduli not computed ({err})", file=sys.stderr)
-        return None
-
-
-def stopping_settings(cfg: Config) -> dict[str, Any]:
-    """The settings a finished chain's outputs depend on beyond the chain itself: the stopping rule
-    and the times of E(t) (summary.json ``settings``; outputs made with others are rebuilt)."""
-    s = cfg.sampler
-    return {"burn_in_tau": s.burn_in_tau, "min_tau_multiple": s.min_tau_multiple,
-            "target_ess": s.target_ess, "max_steps": s.max_steps,
-            "modulus_at": cfg.output.modulus_at}
-
 
 def _remove_outputs(run_dir: Path) -> None:
     for name in (CHAINS_FILE, POSTERIOR_FILE, SUMMARY_FILE):
@@ -286,7 +256,7 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
             "ndim": ndim, "config": resolved_config_text(cfg), "fingerprint": fp,
             "fingerprint_parts": json.dumps(parts), "data_sha256": test.sha256,
             "identity": identity.chain_record(cfg, test, before),
-            "data_file": str(test.path), "version": _version(), "modes": cfg.model.modes,
+            "data_file": str(test.path), "version": package_version(), "modes": cfg.model.modes,
             "decades": cfg.model.decades, "moves": sc.moves, "seed": sc.seed,
             "moves_detail": (CONDITIONAL if mapper is not None else LAPLACE if laplace is not None
                              else COMPLEMENT if complement else MOVES.get(sc.moves, sc.moves)),
@@ -332,7 +302,7 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
     t_finish = time.perf_counter() - t_finish
     t_out = time.perf_counter()
     run = read_run(chains)
-    post = _write_result(used, run, fit, conv, reason, fp, test, sigma0_source,
+    post = write_result(used, run, fit, conv, reason, fp, test, sigma0_source,
                          wall_time=elapsed, store_time=store_time, evals=evals0 + out.evals,
                          check_time=out.check_time, record=record)
     t_out = time.perf_counter() - t_out + t_finish
@@ -359,51 +329,12 @@ def _keep_report_curves(cfg: Config, test: TestSet) -> None:
         pass
 
 
-def _json_attr(v: Any) -> Any:
-    """A chain attribute written as JSON (older chains hold plain strings)."""
-    try:
-        return json.loads(v)
-    except (TypeError, ValueError):
-        return v
-
-
-def _chain_layout(run: StoredRun, cfg: Config, plain: bool) -> Layout:
-    """The run's layout of a stored chain (a run with several tests stores each test's names)."""
-    local = {cfg.test_names[0]: run.names} if plain else json.loads(run.attrs.get("layout", "{}"))
-    return Layout.build(local, cfg.per_test_parameters, plain)
-
-
-def _sigma0_used(run: StoredRun, draws: np.ndarray, layout: Layout) -> dict[str, float]:
-    """σ0 (MPa) of each test's likelihood: the fixed value, or the posterior mean when sampled."""
-    names = run.names
-    stored = layout.expand(_json_attr(run.attrs.get("sigma0")))
-
-    def value(name: str, fixed: Any) -> float:
-        if name in names:
-            return float(draws[:, :, names.index(name)].mean())
-        return float("nan") if fixed is None else float(fixed)
-
-    return {t: value(layout.name("sigma0", t), stored.get(t)) for t in layout.tests}
-
-
 def _sigma0_attr(sigma0: Any) -> Any:
     """σ0 as a chain attribute: a number, NaN when sampled; JSON of the per-test values of a run
     with several tests."""
     if isinstance(sigma0, dict):
         return json.dumps({t: (None if v is None else float(v)) for t, v in sigma0.items()})
     return float("nan") if sigma0 is None else float(sigma0)
-
-
-def _threads_in_use() -> int:
-    from bayes_dnlr.model.threads import get_threads
-
-    return get_threads()
-
-
-def _version() -> str:
-    from bayes_dnlr import __version__
-
-    return __version__
 
 
 def _finished_result(cfg: Config, test, stored: StoredRun, fp: str,
@@ -428,155 +359,10 @@ def _finished_result(cfg: Config, test, stored: StoredRun, fp: str,
         return load_posterior(cfg.run_dir, note=note)
     # outputs missing or made with other burn-in/stopping settings: rebuild them from the chain
     fit = _current_fit(cfg, test, replace=False, progress=False)
-    post = _write_result(held_config(cfg, fit), stored, fit, conv, reason, fp, test,
-                         _json_attr(stored.attrs.get("sigma0_source", "")), wall_time=stored.elapsed,
+    post = write_result(held_config(cfg, fit), stored, fit, conv, reason, fp, test,
+                         json_attr(stored.attrs.get("sigma0_source", "")), wall_time=stored.elapsed,
                          store_time=stored.store_time, evals=stored.n_evals, record=record)
     post.note = note + "; summary.json and posterior.nc rewritten from the chain"
     return post
 
 
-def _projection_offsets(cfg: Config, test, fit: dict[str, Any], run: StoredRun,
-                        draws: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
-    """The chain holds θ* (the projection) and the hyperparameters: each draw of θ becomes
-    θ* - c, c the projection offset of the discrepancy (inference/discrepancy/orthogonal.py ``offset_draws``),
-    with a seed of its own so that the outputs are reproducible."""
-    from bayes_dnlr.inference.discrepancy.gls import columns_for
-    from bayes_dnlr.inference.discrepancy.hyper import discrepancy_priors
-    from bayes_dnlr.inference.discrepancy.orthogonal import offset_draws
-
-    disc = fit["discrepancy"]
-    cols, axis = columns_for(cfg, test, disc["estimate"])
-    stored = _json_attr(run.attrs.get("discrepancy_priors"))
-    priors = discrepancy_priors({"discrepancy": {"priors": stored}}) if stored else discrepancy_priors(fit)
-    fixed = {k.removeprefix("disc_"): float(v.value) for k, v in (priors or {}).items() if v.fixed}
-    kernel = _json_attr(run.attrs.get("discrepancy_kernel")) or disc.get("kernel")
-    bounds = {k: cfg.parameters[k].bounds() for k in cols.names}
-    flat = draws.reshape(-1, draws.shape[-1])
-    new, info = offset_draws(flat, list(run.names), disc["projection"], kernel, cols, axis.values,
-                             axis.origin, fixed, bounds, int(cfg.sampler.seed) + 7919)
-    return new.reshape(draws.shape), info
-
-
-def _sandwich_adjustment(cfg: Config, fit: dict[str, Any], run: StoredRun,
-                         draws: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
-    """The chain is the exp posterior; its draws of θ take the covariance of the generalized
-    estimate under the kernels' model of the error (inference/discrepancy/orthogonal.py ``adjust_draws``)."""
-    from bayes_dnlr.inference.discrepancy.orthogonal import adjust_draws
-
-    proj = fit["discrepancy"]["projection"]
-    names = list(proj["u_names"])
-    bounds = {k: cfg.parameters[k].bounds() for k in names}
-    flat = draws.reshape(-1, draws.shape[-1])
-    new, info = adjust_draws(flat, list(run.names), names, np.asarray(proj["log"], dtype=bool),
-                             np.asarray(proj["sampled_covariance_u"], dtype=float),
-                             np.asarray(proj["covariance_u"], dtype=float), bounds)
-    info["kernel_weights"] = {k: v["weight"] for k, v in proj["kernels"].items()}
-    return new.reshape(draws.shape), info
-
-
-def _spectrum_block(cfg: Config, fit: dict[str, Any], names: list[str],
-                    draws: np.ndarray) -> dict[str, Any] | None:
-    """The fit's ``spectrum_exponent`` block (how E depends on alpha, eq. 12) and, with alpha sampled,
-    what the data said about alpha: its prior and posterior mean and sd, the shift of the mean in
-    prior sd and the ratio of the sds (1: the data do not tell alpha), the posterior correlation
-    of E and alpha and the slope of E on alpha over the draws."""
-    block = fit.get("spectrum_exponent")
-    if block is None:
-        return None
-    block = dict(block)
-    if "E" in names and "alpha" in names:
-        from bayes_dnlr.inference.posterior.priors import Prior
-
-        e = draws[:, :, names.index("E")].ravel()
-        a = draws[:, :, names.index("alpha")].ravel()
-        prior = Prior.from_spec("alpha", cfg.parameters["alpha"]).sample(
-            np.random.default_rng(0), 20000)
-        p_mean, p_sd = float(np.mean(prior)), float(np.std(prior, ddof=1))
-        a_mean, a_sd = float(np.mean(a)), float(np.std(a, ddof=1))
-        block |= {"prior": {"mean": p_mean, "sd": p_sd}, "posterior": {"mean": a_mean, "sd": a_sd},
-                  "shift_in_prior_sd": (a_mean - p_mean) / p_sd, "sd_ratio": a_sd / p_sd,
-                  "posterior_correlation_E_alpha": float(np.corrcoef(e, a)[0, 1]),
-                  "posterior_slope_E_alpha": float(np.cov(e, a)[0, 1] / np.var(a, ddof=1))}
-    return block
-
-
-def _write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Convergence | None,
-                  reason: str | None, fp: str, test, sigma0_source: str, *, wall_time: float,
-                  store_time: float, evals: int, check_time: float | None = None,
-                  record: dict[str, Any] | None = None) -> Posterior:
-    """posterior.nc and summary.json from the stored chain. ``wall_time``: the sampling loops
-    (all sessions), ``store_time`` the checkpoint writes inside them, ``check_time`` the checks of
-    the stopping rule in the last session (None: not measured)."""
-    sc = cfg.sampler
-    names = run.names
-    if conv is None:
-        conv = convergence(run.chain, sc.burn_in_tau, sc.min_tau_multiple, sc.target_ess)
-    burn = conv.burn_in
-    draws = run.chain[burn:]
-    lp = run.log_prob[burn:]
-    layout = _chain_layout(run, cfg, test.plain)
-    offsets = None
-    target = _json_attr(run.attrs.get("discrepancy_projection")) if layout.plain else None
-    if target and fit.get("discrepancy"):
-        view = test.tests[layout.tests[0]]
-        draws, offsets = (_projection_offsets(cfg, view, fit, run, draws) if target == "l2"
-                          else _sandwich_adjustment(cfg, fit, run, draws))
-    sigma0 = _sigma0_used(run, draws, layout)
-    singles = fit.get("single_fits") or {}
-    sampling = max(wall_time - store_time, 1e-12)
-    acc = float(run.accepted[burn:].mean()) if run.accepted.size else float("nan")
-    warnings = []
-    if reason != "converged":
-        warnings.append(f"not converged: stopped at max_steps = {sc.max_steps}: "
-                        f"{shortfall(conv, names, sc.target_ess, sc.min_tau_multiple)} "
-                        f"(about {conv.needed_steps} steps needed)")
-    extra = {
-        "sigma0": layout.collapse(sigma0), "n_points": int(test.n_points), "steps": int(run.steps),
-        "wall_time_s": wall_time,
-        "standards": layout.collapse({t: _standards(d) for t, d in test.tests.items()}),
-        "deborah_max": layout.collapse({t: (fit if layout.plain else singles.get(t) or {}).get("deborah_max")
-                                        for t in layout.tests}),
-        "name": cfg.name, "stop_reason": reason, "converged": reason == "converged",
-        "burn_in": int(burn), "target_ess": sc.target_ess,
-        "moves": run.attrs.get("moves_detail") or MOVES.get(sc.moves, sc.moves),
-        "seed": sc.seed, "threads": _threads_in_use(), "acceptance_fraction": acc,
-        "sigma0_source": sigma0_source,
-        "storage_time_s": store_time, "storage_overhead": store_time / sampling,
-        "log_prob_evals": int(evals), "log_prob_evals_per_s": evals / sampling,
-        "check_time_s": check_time,
-        "settings": stopping_settings(cfg), "fingerprint": fp, "data_sha256": test.sha256,
-        "identity": record if record is not None else identity.data_record(cfg, test, None),
-        "version": _version(),
-    }
-    attrs = {"burn_in": int(burn), "stop_reason": reason, "walkers": int(run.chain.shape[1]),
-             "steps": int(run.steps), "moves": sc.moves, "seed": sc.seed, "run": cfg.name,
-             "sampling_coordinates": json.dumps({k: ("log" if ls else "spectral" if
-                                                     k.split("[", 1)[0] == "alpha" else "linear")
-                                                 for k, ls in zip(names, run.attrs.get("log_space", []),
-                                                                  strict=False)})}
-    dt = PosteriorDraws(names, draws, lp, attrs)     # posterior.nc without importing xarray
-    summary = summarize(names, draws, fit=fit, tau=conv.tau, extra=extra)
-    summary["noise"] = jsonable(noise_summary(cfg, fit, summary, layout, sigma0,
-                                              layout.expand(sigma0_source)))
-    if offsets is not None:
-        summary["noise"]["projection"] = jsonable(offsets)
-        summary["noise"]["verdict"] = verdict(summary["noise"])
-    priors = build_target(cfg, test, FitRecord.from_dict(fit, cfg.test_names), run).priors
-    checks, modulus = run_checks(cfg, test, layout, draws, names, priors, fit, summary, sigma0)
-    summary["checks"] = jsonable(checks)
-    summary["modulus_at"] = jsonable(modulus)
-    if summary["noise"]["model"] == "discrepancy" and fit.get("discrepancy"):
-        summary["generalized_least_squares"] = gauss_newton_block(
-            {"parameters": fit.get("parameters"), **fit["discrepancy"]})
-    if fit.get("identifiability"):
-        summary["identifiability"] = jsonable(fit["identifiability"])
-    spectrum = _spectrum_block(cfg, fit, names, draws)
-    if spectrum is not None:
-        summary["spectrum_exponent"] = jsonable(spectrum)
-    summary["warnings"] = warnings + [
-        f"R-hat of {k} is {summary['posterior'][k]['r_hat']:.4f} > 1.01"
-        for k in names if (summary["posterior"][k]["r_hat"] or 0) > 1.01] + residual_warnings(fit)
-    if summary["noise"]["model"] == "white" and summary["noise"].get("fit_residuals_white") is False:
-        summary["warnings"].append(summary["noise"]["verdict"])
-    write_outputs(cfg.run_dir, dt, summary)
-    return Posterior(cfg.run_dir, summary)          # its DataTree is read from posterior.nc on use

@@ -347,8 +347,12 @@ def fit_test(cfg: Config, test) -> FitResult:
         if sa is None:
             raise BayesDnlrError(singular_message(X, names, values, on_bound, bounds)) from None
 
-    if cfg.fit.hold_unidentified and (hold := unidentified(sa, list(on_bound))):
-        return _refit_holding(cfg, test, hold, params, t_start)
+    reference = {k: _top_of_prior(specs[k], params[k], sa.sd[j]) for j, k in enumerate(names)
+                 if k in HOLD_AT}
+    width = {k: specs[k].bounds()[1] - specs[k].bounds()[0] for k in reference}
+    if cfg.fit.hold_unidentified and (hold := unidentified(sa, reference, width)):
+        return _refit_holding(cfg, test, hold, params, reference,
+                              {k: float(sa.sd[names.index(k)]) for k in hold}, t_start)
     warnings: list[str] = []
     if not main.converged:
         warnings.append(f"the fit from the physics start did not converge ({main.message}); "
@@ -398,13 +402,24 @@ def fit_test(cfg: Config, test) -> FitResult:
         spectrum_exponent=spectrum, modulus_at=modulus)
 
 
+def _top_of_prior(spec, estimate: float, sd: float) -> float:
+    """The largest value a parameter's prior allows: its upper bound, else its estimate + 3 sd."""
+    high = spec.bounds()[1]
+    if math.isfinite(high):
+        return float(high)
+    return float(abs(estimate) + 3 * sd) if math.isfinite(sd) else math.nan
+
+
 def _refit_holding(cfg: Config, test, hold: Mapping[str, float], free: Mapping[str, float],
+                   reference: Mapping[str, float], sd: Mapping[str, float],
                    t_start: float) -> FitResult:
     """The fit again with the parameters of ``hold`` (name -> its normalised sensitivity) held at
     their ``HOLD_AT`` values; its ``identifiability`` block says what was held, why, and where the
     fit with them free had put them and E."""
     again = fit_test(cfg.with_holds({k: HOLD_AT[k] for k in hold}), test)
-    held = {k: {"value": HOLD_AT[k], "sensitivity": float(s), "threshold": NEGLIGIBLE_SENSITIVITY,
+    held = {k: {"value": HOLD_AT[k], "sensitivity": float(s), "reference": float(reference[k]),
+                "sd": sd[k],
+                "threshold": NEGLIGIBLE_SENSITIVITY,
                 "free_estimate": float(free[k]), "E_free": float(free["E"]) if "E" in free else None}
             for k, s in hold.items()}
     again.identifiability = {"held": held, "words": hold_words(held)}

@@ -333,31 +333,44 @@ def identifiability_warnings(a: StochasticAnalysis, held: Sequence[str] = ()) ->
     return out
 
 
-def unidentified(a: StochasticAnalysis, on_bound: Sequence[str] = ()) -> dict[str, float]:
-    """The parameters of ``HOLD_AT`` the window does not identify: name -> its normalised
-    sensitivity (eq. 37) at the estimate as a fraction of the largest.
+def unidentified(a: StochasticAnalysis, reference: Mapping[str, float],
+                 width: Mapping[str, float]) -> dict[str, float]:
+    """The parameters of ``HOLD_AT`` the window cannot identify: name -> its normalised
+    sensitivity (eq. 37), at its ``reference`` value, as a fraction of the largest at the estimate.
 
-    Such a parameter's sensitivity is below NEGLIGIBLE_SENSITIVITY of the largest (the paper omits
-    G on such a window, 4.2) *and* the data do not place it: its estimate sits on a bound of its
-    prior (``on_bound``), or its Err (eq. 33) is above RELATIVE_ERROR_WARN. Left free, its prior box
-    decides it and, through its correlations, E. A G that a small-strain window still places inside
-    its box (the paper's interval I on synthetic data: G 2.4 ± 0.7) stays free: held at 0 it would
-    move E by several sd."""
+    Either the parameter makes no difference the data can see, wherever it is: its sensitivity is
+    below NEGLIGIBLE_SENSITIVITY of the largest even at ``reference``, the largest value its prior
+    allows (the paper omits G on such a window, 4.2). Or the data do not place it: its linearized
+    sd (eq. 32) is wider than its prior box (``width``), as when G trades off with the spectrum's
+    slow end on a small-strain window (ρ(G, tau_max) ≈ -1). Left free, its box decides it and,
+    through its correlations, E. Taken at the estimate instead of ``reference``, the rule would
+    hold a G the data place at 0 on a whole curve."""
     top = float(np.max(a.max_normalised)) if a.max_normalised.size else 0.0
     if not top > 0:
         return {}
     out = {}
-    for k, m, e in zip(a.names, a.max_normalised, a.err, strict=True):
-        placed = k not in on_bound and np.isfinite(e) and e <= RELATIVE_ERROR_WARN
-        if k in HOLD_AT and m < NEGLIGIBLE_SENSITIVITY * top and not placed:
-            out[k] = float(m / top)
+    for j, k in enumerate(a.names):
+        ref = reference.get(k)
+        if k not in HOLD_AT or ref is None or not math.isfinite(ref):
+            continue
+        m = float(np.max(np.abs(ref * a.X[:, j]))) / top
+        box = width.get(k, math.inf)
+        if m < NEGLIGIBLE_SENSITIVITY or (math.isfinite(box) and not a.sd[j] <= box):
+            out[k] = m
     return out
 
 
 def hold_words(held: Mapping[str, Mapping[str, float]]) -> str:
     """One sentence: which parameters the fit holds, where and why."""
-    parts = [f"{k} held at {v['value']:g} (its normalised sensitivity on this window is "
-             f"{100 * v['sensitivity']:.1f} % of the largest, below the paper's "
-             f"{100 * NEGLIGIBLE_SENSITIVITY:.0f} %: the window does not identify it, as G on the "
-             "paper's interval I, section 4.2)" for k, v in held.items()]
+    parts = []
+    for k, v in held.items():
+        if v["sensitivity"] < NEGLIGIBLE_SENSITIVITY:
+            why = (f"its normalised sensitivity on this window, even at the top of its prior "
+                   f"({v['reference']:g}), is {100 * v['sensitivity']:.1f} % of the largest, below the "
+                   f"paper's {100 * NEGLIGIBLE_SENSITIVITY:.0f} %")
+        else:
+            why = (f"its linearized sd, {v['sd']:.3g}, is wider than its prior box: the data do not "
+                   "place it, it trades off with the other parameters")
+        parts.append(f"{k} held at {v['value']:g} ({why}; the window does not identify it, as G on "
+                     "the paper's interval I, section 4.2)")
     return "; ".join(parts) + (". fit.hold_unidentified: false leaves it to its prior instead")

@@ -1,0 +1,85 @@
+"""summary.json's ``consistency`` for a run with several tests: does each test, fitted alone, give
+the E(t) and the E the others give? (inference/analyses/consistency.py: Cochran's Q over the
+tests' own estimates, the pair furthest apart in combined sd.)
+
+Each test's own estimate is its fit's (fit.json ``single_fits``): the generalized one when that
+test shows model error, else the white one, with its linearized sd; E(t) at times every test
+resolves (``output.modulus_at``, else the longest of the tests' default times).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from bayes_dnlr.config import Config
+from bayes_dnlr.inference.analyses.consistency import Agreement, agreement
+from bayes_dnlr.inference.modulus import default_times, linearized, test_window
+from bayes_dnlr.numbers import fmt, pm
+from bayes_dnlr.runs.testset import TestSet
+
+
+def _own(single: Mapping[str, Any]) -> tuple[dict[str, float], np.ndarray | None, list[str], str]:
+    """A test's own estimate, covariance and names: generalized under model error, else white."""
+    d = single.get("discrepancy") or {}
+    names = list(single.get("parameters") or single.get("sd") or [])
+    if d.get("evidence") and d.get("estimate") and d.get("covariance") is not None:
+        return ({**single["estimate"], **d["estimate"]}, np.asarray(d["covariance"], dtype=float),
+                names, "generalized")
+    cov = single.get("covariance")
+    return dict(single["estimate"]), None if cov is None else np.asarray(cov, dtype=float), names, "white"
+
+
+def common_times(cfg: Config, tests: TestSet) -> list[float]:
+    """Times every test resolves: output.modulus_at, else the longest of the default times."""
+    if cfg.output.modulus_at:
+        return list(cfg.output.modulus_at)
+    return [max(default_times(test_window(data))[0][0] for data in tests.tests.values())]
+
+
+def consistency(cfg: Config, tests: TestSet, fit: Mapping[str, Any]) -> dict[str, Any] | None:
+    """The block: per quantity the tests' own values, Cochran's Q and whether they agree; ``agree``
+    over all; ``words`` for a person. None for a run with one test or without single fits."""
+    singles = fit.get("single_fits") or {}
+    if len(singles) < 2:
+        return None
+    times = common_times(cfg, tests)
+    values: dict[str, dict[str, float]] = {}
+    sds: dict[str, dict[str, float]] = {}
+    how = {}
+    for t, single in singles.items():
+        est, cov, names, how[t] = _own(single)
+        if "E" not in est or "tau_max" not in est:
+            continue
+        for row in linearized(est, cov, names, times, cfg.model.modes, cfg.model.decades):
+            key = f"E({fmt(row['t'], 3)} s)"
+            values.setdefault(key, {})[t] = row["mean"]
+            sds.setdefault(key, {})[t] = row["sd"]
+        if "E" in names and cov is not None:
+            j = names.index("E")
+            values.setdefault("E", {})[t] = float(est["E"])
+            sds.setdefault("E", {})[t] = float(np.sqrt(cov[j, j]))
+    found = [a for k in values if (a := agreement(k, values[k], sds[k])) is not None]
+    if not found:
+        return None
+    return {"times": times, "estimates": how, "quantities": [a.to_dict() for a in found],
+            "agree": all(a.agree for a in found), "words": words(found)}
+
+
+def words(found: list[Agreement]) -> str:
+    """One sentence per quantity whose tests disagree, else that they agree."""
+    bad = [a for a in found if not a.agree]
+    if not bad:
+        return ("Fitted alone, the tests agree: " + "; ".join(
+            f"{a.quantity} within {a.worst_z:.1f} combined sd" for a in found) + ".")
+    out = []
+    for a in bad:
+        i, j = a.worst_pair
+        out.append(f"{a.quantity}: {i} gives {pm(a.values[i], a.sds[i])} MPa and {j} "
+                   f"{pm(a.values[j], a.sds[j])} MPa, {a.worst_z:.1f} combined sd apart (Cochran's Q "
+                   f"{a.q:.1f} on {a.df} df, p = {a.p:.2g})")
+    return ("Fitted alone, the tests do not agree, so a shared value over them is not one "
+            "material's: " + "; ".join(out) + ". Look at what differs between them (material, "
+            "temperature, a test the model does not describe) before quoting the joint value.")
