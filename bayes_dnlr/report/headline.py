@@ -13,6 +13,7 @@ from typing import Any
 from bayes_dnlr.inference.lsq.plausibility import plausibility_warnings
 from bayes_dnlr.numbers import fmt, interval, pm
 from bayes_dnlr.report import tables as tb
+from bayes_dnlr.report.modulus_section import consistency_box
 from bayes_dnlr.report.modulus_section import headline_words as modulus_words
 from bayes_dnlr.report.modulus_section import trust_box as modulus_box
 from bayes_dnlr.report.page_parts import bullets
@@ -102,7 +103,8 @@ def headline(run: RunResults, standards: dict[str, dict | None] | None = None, r
         te = true[0]
         parts.append(f"Synthetic test{'s' if len(run.tests) > 1 else ''}: true E = {fmt(te)} MPa "
                      f"({(e - te) / e_sd if e_sd else float('nan'):+.1f} sd away).")
-    return '<div class="box">' + " ".join(parts) + "</div>" + checks_box(run) + modulus_box(run)
+    return ('<div class="box">' + " ".join(parts) + "</div>" + consistency_box(run) + checks_box(run)
+            + modulus_box(run))
 
 
 def checks_box(run: RunResults) -> str:

@@ -56,6 +56,17 @@ def headline_words(run: RunResults) -> str:
             "test resolves: " + "; ".join(parts) + ". " + html.escape(WHAT_E_IS))
 
 
+def consistency_box(run: RunResults) -> str:
+    """A run with several tests: whether they agree, fitted alone (summary.json ``consistency``);
+    amber when they do not, so that a shared E is never read without it."""
+    block = (run.summary or {}).get("consistency")
+    if not block:
+        return ""
+    css = "ok" if block.get("agree") else "warn"
+    return (f'<div class="box {css}"><b>One material?</b> {html.escape(block.get("words") or "")}'
+            "</div>")
+
+
 def trust_box(run: RunResults) -> str:
     """Under the headline: green when every E(t) is trusted, amber with the reasons otherwise."""
     rows = rows_of(run)

@@ -41,7 +41,7 @@ from bayes_dnlr.inference.modulus import (
 )
 from bayes_dnlr.model.modulus import relaxation_modulus
 from bayes_dnlr.numbers import fmt
-from bayes_dnlr.runs.checks import Band
+from bayes_dnlr.runs.bands import Band
 from bayes_dnlr.runs.testset import TestSet
 from bayes_dnlr.runs.verdict import SHIFT_SD
 from bayes_dnlr.vocabulary import SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT
@@ -210,3 +210,23 @@ def entries(summary: Mapping[str, Any]) -> dict[str, list[dict]]:
     if isinstance(block, list):
         return {"": block}
     return dict(block.get("tests") or {})
+
+
+def console_lines(summary: Mapping[str, Any]) -> list[str]:
+    """The console's lines of E(t): each time's value, 90 % HDI and trust, with the reasons."""
+    from bayes_dnlr.numbers import interval, pm
+
+    out = []
+    for test, rows in entries(summary).items():
+        who = f"{test}: " if test else ""
+        for r in rows:
+            lo, hi = r["hdi_90"]
+            mark = "trusted" if r.get("trust") else "NOT trusted"
+            out.append(f"E(t): {who}E({fmt(r['t'], 3)} s) = {pm(r['mean'], r['sd'])} MPa, 90 % HDI "
+                       f"{interval(lo, hi, r['sd'])}: {mark} (the modulus the data determine; E is its "
+                       "extrapolation to t → 0)")
+            out += [f"  - {x}" for x in r.get("trust_reasons") or []]
+    block = summary.get("consistency")
+    if block:
+        out.append(f"tests: {block.get('words')}")
+    return out

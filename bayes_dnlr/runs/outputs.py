@@ -257,6 +257,9 @@ class Posterior:
         if checks.get("verdict"):
             head, points = verdict_lines(checks)
             lines += [f"verdict: {head}", *(f"  - {p}" for p in points)]
+        from bayes_dnlr.runs.modulus import console_lines
+
+        lines += console_lines(s)
         warn = s.get("warnings") or []
         lines += [f"warning: {w}" for w in warn]
         lines.append(f"outputs: {self.run_dir}/{{{CHAINS_FILE}, {POSTERIOR_FILE}, {SUMMARY_FILE}}}")
