@@ -185,12 +185,35 @@ def bound_check(cfg: Config, tests: TestSet, draws: np.ndarray, names: list[str]
         else:
             lo, hi = bounds.widened(p.low, p.high, side, p.log_space)
             entry["widened"] = [lo, hi]
+            entry["identified"] = identified(fit, p.name, p.low, p.high, p.log_space, uses_discrepancy)
             refit = _refit_widened(cfg, tests, k, lo, hi, fit, uses_discrepancy)
             entry["E_shift_sd"] = _shift_of_e(refit, post_sd)
             if refit is not None:
                 entry["estimates"] = {"before": refit[0], "after": refit[1]}
         out.append(entry)
     return out
+
+
+def identified(fit: dict[str, Any], name: str, low: float, high: float, log_space: bool,
+               uses_discrepancy: bool) -> bool:
+    """Whether the window identifies a parameter, by the paper's analysis (fit.json): its
+    normalised sensitivity is at least NEGLIGIBLE_SENSITIVITY of the largest (eq. 37, 4.2), and its
+    linearized sd (eq. 32; the generalized one under model error) is narrower than its prior box,
+    in the coordinates it is sampled in. Only for such a parameter does widening its bound help."""
+    from bayes_dnlr.inference.lsq.sensitivity import NEGLIGIBLE_SENSITIVITY
+
+    sens = fit.get("normalised_sensitivity_max") or {}
+    if name in sens and sens and max(sens.values()) > 0:
+        if sens[name] < NEGLIGIBLE_SENSITIVITY * max(sens.values()):
+            return False
+    src = (fit.get("discrepancy") or {}) if uses_discrepancy else {}
+    sd = (src.get("sd") or fit.get("sd") or {}).get(name)
+    est = (src.get("estimate") or fit.get("estimate") or {}).get(name)
+    if sd is None or est is None or not math.isfinite(float(sd)):
+        return not (sd is not None and not math.isfinite(float(sd)))
+    if log_space:
+        return est > 0 and float(sd) / float(est) <= math.log(high / low)
+    return float(sd) <= high - low
 
 
 def _refit_widened(cfg: Config, tests: TestSet, name: str, low: float, high: float,

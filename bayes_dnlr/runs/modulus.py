@@ -90,7 +90,28 @@ def _band_check(band: Band | None, t: float) -> dict[str, Any] | None:
     top = order[: int(np.searchsorted(np.cumsum(w[order]), 0.9)) + 1]
     span = [float(band.time[top].min()), float(band.time[top].max())]
     return {"share": share, "n_eff": n_eff, "floor": floor, "ok": share >= floor,
-            "information_times": span}
+            "information_times": span, "remedy": _window_remedy(band)}
+
+
+def _window_remedy(band: Band) -> str:
+    """What to do when the model misses the data where E(t) is measured: where the test has parts
+    the model does not describe (unloading, a long hold), identify on the part it does."""
+    from bayes_dnlr.inference.checks.predictive import turning_points
+
+    turns = turning_points(band.strain)
+    if turns:
+        end = float(band.time[turns[0]])
+        return (f"the model does not follow unloading: identify on the first loading, "
+                f"data.window: {{time_max: {fmt(end, 6)}}} (its peak), where E(t) is measured")
+    if band.relaxation_start is not None:
+        ramp = float(band.relaxation_start - band.time[0])
+        end = float(band.relaxation_start + 10.0 * ramp)
+        if end < float(band.time[-1]):
+            return (f"one spectrum does not describe the whole hold: identify on the loading and the "
+                    f"start of the hold, e.g. data.window: {{time_max: {fmt(end, 4)}}} (ten times "
+                    "the loading's length), and compare")
+    return ("the model's form does not describe the curve where E(t) is measured (docs/model-form.md): "
+            "read the residuals there")
 
 
 def _bound_shift(bound_limited: list[dict], layout: Layout, test: str, t: float, sd: float,
@@ -134,7 +155,7 @@ def _reasons(row: dict[str, Any], who: str) -> list[str]:
         out.append(f"{who}the 90 % band holds {100 * band['share']:.0f} % of the samples that carry "
                    f"{t}'s information (t = {fmt(lo, 3)}-{fmt(hi, 3)} s; at least "
                    f"{100 * max(band['floor'], 0):.0f} % expected of a calibrated band): the model "
-                   "misses the data where this modulus is measured")
+                   f"misses the data where this modulus is measured; {band.get('remedy') or ''}")
     start = c.get("start")
     if start and not start["ok"]:
         out.append(f"{who}the data's ISO 527-1 chord ({fmt(start['data_chord'])} MPa, measured "

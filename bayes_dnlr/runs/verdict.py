@@ -143,10 +143,18 @@ def _bound_words(entries: list[dict]) -> tuple[bool, list[str]]:
         if big:
             ok = False
             moves = ", ".join(f"{k} by {v:+.1f} posterior sd" for k, v in big.items())
+            name = base_name(b["parameter"])
+            if b.get("identified", True):
+                remedy = (f"Widen parameters.{name} and run again: the data identify {name}, so a "
+                          "wider box lets them place it.")
+            else:
+                remedy = (f"Do not just widen it: this window does not identify {name} (its "
+                          "sensitivity is negligible or its linearized sd is wider than its box), "
+                          "so a wider box only moves where the box decides it. Fix "
+                          f"parameters.{name} at a value another test measures, or identify on a "
+                          f"window that measures {name}.")
             words.append(f"The posterior of {b['parameter']} piles against {where}; widening it ×10 "
-                         f"moves {moves}: the "
-                         f"prior box decides E. Widen parameters.{base_name(b['parameter'])} and run "
-                         "again, or fix it if the window does not identify it.")
+                         f"moves {moves}: the prior box decides E. {remedy}")
         elif b.get("note"):
             words.append(f"The posterior of {b['parameter']} piles against {where} ({b['note']}).")
         else:

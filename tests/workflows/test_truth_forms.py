@@ -107,3 +107,19 @@ def test_simulate_writes_the_richer_test_and_the_measured_strain(make_config):
 def test_an_unknown_kind_is_a_config_error(make_config):
     with pytest.raises(ConfigError, match="model_form"):
         make_config(truth=truth(model_form={"kind": "spectrum-cubic"}))
+
+
+@pytest.mark.parametrize("kind", [None, "spectrum-power", "spectrum-lognormal", "spectrum-two-slope",
+                                  "two-process", "hardening-langevin", "strain-toe"])
+def test_the_true_relaxation_modulus_is_the_generator_s_step_response(kind):
+    """E(t) of a richer generating model (the truth E(t) of the benchmarks) is the stress per unit
+    strain its own integrator gives after a small step of the specimen's strain."""
+    from bayes_dnlr.workflows.truth_forms import generate, relaxation_modulus
+
+    params = {"E": 2854.0, "G": 2.32, "tau_max": 5.79}
+    times = np.geomspace(1e-3, 300.0, 40)
+    t = np.concatenate([[0.0, 1e-9], times])
+    step = 1e-6
+    e = np.where(t > 0, step, 0.0)
+    got = generate(t, e, params, None, kind).stress[2:] / step
+    np.testing.assert_allclose(relaxation_modulus(times, params, kind), got, rtol=1e-5)

@@ -1,0 +1,58 @@
+"""The start check (inference/checks/start.py): the data's ISO 527-1 chord beside the model
+curves' own."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bayes_dnlr.inference.checks.start import START_Z, chord_noise_sd, chord_times, start_check
+from bayes_dnlr.standards import iso527_1_modulus
+
+RATE = 1e-3
+
+
+def curve(modulus: float, n: int = 400, toe: float = 0.0):
+    """A linear nominal curve at RATE, sampled every 0.05 s; ``toe``: the strain reads ahead by
+    toe (1 - exp(-e/toe)), a slack the stress does not see."""
+    t = np.arange(n) * 0.05
+    e = RATE * t
+    stress = modulus * e
+    measured = e + (toe * -np.expm1(-e / toe) if toe > 0 else 0.0)
+    return t, measured, stress
+
+
+def test_the_same_curve_passes_and_its_chord_lies_at_its_times():
+    t, e, s = curve(1500.0)
+    models = np.tile(s, (50, 1)) + np.random.default_rng(0).normal(0, 1e-3, (50, t.size))
+    c = start_check(e, s, models, 0.01**2, t, 0.0)
+    assert c is not None and c.ok and abs(c.z) < 1
+    assert c.data == pytest.approx(1500.0) and c.model == pytest.approx(1500.0, rel=1e-3)
+    assert c.times == pytest.approx((0.5, 2.5))
+
+
+def test_a_toe_the_model_does_not_have_fails():
+    t, e, s = curve(1500.0, toe=5e-4)          # the strain reads ahead: the data's chord is lower
+    model = 1500.0 * e                           # a model driven by the strain the file reports
+    models = np.tile(model, (50, 1))
+    c = start_check(e, s, models, 0.05**2, t, 0.0)
+    assert c is not None and not c.ok and c.z < -START_Z
+    assert c.data < 0.9 * c.model
+
+
+def test_the_chord_noise_is_the_regression_slope_s():
+    e = np.linspace(0.0, 0.004, 81)
+    sd = chord_noise_sd(e, 0.2**2, "regression")
+    inside = e[(e >= 5e-4) & (e <= 2.5e-3)]
+    assert sd == pytest.approx(0.2 / np.sqrt(np.sum((inside - inside.mean()) ** 2)))
+    rng = np.random.default_rng(3)
+    slopes = [iso527_1_modulus(e, 1000 * e + rng.normal(0, 0.2, e.size)).modulus for _ in range(2000)]
+    assert np.std(slopes) == pytest.approx(sd, rel=0.05)
+
+
+def test_no_check_where_the_data_give_no_chord():
+    t = np.arange(100) * 0.05
+    e = 0.001 + RATE * t                         # starts past 0.05 %
+    s = 1500.0 * e
+    assert start_check(e, s, np.tile(s, (5, 1)), 0.01, t, -1.0) is None
+    assert chord_times(e, t, -1.0)[1] == pytest.approx(1.5 + 1.0)
