@@ -5,14 +5,14 @@ check (the data's ISO chord against the model curves', inference/checks/start.py
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from bayes_dnlr.config import Config
 from bayes_dnlr.inference.checks import predictive
-from bayes_dnlr.inference.checks.start import StartCheck, start_check
+from bayes_dnlr.inference.checks.start import Noise, StartCheck, start_check
 from bayes_dnlr.inference.layout import Layout
 from bayes_dnlr.inference.modulus import resolved_window
 from bayes_dnlr.inference.posterior.likelihood import build_model, window_rows
@@ -87,16 +87,20 @@ def predictive_bands(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndar
         strain = np.asarray(data.strain_input[: data.model_end], dtype=float)[rows]
         X, free, point = _jacobian_at_median(cfg, data, layout, t, flat, names, inside.size)
         out[t] = Band(inside, time, strain, data.relaxation_start, X, free, point,
-                      _start(data, rows, curves, var))
+                      _start(cfg, data, t, layout, rows, curves, noise.get(t) or {}, flat, names,
+                             sigma0.get(t, math.nan)))
     return out
 
 
-def _start(data, rows: slice | np.ndarray, curves: np.ndarray, noise_var: float) -> StartCheck | None:
+def _start(cfg: Config, data, test: str, layout: Layout, rows: slice | np.ndarray, curves: np.ndarray,
+           summary_noise: dict[str, Any], flat: np.ndarray, names: list[str],
+           sigma0: float) -> StartCheck | None:
     """The start check of a test whose window begins at its first measured sample: the data's
     ISO chord against the model curves' (inference/checks/start.py)."""
     first = int(getattr(data, "virtual_start", 0))
     rows = np.arange(data.model_end)[rows]
-    if rows.size == 0 or int(rows[0]) != first or not math.isfinite(noise_var):
+    noise = _noise(cfg.for_test(test), data, summary_noise, flat, names, layout, test, sigma0)
+    if rows.size == 0 or int(rows[0]) != first or not math.isfinite(noise.sigma0_sq):
         return None
     time = np.asarray(data.time, dtype=float)[rows]
     loading = time <= data.relaxation_start if data.relaxation_start is not None else np.ones(
@@ -108,8 +112,34 @@ def _start(data, rows: slice | np.ndarray, curves: np.ndarray, noise_var: float)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(observed != 0, nominal / observed, np.exp(-strain))
     window = resolved_window(data.time, data.strain_input, data.window, data.strain_rate)
+    if noise.axis is not None:
+        noise = replace(noise, axis=noise.axis[loading])
     return start_check(np.asarray(data.nominal_strain, dtype=float)[rows][loading], nominal,
-                       curves[:, loading] * ratio, noise_var, time[loading], window.origin)
+                       curves[:, loading] * ratio, noise, time[loading], window.origin)
+
+
+def _noise(view: Config, data, summary_noise: dict[str, Any], flat: np.ndarray, names: list[str],
+           layout: Layout, test: str, sigma0: float) -> Noise:
+    """The likelihood's noise on a test's compared samples, at the posterior: σ0² and the
+    discrepancy's process (mean amplitude², median length, its kernel, axis and pinning)."""
+    s0 = column(flat, names, layout.name("sigma0", test))
+    var = float(np.mean(s0**2)) if s0 is not None else float(sigma0) ** 2
+    if summary_noise.get("model") != "discrepancy" or view.noise.discrepancy is None:
+        return Noise(var)
+    amp = column(flat, names, layout.name("disc_amplitude", test))
+    length = column(flat, names, layout.name("disc_length", test))
+    a = (math.sqrt(float(np.mean(amp**2))) if amp is not None
+         else float((summary_noise.get("amplitude") or {}).get("value") or 0.0))
+    ell = (float(np.median(length)) if length is not None
+           else float((summary_noise.get("length") or {}).get("value") or math.nan))
+    if not (a > 0 and math.isfinite(ell) and ell > 0):
+        return Noise(var)
+    spec = view.noise.discrepancy
+    rows = window_rows(data)
+    axis = np.asarray(data.time if spec.axis == "time" else data.strain_input, dtype=float)
+    axis = axis[: data.model_end][rows]
+    start = float(axis[0]) if spec.start == "pinned" else None
+    return Noise(var, a, ell, str(summary_noise.get("kernel") or "exp"), axis, start)
 
 
 def _jacobian_at_median(cfg: Config, data, layout: Layout, test: str, flat: np.ndarray,
@@ -128,5 +158,6 @@ def _jacobian_at_median(cfg: Config, data, layout: Layout, test: str, flat: np.n
     problem = LsqProblem.for_config(view, data)
     X = problem.jacobian(point)
     return (X if X.shape[0] == n else None), free, point
+
 
 

@@ -4,7 +4,8 @@ tests' own estimates, the pair furthest apart in combined sd.)
 
 Each test's own estimate is its fit's (fit.json ``single_fits``): the generalized one when that
 test shows model error, else the white one, with its linearized sd; E(t) at times every test
-resolves (``output.modulus_at``, else the longest of the tests' default times).
+resolves (``output.modulus_at``, else the longest of the tests' default times) when the tests share
+the spectrum (tau_max and alpha not ``per: test``); E always.
 """
 
 from __future__ import annotations
@@ -45,7 +46,10 @@ def consistency(cfg: Config, tests: TestSet, fit: Mapping[str, Any]) -> dict[str
     singles = fit.get("single_fits") or {}
     if len(singles) < 2:
         return None
-    times = common_times(cfg, tests)
+    # E(t) is one material function only where the tests share the spectrum; with a tau_max (or
+    # an alpha) per test, the run itself says their E(t) differ, and only E is compared
+    shared_spectrum = not ({"tau_max", "alpha"} & set(cfg.per_test_parameters))
+    times = common_times(cfg, tests) if shared_spectrum else []
     values: dict[str, dict[str, float]] = {}
     sds: dict[str, dict[str, float]] = {}
     how = {}
@@ -53,7 +57,8 @@ def consistency(cfg: Config, tests: TestSet, fit: Mapping[str, Any]) -> dict[str
         est, cov, names, how[t] = _own(single)
         if "E" not in est or "tau_max" not in est:
             continue
-        for row in linearized(est, cov, names, times, cfg.model.modes, cfg.model.decades):
+        for row in (linearized(est, cov, names, times, cfg.model.modes, cfg.model.decades)
+                    if times else []):
             key = f"E({fmt(row['t'], 3)} s)"
             values.setdefault(key, {})[t] = row["mean"]
             sds.setdefault(key, {})[t] = row["sd"]

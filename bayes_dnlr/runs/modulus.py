@@ -157,12 +157,16 @@ def _reasons(row: dict[str, Any], who: str) -> list[str]:
                    f"{100 * max(band['floor'], 0):.0f} % expected of a calibrated band): the model "
                    f"misses the data where this modulus is measured; {band.get('remedy') or ''}")
     start = c.get("start")
-    if start and not start["ok"]:
+    if start and start.get("toe"):
+        out.append(f"{who}the curve's slope rises over its start ({start['convexity_z']:+.1f} sd): "
+                   "a toe (slack, seating), which no relaxing material gives and the model fits as a "
+                   f"softer start, so {t} comes out low; compensate it (data.toe: compensate) or "
+                   "fix the start (docs/data-input.md)")
+    elif start and not start["ok"]:
         out.append(f"{who}the data's ISO 527-1 chord ({fmt(start['data_chord'])} MPa, measured "
                    f"{fmt(start['times'][0], 2)}-{fmt(start['times'][1], 2)} s into the loading) is "
                    f"{abs(start['z']):.1f} sd from the model's ({fmt(start['model_chord'])} MPa): the "
-                   "model does not follow the start of this curve (a toe, a preload, a loading it "
-                   "misses)")
+                   "model does not follow the start of this curve (a preload, a loading it misses)")
     big = {k: v for k, v in (c.get("bounds") or {}).items() if abs(v) > SHIFT_SD}
     if big:
         moves = ", ".join(f"{k} moves it by {v:+.1f} sd" for k, v in big.items())

@@ -4,8 +4,15 @@ model's own curves, computed the same way (standards.py).
 The chord is the slope of the nominal curve between 0.05 % and 0.25 % strain: on a loading from
 rest, the mean of E(t) over the times the test takes to get there. It is measured on the data with
 no model at all, so a model whose curves give another chord does not follow the start of this
-test (a toe, a preload, a loading history the model misses), and E(t) at those times is not what
-the data say.
+test (a preload, a loading history the model misses), and E(t) at those times is not what the data
+say.
+
+A toe (slack, seating: the strain reads ahead of the specimen's at first) the model can fit all
+the same, as a softer start: its curves follow the data's chord, and E(t) comes out low. What
+gives a toe away is the curve's shape: a material that only relaxes gives a concave start under
+a constant-rate loading (its slope E(t) falls), a toe a convex one (the slope rises as the slack is
+taken up). So the start check also compares the steepest slope of the start with its first one,
+and fails when the slope rises beyond START_Z of the noise.
 """
 
 from __future__ import annotations
@@ -19,6 +26,8 @@ from bayes_dnlr.standards import ISO_STRAINS, iso527_1_modulus
 
 START_Z = 2.576      # two-sided 1 % quantile of the standard normal: the data's chord this many sd
 #                      from the model's is a start the model does not follow
+TOE_STRAIN = 0.01    # the toe check looks at the start up to this nominal strain (four times the
+#                      chord's upper strain: a seating slack of a few 0.1 %)
 
 
 @dataclass(frozen=True)
@@ -32,35 +41,93 @@ class StartCheck:
     noise_sd: float
     z: float
     times: tuple[float, float]      # s after the loading began: where the chord's strains lie
+    convexity_z: float = math.nan   # the rise of the start's slope over its sd (> 0: a toe)
+
+    @property
+    def follows(self) -> bool:
+        """The model's chord agrees with the data's."""
+        return abs(self.z) <= START_Z
+
+    @property
+    def toe(self) -> bool:
+        """The data's start is convex beyond its noise: a toe."""
+        return self.convexity_z > START_Z
 
     @property
     def ok(self) -> bool:
-        return abs(self.z) <= START_Z
+        return self.follows and not self.toe
 
     def to_dict(self) -> dict[str, float | bool | list[float]]:
         return {"data_chord": self.data, "model_chord": self.model, "model_sd": self.model_sd,
-                "noise_sd": self.noise_sd, "z": self.z, "times": list(self.times), "ok": self.ok}
+                "noise_sd": self.noise_sd, "z": self.z, "times": list(self.times),
+                "convexity_z": self.convexity_z, "toe": self.toe, "ok": self.ok}
 
 
-def chord_noise_sd(nominal_strain: np.ndarray, noise_var: float, method: str) -> float:
-    """The sd of the chord that white noise of variance ``noise_var`` on the stress gives: the
-    least-squares slope's over the samples between the two strains, or the two-point chord's."""
+@dataclass(frozen=True)
+class Noise:
+    """What the likelihood puts around the model at the samples: white noise σ0² and, with model
+    error, the discrepancy's Gaussian process (its amplitude, length, kernel and axis values)."""
+
+    sigma0_sq: float
+    amplitude: float = 0.0
+    length: float = 1.0
+    kernel: str = "exp"
+    axis: np.ndarray | None = None      # the discrepancy's axis at the samples (time or strain)
+    start: float | None = None          # where the process is pinned to zero (None: stationary)
+
+    def covariance(self, rows: np.ndarray) -> np.ndarray:
+        cov = self.sigma0_sq * np.eye(rows.size)
+        if self.amplitude > 0 and self.axis is not None:
+            from bayes_dnlr.inference.discrepancy.gp import covariance
+
+            cov = cov + covariance(self.axis[rows], self.amplitude, self.length, self.kernel,
+                                   start=self.start)
+        return cov
+
+
+def chord_weights(nominal_strain: np.ndarray, method: str) -> tuple[np.ndarray, np.ndarray]:
+    """The chord as a linear function of the stress samples: (the rows it uses, their weights),
+    the least-squares slope's between the two strains or the two-point chord's (first passage,
+    linear interpolation), as standards.iso527_1_modulus computes it."""
     e1, e2 = ISO_STRAINS
     e = np.asarray(nominal_strain, dtype=float)
-    if method == "chord":
-        return math.sqrt(2.0 * noise_var) / (e2 - e1)
-    inside = e[(e >= e1) & (e <= e2)]
-    spread = float(np.sum((inside - inside.mean()) ** 2)) if inside.size > 1 else 0.0
-    return math.sqrt(noise_var / spread) if spread > 0 else math.inf
+    past = np.flatnonzero(e > 2 * e2)
+    end = int(past[0]) if past.size else e.size
+    if method != "chord":
+        rows = np.flatnonzero((e[:end] >= e1) & (e[:end] <= e2))
+        d = e[rows] - e[rows].mean()
+        return rows, d / np.sum(d * d)
+    weights: dict[int, float] = {}
+    for level, sign in ((e1, -1.0), (e2, 1.0)):
+        i = int(np.flatnonzero(e >= level)[0])
+        if i == 0:
+            weights[0] = weights.get(0, 0.0) + sign / (e2 - e1)
+            continue
+        f = (level - e[i - 1]) / (e[i] - e[i - 1])
+        weights[i - 1] = weights.get(i - 1, 0.0) + sign * (1 - f) / (e2 - e1)
+        weights[i] = weights.get(i, 0.0) + sign * f / (e2 - e1)
+    rows = np.array(sorted(weights))
+    return rows, np.array([weights[i] for i in rows])
+
+
+def chord_noise_sd(nominal_strain: np.ndarray, noise: Noise, method: str) -> float:
+    """The sd of the chord that the likelihood's noise (white, and the discrepancy's process) gives:
+    cᵀ K c for the chord's weights c."""
+    rows, c = chord_weights(nominal_strain, method)
+    if rows.size == 0:
+        return math.inf
+    return float(math.sqrt(max(c @ noise.covariance(rows) @ c, 0.0)))
 
 
 def start_check(nominal_strain: np.ndarray, nominal_stress: np.ndarray,
-                model_nominal_stress: np.ndarray, noise_var: float, time: np.ndarray,
+                model_nominal_stress: np.ndarray, noise: Noise, time: np.ndarray,
                 origin: float) -> StartCheck | None:
     """The check on the loading samples of a test (nominal strain and stress, the model's nominal
     stress of each posterior draw (draws, n) on the same samples, their times and the time the
-    loading began). None where the data give no chord (the curve starts past 0.05 %, or never
-    reaches 0.25 %)."""
+    loading began); ``noise``: the likelihood's noise on those samples (the stresses the chord is
+    computed from are nominal, the noise is on the observable: the two differ by a factor within
+    0.25 % of 1 at these strains). None where the data give no chord (the curve starts past 0.05 %,
+    or never reaches 0.25 %)."""
     data = iso527_1_modulus(nominal_strain, nominal_stress)
     if data.modulus is None:
         return None
@@ -70,11 +137,40 @@ def start_check(nominal_strain: np.ndarray, nominal_stress: np.ndarray,
     if chords.size < 2:
         return None
     method = "chord" if data.method == "chord" else "regression"
-    noise = chord_noise_sd(nominal_strain, noise_var, method)
+    noise_sd = chord_noise_sd(nominal_strain, noise, method)
     model, spread = float(chords.mean()), float(chords.std(ddof=1))
-    z = (float(data.modulus) - model) / math.hypot(spread, noise)
-    return StartCheck(float(data.modulus), model, spread, noise, float(z),
-                      chord_times(nominal_strain, time, origin))
+    z = (float(data.modulus) - model) / math.hypot(spread, noise_sd)
+    return StartCheck(float(data.modulus), model, spread, noise_sd, float(z),
+                      chord_times(nominal_strain, time, origin),
+                      convexity(nominal_strain, nominal_stress, noise.sigma0_sq))
+
+
+def convexity(nominal_strain: np.ndarray, nominal_stress: np.ndarray, sigma0_sq: float) -> float:
+    """How far the curve's slope rises over its start, in sd of the rise under the measurement
+    noise σ0²: the steepest least-squares slope over windows of consecutive samples (half
+    overlapping) on the first passage up to TOE_STRAIN, less the first window's (NaN with fewer
+    than 8 samples there). A relaxing material's slope only falls (E(t) does): a rise beyond the
+    noise is a toe. The discrepancy is left out: it models the model's error, and a toe is one;
+    the question here is the data's own shape."""
+    e = np.asarray(nominal_strain, dtype=float)
+    y = np.asarray(nominal_stress, dtype=float)
+    past = np.flatnonzero(e > TOE_STRAIN)
+    n = int(past[0]) if past.size else e.size
+    if n < 8 or not sigma0_sq > 0:
+        return math.nan
+    k = max(4, n // 8)
+    slopes = []
+    for a in range(0, n - k + 1, max(1, k // 2)):
+        x = e[a:a + k]
+        d = x - x.mean()
+        ss = float(d @ d)
+        if ss > 0:
+            slopes.append((float(d @ (y[a:a + k] - y[a:a + k].mean())) / ss, sigma0_sq / ss))
+    if len(slopes) < 2:
+        return math.nan
+    first, var_first = slopes[0]
+    steep, var_steep = max(slopes[1:], key=lambda s: s[0])
+    return (steep - first) / math.sqrt(var_first + var_steep)
 
 
 def chord_times(nominal_strain: np.ndarray, time: np.ndarray, origin: float) -> tuple[float, float]:
@@ -85,3 +181,4 @@ def chord_times(nominal_strain: np.ndarray, time: np.ndarray, origin: float) -> 
     end = int(past[0]) + 1 if past.size else e.size
     rising = np.maximum.accumulate(e[:end])
     return tuple(float(np.interp(level, rising, t[:end]) - origin) for level in ISO_STRAINS)
+

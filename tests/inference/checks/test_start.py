@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bayes_dnlr.inference.checks.start import START_Z, chord_noise_sd, chord_times, start_check
+from bayes_dnlr.inference.checks.start import START_Z, Noise, chord_noise_sd, chord_times, start_check
 from bayes_dnlr.standards import iso527_1_modulus
 
 RATE = 1e-3
@@ -25,24 +25,39 @@ def curve(modulus: float, n: int = 400, toe: float = 0.0):
 def test_the_same_curve_passes_and_its_chord_lies_at_its_times():
     t, e, s = curve(1500.0)
     models = np.tile(s, (50, 1)) + np.random.default_rng(0).normal(0, 1e-3, (50, t.size))
-    c = start_check(e, s, models, 0.01**2, t, 0.0)
+    c = start_check(e, s, models, Noise(0.01**2), t, 0.0)
     assert c is not None and c.ok and abs(c.z) < 1
     assert c.data == pytest.approx(1500.0) and c.model == pytest.approx(1500.0, rel=1e-3)
     assert c.times == pytest.approx((0.5, 2.5))
+
+
+def test_a_short_toe_is_a_rising_slope_and_a_relaxing_start_is_not():
+    from bayes_dnlr.inference.checks.start import convexity
+    from bayes_dnlr.workflows.truth_forms import generate
+
+    t = np.arange(0.0, 50.0, 0.1)
+    e = RATE * t
+    rng = np.random.default_rng(0)
+    for slack, toe in ((0.0, False), (5e-4, True), (1e-3, True)):
+        g = generate(t, e, {"E": 1500.0, "G": 5.0, "tau_max": 30.0}, None,
+                     "strain-toe" if slack else None, slack or "mild")
+        nominal = g.stress * np.exp(-g.measured_strain) + rng.normal(0, 0.01, t.size)
+        z = convexity(np.expm1(g.measured_strain), nominal, 0.01**2)
+        assert (z > START_Z) == toe, (slack, z)
 
 
 def test_a_toe_the_model_does_not_have_fails():
     t, e, s = curve(1500.0, toe=5e-4)          # the strain reads ahead: the data's chord is lower
     model = 1500.0 * e                           # a model driven by the strain the file reports
     models = np.tile(model, (50, 1))
-    c = start_check(e, s, models, 0.05**2, t, 0.0)
+    c = start_check(e, s, models, Noise(0.05**2), t, 0.0)
     assert c is not None and not c.ok and c.z < -START_Z
     assert c.data < 0.9 * c.model
 
 
 def test_the_chord_noise_is_the_regression_slope_s():
     e = np.linspace(0.0, 0.004, 81)
-    sd = chord_noise_sd(e, 0.2**2, "regression")
+    sd = chord_noise_sd(e, Noise(0.2**2), "regression")
     inside = e[(e >= 5e-4) & (e <= 2.5e-3)]
     assert sd == pytest.approx(0.2 / np.sqrt(np.sum((inside - inside.mean()) ** 2)))
     rng = np.random.default_rng(3)
@@ -54,5 +69,23 @@ def test_no_check_where_the_data_give_no_chord():
     t = np.arange(100) * 0.05
     e = 0.001 + RATE * t                         # starts past 0.05 %
     s = 1500.0 * e
-    assert start_check(e, s, np.tile(s, (5, 1)), 0.01, t, -1.0) is None
+    assert start_check(e, s, np.tile(s, (5, 1)), Noise(0.01), t, -1.0) is None
     assert chord_times(e, t, -1.0)[1] == pytest.approx(1.5 + 1.0)
+
+
+def test_the_chord_noise_of_a_correlated_error_is_its_own():
+    """A discrepancy (an exp process on the time axis) adds its own covariance to the chord's: cᵀKc,
+    against the spread of the chord over draws of that process."""
+    from bayes_dnlr.inference.discrepancy.gp import covariance
+
+    t = np.arange(120) * 0.05
+    e = RATE * t
+    noise = Noise(0.05**2, amplitude=0.3, length=5.0, kernel="exp", axis=t)
+    sd = chord_noise_sd(e, noise, "regression")
+    K = covariance(t, 0.3, 5.0, "exp") + 0.05**2 * np.eye(t.size)
+    L = np.linalg.cholesky(K)
+    rng = np.random.default_rng(4)
+    slopes = [iso527_1_modulus(e, 1500 * e + L @ rng.standard_normal(t.size)).modulus
+              for _ in range(3000)]
+    assert np.std(slopes) == pytest.approx(sd, rel=0.05)
+    assert sd > chord_noise_sd(e, Noise(0.05**2), "regression")

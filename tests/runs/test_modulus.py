@@ -1,0 +1,89 @@
+"""summary.json's ``modulus_at`` (runs/modulus.py): E(t) from every draw, its times, its own trust;
+and ``consistency``, whether the tests of a joint run agree (runs/consistency.py)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import yaml
+from support.joint import make_joint
+from support.runs import HDPE, make_run, ramp_truth
+
+from bayes_dnlr.config import load_config
+from bayes_dnlr.model.modulus import relaxation_modulus
+from bayes_dnlr.runs.sample import sample
+
+
+@pytest.fixture(scope="module")
+def clean(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("modulus")
+    path = make_run(folder, "clean", ramp_truth(0.6, n_points=300),
+                    sampler={"max_steps": 400, "target_ess": 200})
+    return path, sample(load_config(path), progress=False).summary
+
+
+def test_a_clean_ramp_gives_a_trusted_e_t_at_its_shortest_resolved_time(clean):
+    _, s = clean
+    [row] = s["modulus_at"]
+    # 300 points to strain 0.6 at 5e-3 1/s: 0.401 s steps, two of them 0.80 s: 1 s
+    assert row["t"] == 1.0 and "rounded up to 1 s" in row["why"]
+    truth = relaxation_modulus([1.0], HDPE["E"], HDPE["G"], HDPE["tau_max"])[0]
+    assert abs(row["mean"] - truth) < 4 * row["sd"]
+    assert row["hdi_90"][0] < row["median"] < row["hdi_90"][1]
+    assert row["trust"] and row["trust_reasons"] == []
+    c = row["checks"]
+    assert c["inside_window"] and c["band"]["ok"] and c["converged"]
+    assert c["start"] is None or c["start"]["ok"]
+
+
+def test_asked_times_outside_the_resolved_window_are_not_trusted_and_outputs_follow_the_setting(clean):
+    path, before = clean
+    raw = yaml.safe_load(path.read_text())
+    raw["output"] = {"modulus_at": [5.0, 0.5, 1.0e5]}
+    path.write_text(yaml.safe_dump(raw))
+    s = sample(load_config(path), progress=False).summary
+    assert s["steps"] == before["steps"]                    # the chain is not sampled again
+    rows = {r["t"]: r for r in s["modulus_at"]}
+    assert sorted(rows) == [0.5, 5.0, 1.0e5]
+    assert not rows[1.0e5]["trust"] and "outside the times the test resolves" in rows[1.0e5]["trust_reasons"][0]
+    assert rows[5.0]["checks"]["inside_window"] and not rows[0.5]["checks"]["inside_window"]
+    assert s["settings"]["modulus_at"] == [0.5, 5.0, 1.0e5]
+
+
+def test_a_strain_toe_fails_the_start_check(tmp_path):
+    """A slack at the start (the strain reads ahead of the specimen's by up to 1e-3): the model fits
+    it as a softer start and E(t) comes out low; the start's slope rises, which gives the toe away."""
+    truth = {"params": {"E": 1500.0, "G": 5.0, "tau_max": 30.0}, "strain_rate": 1e-3,
+             "strain_max": 0.05, "sample_rate": 10, "model_form": {"kind": "strain-toe", "strength": 1e-3},
+             "noise": {"strain_sd": 0.0, "stress_sd": 0.01}, "seed": 4}
+    path = make_run(tmp_path, "toe", truth, sigma0=0.01, data={"strain_input": "measured"},
+                    sampler={"max_steps": 300, "target_ess": 100})
+    [row] = sample(load_config(path), progress=False).summary["modulus_at"]
+    truth = relaxation_modulus([row["t"]], 1500.0, 5.0, 30.0)[0]
+    assert row["hdi_90"][1] < truth                          # the model fits the toe as a softer start
+    start = row["checks"]["start"]
+    assert start is not None and start["toe"] and not start["ok"] and start["convexity_z"] > 2.576
+    assert not row["trust"] and any("a toe" in r for r in row["trust_reasons"])
+
+
+def test_a_joint_run_says_whether_its_tests_agree(tmp_path):
+    same = make_joint(tmp_path, "same", per_test=("tau_max",))
+    s = sample(load_config(same), progress=False).summary
+    assert set(s["modulus_at"]["tests"]) == {"r2.5e-3", "r5e-3", "r1e-2"}
+    c = s["consistency"]
+    assert c["agree"], c["words"]
+    assert {q["quantity"] for q in c["quantities"]} >= {"E"}
+    # one test of another material: its E 40 % higher
+    other = make_joint(tmp_path, "other", per_test=("tau_max",))
+    raw = yaml.safe_load(other.read_text())
+    raw["tests"][2]["truth"]["params"]["E"] *= 1.4
+    other.write_text(yaml.safe_dump(raw, sort_keys=False))
+    from bayes_dnlr.workflows.simulate import simulate_tests
+
+    simulate_tests(load_config(other), overwrite=True)
+    s = sample(load_config(other), progress=False).summary
+    c = s["consistency"]
+    assert not c["agree"] and "do not agree" in c["words"] and "r1e-2" in c["words"]
+    text = json.dumps(c)
+    assert "cochran_q" in text
