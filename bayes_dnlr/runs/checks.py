@@ -277,7 +277,7 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
                                             list(prior_shaped_e(checks["prior_sensitivity"])))
     adequate, trust, head, points = verdict(checks, bool(summary.get("converged")), not layout.plain)
     modulus = modulus_block(cfg, tests, layout, draws, names, bands, checks,
-                            _log_prior(draws, priors), bool(summary.get("converged")))
+                            _log_prior(draws, priors), bool(summary.get("converged")), fit)
     if layout.plain:
         for k in ("predictive_coverage", "plausibility", "noise_model"):
             checks[k] = layout.collapse(checks[k])

@@ -2,9 +2,11 @@
 (model/modulus.py), from every kept posterior draw at the run's times, each with a trust of its own.
 
 E(t) inside the times a test resolves is what its data determine; E = E(0) is its extrapolation
-through the spectrum's fast end. So E(t)'s trust does not inherit E's flags about that fast end
-(the score test of the spectrum's exponent): it rests on checks of where E(t) draws its
-information (docs/sampling.md, "E(t) and its trust"):
+through the spectrum's fast end. Its interval carries the one degree of freedom of the spectrum's
+shape the package knows, its exponent (``spectrum_spread``: with alpha held at ½, the sd freeing
+it would add, linearized). Its trust does not inherit E's flags about the fast end (the score test
+of the spectrum's exponent): it rests on checks of where E(t) draws its information
+(docs/model-form.md, "E(t), the modulus the data determine"):
 
 - ``inside_window``: t lies inside the times the test resolves (else E(t) is an extrapolation);
 - ``band``: the 90 % predictive band holds the samples that carry E(t)'s information (each sample
@@ -47,6 +49,7 @@ from bayes_dnlr.runs.verdict import SHIFT_SD
 from bayes_dnlr.vocabulary import SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT
 
 BAND_Z = 2.326          # one-sided 1 % quantile of the standard normal
+SHAPE_SEED = 7919       # the draws of the spectrum exponent's spread: the same outputs every time
 CALIBRATED = 0.90       # the share of the data a calibrated 90 % band holds
 
 
@@ -182,9 +185,37 @@ def _reasons(row: dict[str, Any], who: str) -> list[str]:
     return out
 
 
+def uses_discrepancy(checks: Mapping[str, Any], layout: Layout, test: str) -> bool:
+    """Whether a test's posterior used the model discrepancy (its noise-model check says)."""
+    return ((checks.get("noise_model") or {}).get(test) or {}).get("likelihood") == "discrepancy"
+
+
+def spectrum_spread(fit: Mapping[str, Any], columns: Mapping[str, Any], times: list[float],
+                    discrepancy: bool, modes: int, decades: float) -> dict[str, Any] | None:
+    """What freeing the spectrum's exponent adds to E(t), linearized: with alpha held at ½ (eq. 12),
+    the data still leave it an sd σ_α (the score test's, under the discrepancy when the posterior
+    used it) and E(t) moves by dE(t)/dα along the least-squares path (the other parameters
+    re-optimised: fit.json ``spectrum_exponent.derivative``). E(t) gets the sd |dE(t)/dα| σ_α
+    added, as a posterior with alpha free and a flat prior would give it. Inside the resolved
+    times the data pin E(t) and the slope is small; E = E(0) is where it is large. None when alpha
+    is sampled (its draws carry it) or fit.json has no derivative."""
+    block = fit.get("spectrum_exponent") or {}
+    if block.get("sampled") or not block.get("derivative"):
+        return None
+    score = ((fit.get("discrepancy") or {}).get("alpha_score") if discrepancy else None) or block.get("score")
+    if not score or not (score.get("sd") and np.isfinite(score["sd"])):
+        return None
+    point = {k: float(np.median(v)) if np.ndim(v) else float(v) for k, v in columns.items()}
+    names = list(MODULUS_PARAMETERS)
+    g = gradient(point, names, times, modes, decades)
+    slope = g[:, names.index(SPECTRUM_EXPONENT)] + sum(
+        g[:, names.index(k)] * float(d) for k, d in block["derivative"].items() if k in names)
+    return {"slope": slope, "alpha_sd": float(score["sd"]), "added_sd": np.abs(slope) * float(score["sd"])}
+
+
 def modulus_block(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, names: list[str],
                   bands: Mapping[str, Band], checks: Mapping[str, Any], log_prior: np.ndarray | None,
-                  converged: bool) -> list[dict] | dict[str, Any]:
+                  converged: bool, fit: Mapping[str, Any]) -> list[dict] | dict[str, Any]:
     """``modulus_at`` of summary.json: per test, a list of {t, mean, sd, median, hdi_90, trust,
     trust_reasons, checks, resolved, why}; a run with one test gives its list, a run with several
     {"tests": {name: list}}."""
@@ -196,8 +227,14 @@ def modulus_block(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray
         if not ({"E", "tau_max"} <= set(view.parameters)):
             continue
         times, why, window = times_for(view, data)
-        values = modulus_draws(test_columns(cfg, layout, test, draws, names), times,
-                               cfg.model.modes, cfg.model.decades)
+        columns = test_columns(cfg, layout, test, draws, names)
+        values = modulus_draws(columns, times, cfg.model.modes, cfg.model.decades)
+        own = fit if layout.plain else (fit.get("single_fits") or {}).get(test) or {}
+        shape = spectrum_spread(own, columns, times, uses_discrepancy(checks, layout, test),
+                                cfg.model.modes, cfg.model.decades)
+        if shape is not None:
+            rng = np.random.default_rng(SHAPE_SEED)
+            values = values + rng.standard_normal(values.shape) * shape["added_sd"][None, :]
         band = bands.get(test)
         start = band.start.to_dict() if band is not None and band.start is not None else None
         rows = []
@@ -218,6 +255,10 @@ def modulus_block(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray
             }
             row = {"t": float(t), **stats, "resolved": [window.shortest, window.longest],
                    "why": why, "checks": row_checks}
+            if shape is not None:
+                row["spectrum_exponent"] = {"dE_dalpha": float(shape["slope"][i]),
+                                            "alpha_sd": shape["alpha_sd"],
+                                            "added_sd": float(shape["added_sd"][i])}
             row["trust_reasons"] = _reasons(row, "" if layout.plain else f"{test}: ")
             row["trust"] = not row["trust_reasons"]
             rows.append(row)
