@@ -103,8 +103,12 @@ def _start(cfg: Config, data, test: str, layout: Layout, rows: slice | np.ndarra
     if rows.size == 0 or int(rows[0]) != first or not math.isfinite(noise.sigma0_sq):
         return None
     time = np.asarray(data.time, dtype=float)[rows]
+    # the first loading: up to the hold, or to the first turning point of cycles
     loading = time <= data.relaxation_start if data.relaxation_start is not None else np.ones(
         rows.size, dtype=bool)
+    turns = predictive.turning_points(np.asarray(data.strain_input, dtype=float)[rows])
+    if turns:
+        loading &= np.arange(rows.size) <= turns[0]
     observed = np.asarray(data.stress, dtype=float)[rows][loading]
     strain = np.asarray(data.strain, dtype=float)[rows][loading]
     nominal = (np.asarray(data.nominal_stress, dtype=float)[rows][loading]

@@ -69,16 +69,29 @@ def consistency(cfg: Config, tests: TestSet, fit: Mapping[str, Any]) -> dict[str
     found = [a for k in values if (a := agreement(k, values[k], sds[k])) is not None]
     if not found:
         return None
+    # the tests agree when their E(t), what the data determine, agree; E, the extrapolation through
+    # the spectrum's fast end, decides only where E(t) cannot be compared (a spectrum per test)
+    deciding = [a for a in found if a.quantity != "E"] or found
     return {"times": times, "estimates": how, "quantities": [a.to_dict() for a in found],
-            "agree": all(a.agree for a in found), "words": words(found)}
+            "decided_by": [a.quantity for a in deciding],
+            "agree": all(a.agree for a in deciding), "words": words(found, deciding)}
 
 
-def words(found: list[Agreement]) -> str:
-    """One sentence per quantity whose tests disagree, else that they agree."""
-    bad = [a for a in found if not a.agree]
+def words(found: list[Agreement], deciding: list[Agreement]) -> str:
+    """One sentence per quantity whose tests disagree, else that they agree (and a note when only
+    E, not deciding, differs)."""
+    bad = [a for a in deciding if not a.agree]
     if not bad:
-        return ("Fitted alone, the tests agree: " + "; ".join(
-            f"{a.quantity} within {a.worst_z:.1f} combined sd" for a in found) + ".")
+        text = ("Fitted alone, the tests agree: " + "; ".join(
+            f"{a.quantity} within {a.worst_z:.1f} combined sd" for a in deciding) + ".")
+        other = [a for a in found if a not in deciding and not a.agree]
+        for a in other:
+            i, j = a.worst_pair
+            text += (f" Their E differ ({i} {pm(a.values[i], a.sds[i])}, {j} "
+                     f"{pm(a.values[j], a.sds[j])} MPa, {a.worst_z:.1f} combined sd): E extrapolates "
+                     "through the spectrum's fast end, which each kind of test reaches differently; "
+                     "quote E(t).")
+        return text
     out = []
     for a in bad:
         i, j = a.worst_pair
