@@ -97,7 +97,8 @@ def one_case(folder: Path, form: str | None, strength: str, seed: int, other: fl
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--form", default="spectrum-power", help="truth.model_form kind ('none': the fitted model)")
+    ap.add_argument("--form", default="spectrum-power",
+                    help="truth.model_form kind ('none': the fitted model)")
     ap.add_argument("--strength", default="mild")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--out", type=Path, default=None)

@@ -46,7 +46,8 @@ def test_asked_times_outside_the_resolved_window_are_not_trusted_and_outputs_fol
     assert s["steps"] == before["steps"]                    # the chain is not sampled again
     rows = {r["t"]: r for r in s["modulus_at"]}
     assert sorted(rows) == [0.5, 5.0, 1.0e5]
-    assert not rows[1.0e5]["trust"] and "outside the times the test resolves" in rows[1.0e5]["trust_reasons"][0]
+    far = rows[1.0e5]
+    assert not far["trust"] and "outside the times the test resolves" in far["trust_reasons"][0]
     assert rows[5.0]["checks"]["inside_window"] and not rows[0.5]["checks"]["inside_window"]
     assert s["settings"]["modulus_at"] == [0.5, 5.0, 1.0e5]
 
