@@ -28,6 +28,7 @@ from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pm
 from bayes_dnlr.report.tables import Table, deborah
 from bayes_dnlr.runs.folder import write_atomic
 from bayes_dnlr.runs.layout import SUMMARY_FILE
+from bayes_dnlr.runs.modulus import entries
 from bayes_dnlr.runs.results import RunResults, load_run, verdict_lines
 from bayes_dnlr.runs.testset import plain_names
 from bayes_dnlr.vocabulary import PARAMETER_NAMES, UNITS
@@ -78,6 +79,12 @@ class Comparison:
             if any(r.get(f"{p}_true") is not None for r in self.rows):
                 lines.append([f"{p} true ({u})", *[fmt_at(r.get(f"{p}_true"), r.get(f"{p}_post_sd")
                                                           or r.get(f"{p}_gn_sd")) for r in self.rows]])
+        if any(r.get("Et_t") is not None for r in self.rows):
+            lines.append(["E(t) at t (s)", *[fmt(r.get("Et_t"), 3) for r in self.rows]])
+            lines.append(["E(t) posterior (MPa)",
+                          *[_pm(r.get("Et_mean"), r.get("Et_sd")) for r in self.rows]])
+            lines.append(["E(t) trusted", *["–" if r.get("Et_trust") is None else
+                                             ("yes" if r["Et_trust"] else "no") for r in self.rows]])
         lines.append(["De_max = tau_max·ε̇ (eq. 45)", *[fmt(r["de_max"], 3) for r in self.rows]])
         lines.append(["ISO 527-1 (MPa)", *[fmt(r["iso527_1"]) for r in self.rows]])
         lines.append(["ASTM D638 (MPa)", *[fmt(r["astm_d638"]) for r in self.rows]])
@@ -165,6 +172,11 @@ def run_row(run: RunResults) -> dict[str, Any]:
     row["adequate"], row["trust_interval"] = checks.get("adequate"), checks.get("trust_interval")
     row["verdict"] = checks.get("verdict")
     row["verdict_points"] = checks.get("verdict_points")
+    first = next(iter(entries(run.summary or {}).values()), [None])[0]
+    row["Et_t"] = None if first is None else first["t"]
+    row["Et_mean"] = None if first is None else first["mean"]
+    row["Et_sd"] = None if first is None else first["sd"]
+    row["Et_trust"] = None if first is None else bool(first.get("trust"))
     return row
 
 
