@@ -58,10 +58,6 @@ def measure(config: Path) -> dict[str, float]:
     layout = chain_layout(run, cfg, tests.plain)
     names = run.names
     summary = post.summary
-    from bayes_dnlr.runs.records import FitRecord
-    from bayes_dnlr.runs.target import build_target
-
-    priors = build_target(used, tests, FitRecord.from_dict(fit, cfg.test_names), run).priors
     sigma0 = {t: float(summary["sigma0"]) for t in layout.tests}
     noise = layout.expand(summary.get("noise"))
     bands = band_module.predictive_bands(used, tests, layout, draws, names, noise, sigma0)
