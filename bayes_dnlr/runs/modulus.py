@@ -105,13 +105,13 @@ def _window_remedy(band: Band) -> str:
     if turns:
         end = float(band.time[turns[0]])
         return (f"the model does not follow unloading: identify on the first loading, "
-                f"data.window: {{time_max: {fmt(end, 6)}}} (its peak), where E(t) is measured")
+                f"data.window: {{time_max: {end:.6g}}} (its peak), where E(t) is measured")
     if band.relaxation_start is not None:
         ramp = float(band.relaxation_start - band.time[0])
         end = float(band.relaxation_start + 10.0 * ramp)
         if end < float(band.time[-1]):
             return (f"one spectrum does not describe the whole hold: identify on the loading and the "
-                    f"start of the hold, e.g. data.window: {{time_max: {fmt(end, 4)}}} (ten times "
+                    f"start of the hold, e.g. data.window: {{time_max: {end:.4g}}} (ten times "
                     "the loading's length), and compare")
     return ("the model's form does not describe the curve where E(t) is measured (docs/model-form.md): "
             "read the residuals there")

@@ -88,3 +88,69 @@ def test_a_joint_run_says_whether_its_tests_agree(tmp_path):
     assert not c["agree"] and "do not agree" in c["words"] and "r1e-2" in c["words"]
     text = json.dumps(c)
     assert "cochran_q" in text
+
+
+def _row(**checks):
+    base = {"inside_window": True, "band": {"share": 0.92, "floor": 0.83, "ok": True, "n_eff": 50,
+                                            "information_times": [0.5, 20.0], "remedy": "read them"},
+            "start": None, "bounds": {}, "prior": None, "noise_model": True, "converged": True}
+    return {"t": 1.0, "resolved": [0.8, 380.0], "checks": {**base, **checks}}
+
+
+@pytest.mark.parametrize("failed, words", [
+    ({"inside_window": False}, "outside the times the test resolves"),
+    ({"band": {"share": 0.6, "floor": 0.83, "ok": False, "n_eff": 50, "information_times": [0.5, 20.0],
+               "remedy": "identify on the first loading"}}, "identify on the first loading"),
+    ({"start": {"ok": False, "toe": False, "z": -4.0, "data_chord": 900.0, "model_chord": 1100.0,
+                "times": [0.1, 0.5], "convexity_z": 0.0}}, "does not follow the start"),
+    ({"start": {"ok": False, "toe": True, "z": 0.0, "data_chord": 900.0, "model_chord": 900.0,
+                "times": [0.1, 0.5], "convexity_z": 7.0}}, "a toe"),
+    ({"bounds": {"tau_max": 1.5}}, "the prior box decides"),
+    ({"prior": 0.2}, "the prior shapes"),
+    ({"noise_model": False}, "white likelihood"),
+    ({"converged": False}, "not converged"),
+])
+def test_each_check_withdraws_e_t_s_trust_and_says_why(failed, words):
+    from bayes_dnlr.runs.modulus import _reasons
+
+    assert _reasons(_row(), "") == []
+    reasons = _reasons(_row(**failed), "")
+    assert len(reasons) == 1 and words in reasons[0]
+    # a bound that moves E(t) by less than its sd, or a flat prior, withdraws nothing
+    assert _reasons(_row(bounds={"tau_max": 0.9}, prior=0.01), "") == []
+
+
+def test_the_band_floor_is_a_one_sided_binomial_bound():
+    from bayes_dnlr.runs.modulus import band_floor
+
+    assert band_floor(100) == pytest.approx(0.9 - 2.326 * 0.03)
+    assert band_floor(9) == pytest.approx(0.9 - 2.326 * 0.1)
+    assert band_floor(1e6) == pytest.approx(0.9, abs=1e-3)
+
+
+def test_the_band_s_remedy_names_the_part_the_model_describes():
+    import numpy as np
+
+    from bayes_dnlr.runs.bands import Band
+    from bayes_dnlr.runs.modulus import _window_remedy
+
+    t = np.arange(300) * 0.2
+    cyc = np.concatenate([np.linspace(0, 0.01, 100), np.linspace(0.01, 0.002, 100),
+                          np.linspace(0.002, 0.02, 100)])
+    band = Band(np.ones(300, bool), t, cyc, None, None, [], {})
+    assert "first loading, data.window: {time_max: 19.8}" in _window_remedy(band)
+    hold = np.minimum(t, 8.0) * 1e-3
+    band = Band(np.ones(300, bool), t, hold, 8.0, None, [], {})
+    assert "data.window: {time_max: 88}" in _window_remedy(band)
+    ramp = t * 1e-3
+    assert "docs/model-form.md" in _window_remedy(Band(np.ones(300, bool), t, ramp, None, None, [], {}))
+
+
+def test_widening_is_advised_only_for_a_parameter_the_window_identifies():
+    from bayes_dnlr.runs.verdict import _bound_words
+
+    entry = {"parameter": "tau_max", "side": "high", "bound": 1e4, "E_shift_sd": {"E": 3.0}}
+    ok, [words] = _bound_words([{**entry, "identified": True}])
+    assert not ok and "Widen parameters.tau_max and run again" in words
+    ok, [words] = _bound_words([{**entry, "identified": False}])
+    assert not ok and "Widen parameters.tau_max" not in words and "Do not just widen it" in words
