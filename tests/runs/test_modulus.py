@@ -139,8 +139,9 @@ def test_the_band_s_remedy_names_the_part_the_model_describes():
                           np.linspace(0.002, 0.02, 100)])
     band = Band(np.ones(300, bool), t, cyc, None, None, [], {})
     assert "first loading, data.window: {time_max: 19.8}" in _window_remedy(band)
-    hold = np.minimum(t, 8.0) * 1e-3
-    band = Band(np.ones(300, bool), t, hold, 8.0, None, [], {})
+    long = np.arange(300) * 0.5
+    hold = np.minimum(long, 8.0) * 1e-3
+    band = Band(np.ones(300, bool), long, hold, 8.0, None, [], {})
     assert "data.window: {time_max: 88}" in _window_remedy(band)
     ramp = t * 1e-3
     assert "docs/model-form.md" in _window_remedy(Band(np.ones(300, bool), t, ramp, None, None, [], {}))
