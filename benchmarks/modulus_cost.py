@@ -40,6 +40,7 @@ def measure(config: Path) -> dict[str, float]:
     from bayes_dnlr.runs import bands as band_module
     from bayes_dnlr.runs.chains import read_run
     from bayes_dnlr.runs.fit import load_fit
+    from bayes_dnlr.runs.layout import CHAINS_FILE
     from bayes_dnlr.runs.modulus import modulus_block
     from bayes_dnlr.runs.records import held_config
     from bayes_dnlr.runs.result import chain_layout
@@ -53,7 +54,7 @@ def measure(config: Path) -> dict[str, float]:
     fit = load_fit(cfg.run_dir)
     used = held_config(cfg, fit)
     tests = load_tests(cfg)
-    run = read_run(cfg.run_dir / "chains.h5")
+    run = read_run(cfg.run_dir / CHAINS_FILE)
     draws = run.chain[post.summary["burn_in"]:]
     layout = chain_layout(run, cfg, tests.plain)
     names = run.names

@@ -203,7 +203,7 @@ def times_for(cfg, test) -> tuple[list[float], str, ResolvedWindow]:
 
 def fit_block(cfg, test, estimate: Mapping[str, float], names: Sequence[str],
               covariance: np.ndarray | None, discrepancy: Mapping | None) -> dict:
-    """fit.json's ``modulus_at``: the times, why they were chosen, the window the test resolves,
+    """The ``modulus_at`` block of fit.json: the times, why they were chosen, the window the test resolves,
     and E(t) linearized at the white estimate and, under model error, at the generalized one."""
     times, why, w = times_for(cfg, test)
     modes, decades = cfg.model.modes, cfg.model.decades

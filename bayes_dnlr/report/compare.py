@@ -28,7 +28,7 @@ from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pm
 from bayes_dnlr.report.tables import Table, deborah
 from bayes_dnlr.runs.folder import write_atomic
 from bayes_dnlr.runs.layout import SUMMARY_FILE
-from bayes_dnlr.runs.modulus import entries
+from bayes_dnlr.runs.modulus_view import entries
 from bayes_dnlr.runs.results import RunResults, load_run, verdict_lines
 from bayes_dnlr.runs.testset import plain_names
 from bayes_dnlr.vocabulary import PARAMETER_NAMES, UNITS

@@ -1,9 +1,9 @@
 """The report's E(t): the relaxation modulus the data determine, in the headline beside E and in a
 section of its own (its figure, its times, its trust), for every test.
 
-E(t) is read from summary.json's ``modulus_at`` (runs/modulus.py); the figure's band is computed here
-from the posterior draws over the times the test resolves, its dashed continuation to t → 0 is
-the extrapolation that E is (eq. 11-14).
+E(t) is read from summary.json's ``modulus_at`` and its curve from ``modulus_curve`` (runs/modulus.py
+makes both; the report imports no model code): the band over the times the test resolves, its
+dashed continuation to t → 0 the extrapolation that E is (eq. 11-14).
 """
 
 from __future__ import annotations
@@ -14,16 +14,12 @@ from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.inference.modulus import MODULUS_PARAMETERS, modulus_draws
 from bayes_dnlr.numbers import fmt, interval, pm
 from bayes_dnlr.report.figure_cache import drawn
 from bayes_dnlr.report.page_parts import bullets, img, para
-from bayes_dnlr.runs.modulus import entries
+from bayes_dnlr.runs.modulus_view import curves, entries
 from bayes_dnlr.runs.results import RunResults
-from bayes_dnlr.vocabulary import SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT
 
-N_TIMES = 80         # points of the figure's E(t) curve
-N_FIGURE_DRAWS = 400
 WHAT_E_IS = ("E is E(t) extrapolated to t → 0 through the fast end of Cunat's spectrum (eq. 12), "
              "which no tensile test observes; E(t) inside the times the test resolves is what its "
              "data determine.")
@@ -81,21 +77,10 @@ def trust_box(run: RunResults) -> str:
             + bullets(reasons) + "</div>")
 
 
-def _columns(view: RunResults, n: int) -> dict[str, np.ndarray | float] | None:
-    draws = view.draws or {}
-    if "E" not in draws or "tau_max" not in draws:
-        return None
-    flat = {k: np.asarray(v, dtype=float).ravel() for k, v in draws.items()}
-    size = flat["E"].size
-    pick = np.linspace(0, size - 1, min(n, size)).astype(int)
-    fixed = view.cfg.fixed_values
-    out: dict[str, np.ndarray | float] = {}
-    for k in MODULUS_PARAMETERS:
-        if k in flat:
-            out[k] = flat[k][pick]
-        else:
-            out[k] = float(fixed.get(k, UNIVERSAL_EXPONENT if k == SPECTRUM_EXPONENT else 0.0))
-    return out
+def _curve_of(run: RunResults, test: str) -> dict | None:
+    """The stored E(t) curve of a test (summary.json ``modulus_curve``)."""
+    found = curves(run.summary or {})
+    return found.get("") if "" in found else found.get(test)
 
 
 def _chords(view: RunResults, rows: list[dict]) -> list[tuple[str, float, float, float]]:
@@ -122,18 +107,13 @@ def section(run: RunResults, figdir: Path) -> list[str]:
         view = run.of_test(t)
         if several:
             sec.append(f"<h3>{html.escape(t)}</h3>")
-        cols = _columns(view, N_FIGURE_DRAWS)
-        if cols is not None and rs:
-            lo, hi = rs[0]["resolved"]
+        curve = _curve_of(run, t)
+        if curve is not None and rs:
             suffix = "" if not several else "-" + "".join(c if c.isalnum() else "_" for c in t)
-            grid = np.geomspace(min(lo, min(r["t"] for r in rs)) / 100.0,
-                                max(hi, max(r["t"] for r in rs)), N_TIMES)
-            values = modulus_draws(cols, grid, view.cfg.model.modes, view.cfg.model.decades)
-            q = np.quantile(values, [0.05, 0.5, 0.95], axis=0)
-            e = np.asarray(cols["E"], dtype=float)
+            q = np.array([curve["q05"], curve["q50"], curve["q95"]])
             marks = [(r["t"], r["mean"], *r["hdi_90"], bool(r.get("trust"))) for r in rs]
-            p = drawn(modulus_plot, grid, q, (lo, hi), float(np.median(e)),
-                      tuple(np.quantile(e, [0.05, 0.95])), _chords(view, rs), marks,
+            p = drawn(modulus_plot, np.asarray(curve["t"]), q, tuple(curve["resolved"]),
+                      float(curve["E_median"]), tuple(curve["E_hdi_90"]), _chords(view, rs), marks,
                       figdir / f"modulus{suffix}.png")
             sec.append(img(p, "E(t)", (
                 "E(t), the relaxation modulus of the identified model: posterior median and 90 % "

@@ -253,9 +253,9 @@ def _shift_of_e(refit: tuple[dict[str, float], dict[str, float]] | None,
 
 def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, names: list[str],
                priors, fit: dict[str, Any], summary: dict[str, Any],
-               sigma0: dict[str, float]) -> tuple[dict[str, Any], list | dict]:
+               sigma0: dict[str, float]) -> tuple[dict[str, Any], list | dict, dict | None]:
     """The ``checks`` block of summary.json for a sampled run (``draws`` (steps, walkers, ndim) kept),
-    and its ``modulus_at`` (E(t) with its own trust, runs/modulus.py)."""
+    its ``modulus_at`` (E(t) with its own trust, runs/modulus.py) and ``modulus_curve``."""
     from bayes_dnlr.runs.modulus import modulus_block
 
     noise = layout.expand(summary.get("noise")) if layout.plain else (summary.get("noise") or {}).get(
@@ -276,15 +276,15 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
     checks["prior_sources"] = prior_sources(draws, names, priors,
                                             list(prior_shaped_e(checks["prior_sensitivity"])))
     adequate, trust, head, points = verdict(checks, bool(summary.get("converged")), not layout.plain)
-    modulus = modulus_block(cfg, tests, layout, draws, names, bands, checks,
-                            _log_prior(draws, priors), bool(summary.get("converged")), fit)
+    modulus, curve = modulus_block(cfg, tests, layout, draws, names, bands, checks,
+                                   _log_prior(draws, priors), bool(summary.get("converged")), fit)
     if layout.plain:
         for k in ("predictive_coverage", "plausibility", "noise_model"):
             checks[k] = layout.collapse(checks[k])
         checks["model_form"] = checks["model_form"].get(layout.tests[0])      # None: no score test
     checks.update(adequate=adequate, trust_interval=trust, verdict=" ".join([head, *points]),
                   verdict_points=points)
-    return checks, modulus
+    return checks, modulus, curve
 
 
 def _log_prior(draws: np.ndarray, priors) -> np.ndarray | None:

@@ -1,4 +1,4 @@
-"""summary.json's ``consistency`` for a run with several tests: does each test, fitted alone, give
+"""The ``consistency`` block of summary.json for a run with several tests: does each test, fitted alone, give
 the E(t) and the E the others give? (inference/analyses/consistency.py: Cochran's Q over the
 tests' own estimates, the pair furthest apart in combined sd.)
 

@@ -1,4 +1,4 @@
-"""summary.json's ``modulus_at``: E(t), the relaxation modulus of the identified model
+"""The ``modulus_at`` block of summary.json: E(t), the relaxation modulus of the identified model
 (model/modulus.py), from every kept posterior draw at the run's times, each with a trust of its own.
 
 E(t) inside the times a test resolves is what its data determine; E = E(0) is its extrapolation
@@ -50,6 +50,8 @@ from bayes_dnlr.vocabulary import SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT
 
 BAND_Z = 2.326          # one-sided 1 % quantile of the standard normal
 SHAPE_SEED = 7919       # the draws of the spectrum exponent's spread: the same outputs every time
+CURVE_TIMES = 80        # the report's E(t) curve: times and draws
+CURVE_DRAWS = 400
 CALIBRATED = 0.90       # the share of the data a calibrated 90 % band holds
 
 
@@ -210,16 +212,19 @@ def spectrum_spread(fit: Mapping[str, Any], columns: Mapping[str, Any], times: l
     g = gradient(point, names, times, modes, decades)
     slope = g[:, names.index(SPECTRUM_EXPONENT)] + sum(
         g[:, names.index(k)] * float(d) for k, d in block["derivative"].items() if k in names)
-    return {"slope": slope, "alpha_sd": float(score["sd"]), "added_sd": np.abs(slope) * float(score["sd"])}
+    return {"slope": slope, "alpha_sd": float(score["sd"]), "added_sd": np.abs(slope) * float(score["sd"]),
+            "derivative": dict(block["derivative"])}
 
 
 def modulus_block(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, names: list[str],
                   bands: Mapping[str, Band], checks: Mapping[str, Any], log_prior: np.ndarray | None,
-                  converged: bool, fit: Mapping[str, Any]) -> list[dict] | dict[str, Any]:
+                  converged: bool, fit: Mapping[str, Any]) -> tuple[Any, Any]:
     """``modulus_at`` of summary.json: per test, a list of {t, mean, sd, median, hdi_90, trust,
     trust_reasons, checks, resolved, why}; a run with one test gives its list, a run with several
-    {"tests": {name: list}}."""
+    {"tests": {name: list}}. And ``modulus_curve``, E(t)'s quantiles over the resolved times and
+    below them, for the report's figure (the report computes no model: ``_curve``)."""
     per_test: dict[str, list[dict]] = {}
+    curves: dict[str, dict] = {}
     noise_ok = checks.get("noise_model") or {}
     for test in layout.tests:
         data = tests.tests[test]
@@ -263,36 +268,42 @@ def modulus_block(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray
             row["trust"] = not row["trust_reasons"]
             rows.append(row)
         per_test[test] = rows
+        curves[test] = _curve(columns, values, window, cfg.model.modes, cfg.model.decades,
+                              shape, times)
     if layout.plain:
-        return next(iter(per_test.values()), [])
-    return {"tests": per_test}
+        return next(iter(per_test.values()), []), next(iter(curves.values()), None)
+    return {"tests": per_test}, curves
 
 
-def entries(summary: Mapping[str, Any]) -> dict[str, list[dict]]:
-    """summary.json's ``modulus_at`` per test (a run with one test under its own name, '')."""
-    block = summary.get("modulus_at")
-    if not block:
-        return {}
-    if isinstance(block, list):
-        return {"": block}
-    return dict(block.get("tests") or {})
+def _curve(columns: Mapping[str, Any], values: np.ndarray, window, modes: int, decades: float,
+           shape: dict | None, times: list[float]) -> dict[str, Any]:
+    """E(t)'s 5, 50 and 95 % quantiles on CURVE_TIMES log-spaced times from a hundredth of the
+    shortest resolved time to the longest, over CURVE_DRAWS draws (the exponent's spread added
+    as for the reported times), and E's median and 90 % HDI: what the report draws."""
+    n = np.size(columns["E"])
+    pick = np.linspace(0, n - 1, min(CURVE_DRAWS, n)).astype(int)
+    sub = {k: (np.asarray(v)[pick] if np.ndim(v) else v) for k, v in columns.items()}
+    grid = np.geomspace(min(window.shortest, min(times)) / 100.0, max(window.longest, max(times)),
+                        CURVE_TIMES)
+    e_t = modulus_draws(sub, grid, modes, decades)
+    if shape is not None:
+        g = spectrum_spread_on(shape, sub, grid, modes, decades)
+        e_t = e_t + np.random.default_rng(SHAPE_SEED).standard_normal(e_t.shape) * g[None, :]
+    q = np.quantile(e_t, [0.05, 0.5, 0.95], axis=0)
+    e = np.asarray(columns["E"], dtype=float).ravel()
+    lo, hi = draw_stats(e)["hdi_90"]
+    return {"t": grid.tolist(), "q05": q[0].tolist(), "q50": q[1].tolist(), "q95": q[2].tolist(),
+            "resolved": [window.shortest, window.longest], "E_median": float(np.median(e)),
+            "E_hdi_90": [lo, hi]}
 
 
-def console_lines(summary: Mapping[str, Any]) -> list[str]:
-    """The console's lines of E(t): each time's value, 90 % HDI and trust, with the reasons."""
-    from bayes_dnlr.numbers import interval, pm
-
-    out = []
-    for test, rows in entries(summary).items():
-        who = f"{test}: " if test else ""
-        for r in rows:
-            lo, hi = r["hdi_90"]
-            mark = "trusted" if r.get("trust") else "NOT trusted"
-            out.append(f"E(t): {who}E({fmt(r['t'], 3)} s) = {pm(r['mean'], r['sd'])} MPa, 90 % HDI "
-                       f"{interval(lo, hi, r['sd'])}: {mark} (the modulus the data determine; E is its "
-                       "extrapolation to t → 0)")
-            out += [f"  - {x}" for x in r.get("trust_reasons") or []]
-    block = summary.get("consistency")
-    if block:
-        out.append(f"tests: {block.get('words')}")
-    return out
+def spectrum_spread_on(shape: dict, columns: Mapping[str, Any], times: np.ndarray, modes: int,
+                       decades: float) -> np.ndarray:
+    """The exponent's added sd (``spectrum_spread``) at other times, from the same slope of the
+    estimate on alpha."""
+    point = {k: float(np.median(v)) if np.ndim(v) else float(v) for k, v in columns.items()}
+    names = list(MODULUS_PARAMETERS)
+    g = gradient(point, names, times, modes, decades)
+    slope = g[:, names.index(SPECTRUM_EXPONENT)] + sum(
+        g[:, names.index(k)] * float(d) for k, d in shape["derivative"].items() if k in names)
+    return np.abs(slope) * shape["alpha_sd"]

@@ -257,7 +257,7 @@ class Posterior:
         if checks.get("verdict"):
             head, points = verdict_lines(checks)
             lines += [f"verdict: {head}", *(f"  - {p}" for p in points)]
-        from bayes_dnlr.runs.modulus import console_lines
+        from bayes_dnlr.runs.modulus_view import console_lines
 
         lines += console_lines(s)
         warn = s.get("warnings") or []

@@ -213,9 +213,11 @@ def write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Converg
         summary["noise"]["projection"] = jsonable(offsets)
         summary["noise"]["verdict"] = verdict(summary["noise"])
     priors = build_target(cfg, test, FitRecord.from_dict(fit, cfg.test_names), run).priors
-    checks, modulus = run_checks(cfg, test, layout, draws, names, priors, fit, summary, sigma0)
+    checks, modulus, curve = run_checks(cfg, test, layout, draws, names, priors, fit, summary, sigma0)
     summary["checks"] = jsonable(checks)
     summary["modulus_at"] = jsonable(modulus)
+    if curve:
+        summary["modulus_curve"] = jsonable(curve)
     if summary["noise"]["model"] == "discrepancy" and fit.get("discrepancy"):
         summary["generalized_least_squares"] = gauss_newton_block(
             {"parameters": fit.get("parameters"), **fit["discrepancy"]})
