@@ -87,11 +87,10 @@ def _chords(view: RunResults, rows: list[dict]) -> list[tuple[str, float, float,
     """The ISO 527-1 modulus to place on the figure, over the times the loading takes between its
     two strains (the start check's; ASTM D638's window moves with the curve, so it is left out)."""
     start = next((r["checks"].get("start") for r in rows if r["checks"].get("start")), None)
-    iso = ((view.summary or {}).get("standards") or {}).get("iso527_1")
-    if not start or not iso:
+    if not start:
         return []
     t1, t2 = start["times"]
-    return [("ISO 527-1", float(iso), t1, t2)]
+    return [(start.get("standard", "ISO 527-1"), float(start["data_chord"]), t1, t2)]
 
 
 def section(run: RunResults, figdir: Path) -> list[str]:

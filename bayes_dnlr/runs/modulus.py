@@ -168,7 +168,8 @@ def _reasons(row: dict[str, Any], who: str) -> list[str]:
                    f"softer start, so {t} comes out low; compensate it (data.toe: compensate) or "
                    "fix the start (docs/data-input.md)")
     elif start and not start["ok"]:
-        out.append(f"{who}the data's ISO 527-1 chord ({fmt(start['data_chord'])} MPa, measured "
+        out.append(f"{who}the data's {start.get('standard', 'ISO 527-1')} chord "
+                   f"({fmt(start['data_chord'])} MPa, measured "
                    f"{fmt(start['times'][0], 2)}-{fmt(start['times'][1], 2)} s into the loading) is "
                    f"{abs(start['z']):.1f} sd from the model's ({fmt(start['model_chord'])} MPa): the "
                    "model does not follow the start of this curve (a preload, a loading it misses)")
