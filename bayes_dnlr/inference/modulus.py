@@ -54,14 +54,17 @@ def nice_time(t: float) -> float:
 
 
 def resolved_window(time: np.ndarray, strain: np.ndarray, window: np.ndarray,
-                    strain_rate: float) -> ResolvedWindow:
+                    strain_rate: float, unmeasured_start: bool = False) -> ResolvedWindow:
     """Where a test resolves E(t): from RESOLVE_STEPS sampling steps into its first loading to the
     end of its window. ``time``, ``strain`` (Hencky) and ``window`` are the test's samples (the
     model-only samples of an unloaded start included, never in the window).
 
     The loading began where the strain started to rise: at the first sample when the test starts
     unloaded, earlier when the file starts at a strain already reached (a cropped toe): then at
-    the first sample's strain over the loading's rate before it.
+    the first sample's strain over the loading's rate before it. Where that first part of the
+    loading was not measured (cropped, or ``unmeasured_start``: a model-only unloaded start put
+    before the first sample), what the model assumed for it still weighs on E(t) for as long
+    again: the shortest resolved time is then at least twice the first sample's delay.
     """
     t = np.asarray(time, dtype=float)
     e = np.asarray(strain, dtype=float)
@@ -78,12 +81,18 @@ def resolved_window(time: np.ndarray, strain: np.ndarray, window: np.ndarray,
         # the file starts with a strain that a few steps of loading would not reach (a cropped
         # toe): the loading began before the first sample, at its rate
         origin -= float(e[0]) / rate
+        unmeasured_start = True
         how += (f"; the first sample already has strain {float(e[0]):.3g}, so the loading began "
                 f"{float(e[0]) / rate:.3g} s before it, at its rate {rate:.3g} 1/s")
     elif first > 0 and t[first] > origin:
         how += f", which began {float(t[first]) - origin:.3g} s before the window's first sample"
     k = min(first + RESOLVE_STEPS, int(rows[-1]))
     shortest = float(t[k]) - origin
+    delay = float(t[first]) - origin
+    if unmeasured_start and 2 * delay > shortest:
+        shortest = 2 * delay
+        how += (f"; the loading's first {delay:.3g} s were not measured, and what the model assumes "
+                f"for them weighs on E(t) for as long again: from {shortest:.3g} s")
     longest = float(t[int(rows[-1])]) - origin
     return ResolvedWindow(shortest=shortest, longest=longest, origin=origin, step=step, how=how)
 
@@ -187,7 +196,8 @@ def information_weights(X: np.ndarray, g: np.ndarray) -> np.ndarray:
 
 def test_window(test) -> ResolvedWindow:
     """``resolved_window`` of a ``bayes_dnlr.data.TestData``."""
-    return resolved_window(test.time, test.strain_input, test.window, test.strain_rate)
+    return resolved_window(test.time, test.strain_input, test.window, test.strain_rate,
+                           unmeasured_start=int(getattr(test, "virtual_start", 0)) > 0)
 
 
 def times_for(cfg, test) -> tuple[list[float], str, ResolvedWindow]:

@@ -14,7 +14,7 @@ from bayes_dnlr.config import Config
 from bayes_dnlr.inference.checks import predictive
 from bayes_dnlr.inference.checks.start import Noise, StartCheck, start_check
 from bayes_dnlr.inference.layout import Layout
-from bayes_dnlr.inference.modulus import resolved_window
+from bayes_dnlr.inference.modulus import test_window
 from bayes_dnlr.inference.posterior.likelihood import build_model, window_rows
 from bayes_dnlr.runs.testset import TestSet
 
@@ -115,7 +115,7 @@ def _start(cfg: Config, data, test: str, layout: Layout, rows: slice | np.ndarra
                if data.nominal_stress is not None else observed * np.exp(-strain))
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(observed != 0, nominal / observed, np.exp(-strain))
-    window = resolved_window(data.time, data.strain_input, data.window, data.strain_rate)
+    window = test_window(data)
     if noise.axis is not None:
         noise = replace(noise, axis=noise.axis[loading])
     return start_check(np.asarray(data.nominal_strain, dtype=float)[rows][loading], nominal,

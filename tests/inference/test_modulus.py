@@ -41,7 +41,9 @@ def test_a_file_that_starts_at_a_strain_already_reached_began_before_it():
     e = 0.005 + 1e-3 * (t - 10.0)
     w = resolved_window(t, e, np.ones(t.size, bool), 1e-3)
     assert w.origin == pytest.approx(5.0)        # 0.005 / 1e-3 = 5 s before the first sample
-    assert w.shortest == pytest.approx(5.2) and "already has strain 0.005" in w.how
+    # the first 5 s were not measured: E(t) resolved from twice that
+    assert w.shortest == pytest.approx(10.0) and "already has strain 0.005" in w.how
+    assert "not measured" in w.how
 
 
 def test_an_unloaded_start_before_the_first_sample_is_the_origin():
@@ -52,6 +54,8 @@ def test_an_unloaded_start_before_the_first_sample_is_the_origin():
     window[0] = False
     w = resolved_window(t, e, window, 1e-3)
     assert w.origin == 4.0 and w.shortest == pytest.approx(10.2 - 4.0)
+    w = resolved_window(t, e, window, 1e-3, unmeasured_start=True)
+    assert w.shortest == pytest.approx(12.0)           # twice the 6 s before the first sample
 
 
 def test_the_gradient_is_the_finite_difference_of_e_t():
