@@ -18,7 +18,7 @@ from bayes_dnlr.numbers import fmt, fmt_at
 from bayes_dnlr.report import build_report
 
 FIGURES = {"corner.png", "fit.png", "sensitivity.png", "sensitivity_xy.png", "trace.png", "rank.png",
-           "acf.png"}
+           "acf.png", "modulus.png"}
 CONFIG = """name: tiny
 data:
   file: tiny.csv

@@ -40,7 +40,7 @@ def test_discrepancy_run_reports_both_intervals_and_the_verdict(runs, monkeypatc
     # of the residuals whitened by it) are drawn, not the corner, trace and rank plots
     figures_not_drawn(monkeypatch, keep=("fit_plot", "acf_plot", "sensitivity_plot", "sensitivity_xy_plot"))
     page = build_report(run).read_text()
-    assert "5. Model error: the two analyses and the checks" in page
+    assert "6. Model error: the two analyses and the checks" in page
     for row in ("white noise, linearized (the paper", "with the discrepancy, linearized (GLS",
                 "posterior, with the discrepancy"):
         assert row in page, row

@@ -38,9 +38,9 @@ def test_a_run_with_one_test_keeps_its_sections(tmp_path, monkeypatch):
     figures_not_drawn(monkeypatch)      # the sections and the figures' names are read, not the figures
     page = build_report(path.parent).read_text()
     assert _h2(page) == ["1. Parameters", "3. Correlations: the linearized Δ̃ (eq. 35)",
-                         "4. Fit and residuals", "5. Model error: the two analyses and the checks",
-                         "6. Sensitivities (eq. 37)",
-                         "7. Standards, Deborah number and independent measurements"]
+                         "5. Fit and residuals", "6. Model error: the two analyses and the checks",
+                         "7. Sensitivities (eq. 37)",
+                         "8. Standards, Deborah number and independent measurements"]
     assert "<h3>one (" not in page and "fit-one.png" not in page
     assert {p.name for p in (path.parent / "figures").glob("*.png")} == {
         "fit.png", "sensitivity.png", "sensitivity_xy.png", "acf.png"}
@@ -64,10 +64,10 @@ def test_a_joint_page_sets_the_runs_analyses_beside_each_test(tmp_path, monkeypa
     page = build_report(path.parent).read_text()
     assert _h2(page) == ["1. Parameters", "3. Correlations: the linearized Δ̃ (eq. 35)",
                          "4. Tables 3 and 5 of the paper, from the run's posterior",
-                         "5. Is E rate-independent?", "6. Fit and residuals of every test",
-                         "7. Model error of every test: the two analyses and the checks",
-                         "8. Sensitivities (eq. 37)",
-                         "9. Standards, Deborah number and independent measurements"]
+                         "5. Is E rate-independent?", "7. Fit and residuals of every test",
+                         "8. Model error of every test: the two analyses and the checks",
+                         "9. Sensitivities (eq. 37)",
+                         "10. Standards, Deborah number and independent measurements"]
     white = fmt_at(result["estimate"]["E"], result["sd"]["E"])
     gls = result.get("discrepancy")
     sections = page.split("<h3>Model error: ")[1:]

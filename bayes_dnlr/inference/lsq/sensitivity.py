@@ -355,7 +355,7 @@ def unidentified(a: StochasticAnalysis, reference: Mapping[str, float],
             continue
         m = float(np.max(np.abs(ref * a.X[:, j]))) / top
         box = width.get(k, math.inf)
-        if m < NEGLIGIBLE_SENSITIVITY or (math.isfinite(box) and not a.sd[j] <= box):
+        if m < NEGLIGIBLE_SENSITIVITY or (math.isfinite(box) and np.isfinite(a.sd[j]) and a.sd[j] > box):
             out[k] = m
     return out
 
