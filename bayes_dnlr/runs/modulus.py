@@ -80,7 +80,7 @@ def test_columns(cfg: Config, layout: Layout, test: str, draws: np.ndarray,
     return out
 
 
-def _band_check(band: Band | None, t: float) -> dict[str, Any] | None:
+def _band_check(band: Band | None, t: float, origin: float) -> dict[str, Any] | None:
     if band is None or band.X is None:
         return None
     g = gradient(band.point, band.free, [t])[0]
@@ -93,7 +93,7 @@ def _band_check(band: Band | None, t: float) -> dict[str, Any] | None:
     # where E(t) draws most of its information: the samples holding 90 % of its weight
     order = np.argsort(w)[::-1]
     top = order[: int(np.searchsorted(np.cumsum(w[order]), 0.9)) + 1]
-    span = [float(band.time[top].min()), float(band.time[top].max())]
+    span = [float(band.time[top].min()) - origin, float(band.time[top].max()) - origin]
     return {"share": share, "n_eff": n_eff, "floor": floor, "ok": share >= floor,
             "information_times": span, "remedy": _window_remedy(band)}
 
@@ -188,6 +188,15 @@ def _reasons(row: dict[str, Any], who: str) -> list[str]:
     return out
 
 
+def spread(values: np.ndarray, added_sd: np.ndarray) -> np.ndarray:
+    """E(t) draws (draws, times) with the exponent's spread: each multiplied by exp(σ z), σ the
+    added sd over the median, z standard normal (seeded): the sd it adds where it is small, and no
+    negative modulus where it is not."""
+    rel = np.asarray(added_sd, dtype=float) / np.maximum(np.median(values, axis=0), 1e-300)
+    z = np.random.default_rng(SHAPE_SEED).standard_normal(values.shape)
+    return values * np.exp(z * rel[None, :])
+
+
 def uses_discrepancy(checks: Mapping[str, Any], layout: Layout, test: str) -> bool:
     """Whether a test's posterior used the model discrepancy (its noise-model check says)."""
     return ((checks.get("noise_model") or {}).get(test) or {}).get("likelihood") == "discrepancy"
@@ -239,8 +248,7 @@ def modulus_block(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray
         shape = spectrum_spread(own, columns, times, uses_discrepancy(checks, layout, test),
                                 cfg.model.modes, cfg.model.decades)
         if shape is not None:
-            rng = np.random.default_rng(SHAPE_SEED)
-            values = values + rng.standard_normal(values.shape) * shape["added_sd"][None, :]
+            values = spread(values, shape["added_sd"])
         band = bands.get(test)
         start = band.start.to_dict() if band is not None and band.start is not None else None
         rows = []
@@ -251,7 +259,7 @@ def modulus_block(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray
                 prior = power_scaling.sensitivity({"E(t)": values[:, i]}, log_prior)["E(t)"]
             row_checks = {
                 "inside_window": window.contains(t),
-                "band": _band_check(band, t),
+                "band": _band_check(band, t, window.origin),
                 "start": start,
                 "bounds": _bound_shift(checks.get("bound_limited") or [], layout, test, t,
                                        float(stats["sd"]), cfg),
@@ -288,8 +296,7 @@ def _curve(columns: Mapping[str, Any], values: np.ndarray, window, modes: int, d
                         CURVE_TIMES)
     e_t = modulus_draws(sub, grid, modes, decades)
     if shape is not None:
-        g = spectrum_spread_on(shape, sub, grid, modes, decades)
-        e_t = e_t + np.random.default_rng(SHAPE_SEED).standard_normal(e_t.shape) * g[None, :]
+        e_t = spread(e_t, spectrum_spread_on(shape, sub, grid, modes, decades))
     q = np.quantile(e_t, [0.05, 0.5, 0.95], axis=0)
     e = np.asarray(columns["E"], dtype=float).ravel()
     lo, hi = draw_stats(e)["hdi_90"]
