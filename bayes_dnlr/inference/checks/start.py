@@ -12,7 +12,8 @@ the same, as a softer start: its curves follow the data's chord, and E(t) comes 
 gives a toe away is the curve's shape: a material that only relaxes gives a concave start under
 a constant-rate loading (its slope E(t) falls), a toe a convex one (the slope rises as the slack is
 taken up). So the start check also compares the steepest slope of the start with its first one,
-and fails when the slope rises beyond START_Z of the noise.
+beside the same rise of the model's curve (a loading that speeds up stiffens both), and fails
+when the data's slope rises beyond the model's by more than START_Z of the noise.
 """
 
 from __future__ import annotations
@@ -144,7 +145,8 @@ def start_check(nominal_strain: np.ndarray, nominal_stress: np.ndarray,
     z = (float(data.modulus) - model) / math.hypot(spread, noise_sd)
     return StartCheck(float(data.modulus), model, spread, noise_sd, float(z),
                       chord_times(nominal_strain, time, origin),
-                      convexity(nominal_strain, nominal_stress, noise.sigma0_sq))
+                      convexity(nominal_strain, nominal_stress, noise.sigma0_sq,
+                                np.median(model_nominal_stress, axis=0)))
 
 
 def _astm_check(nominal_strain: np.ndarray, nominal_stress: np.ndarray,
@@ -173,16 +175,20 @@ def _astm_check(nominal_strain: np.ndarray, nominal_stress: np.ndarray,
     t = np.asarray(time, dtype=float)
     return StartCheck(float(data.modulus), model, spread, noise_sd, float(z),
                       (float(t[rows[0]] - origin), float(t[rows[-1]] - origin)),
-                      convexity(nominal_strain, nominal_stress, noise.sigma0_sq), "ASTM D638")
+                      convexity(nominal_strain, nominal_stress, noise.sigma0_sq,
+                                np.median(model_nominal_stress, axis=0)), "ASTM D638")
 
 
-def convexity(nominal_strain: np.ndarray, nominal_stress: np.ndarray, sigma0_sq: float) -> float:
-    """How far the curve's slope rises over its start, in sd of the rise under the measurement
-    noise σ0²: the steepest least-squares slope over windows of consecutive samples (half
-    overlapping) on the first passage up to TOE_STRAIN, less the first window's (NaN with fewer
-    than 8 samples there). A relaxing material's slope only falls (E(t) does): a rise beyond the
-    noise is a toe. The discrepancy is left out: it models the model's error, and a toe is one;
-    the question here is the data's own shape."""
+def convexity(nominal_strain: np.ndarray, nominal_stress: np.ndarray, sigma0_sq: float,
+              model: np.ndarray | None = None) -> float:
+    """How far the curve's slope rises over its start beyond the model's own, in sd of the rise
+    under the measurement noise σ0²: the steepest least-squares slope over windows of consecutive
+    samples (half overlapping) on the first passage up to TOE_STRAIN, less the first window's; the
+    same two windows' rise of the ``model`` curve (driven by the same strain) taken off (NaN with
+    fewer than 8 samples there). A relaxing material's slope only falls (E(t) does), unless the
+    loading speeds up, which the model, driven by the measured strain, follows too: a rise beyond
+    the model's and the noise is a toe. The discrepancy is left out: it models the model's error,
+    and a toe is one; the question here is the data's own shape."""
     e = np.asarray(nominal_strain, dtype=float)
     y = np.asarray(nominal_stress, dtype=float)
     past = np.flatnonzero(e > TOE_STRAIN)
@@ -190,18 +196,26 @@ def convexity(nominal_strain: np.ndarray, nominal_stress: np.ndarray, sigma0_sq:
     if n < 8 or not sigma0_sq > 0:
         return math.nan
     k = max(4, n // 8)
-    slopes = []
+    windows = []
     for a in range(0, n - k + 1, max(1, k // 2)):
-        x = e[a:a + k]
-        d = x - x.mean()
+        d = e[a:a + k] - e[a:a + k].mean()
         ss = float(d @ d)
         if ss > 0:
-            slopes.append((float(d @ (y[a:a + k] - y[a:a + k].mean())) / ss, sigma0_sq / ss))
-    if len(slopes) < 2:
+            windows.append((a, d, ss))
+    if len(windows) < 2:
         return math.nan
-    first, var_first = slopes[0]
-    steep, var_steep = max(slopes[1:], key=lambda s: s[0])
-    return (steep - first) / math.sqrt(var_first + var_steep)
+
+    def slope(curve: np.ndarray, w: tuple) -> float:
+        a, d, ss = w
+        return float(d @ (curve[a:a + k] - curve[a:a + k].mean())) / ss
+
+    slopes = [slope(y, w) for w in windows]
+    j = 1 + int(np.argmax(slopes[1:]))
+    rise = slopes[j] - slopes[0]
+    if model is not None:
+        m = np.asarray(model, dtype=float)
+        rise -= slope(m, windows[j]) - slope(m, windows[0])
+    return rise / math.sqrt(sigma0_sq / windows[0][2] + sigma0_sq / windows[j][2])
 
 
 def chord_times(nominal_strain: np.ndarray, time: np.ndarray, origin: float) -> tuple[float, float]:

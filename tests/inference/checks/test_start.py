@@ -65,12 +65,32 @@ def test_the_chord_noise_is_the_regression_slope_s():
     assert np.std(slopes) == pytest.approx(sd, rel=0.05)
 
 
-def test_no_check_where_the_data_give_no_chord():
+def test_a_cropped_start_is_checked_on_astm_d638_s_window():
     t = np.arange(100) * 0.05
-    e = 0.001 + RATE * t                         # starts past 0.05 %
+    e = 0.001 + RATE * t                         # starts past 0.05 %: no ISO 527-1 chord
     s = 1500.0 * e
-    assert start_check(e, s, np.tile(s, (5, 1)), Noise(0.01), t, -1.0) is None
+    c = start_check(e, s, np.tile(s, (5, 1)), Noise(0.01), t, -1.0)
+    assert c is not None and c.standard == "ASTM D638" and c.ok and c.data == pytest.approx(1500.0)
+    softer = start_check(e, s, np.tile(1300.0 * e, (5, 1)), Noise(1e-4), t, -1.0)
+    assert not softer.ok and softer.z > 2.576
     assert chord_times(e, t, -1.0)[1] == pytest.approx(1.5 + 1.0)
+    # a curve no standard can measure (fewer samples than a window needs) gives no check
+    assert start_check(e[:3], s[:3], np.tile(s[:3], (5, 1)), Noise(0.01), t[:3], -1.0) is None
+
+
+def test_a_loading_that_speeds_up_is_no_toe():
+    """The slope of a relaxing material rises where the loading speeds up; the model, driven by
+    the same strain, rises alike, so the start check does not call it a toe."""
+    from bayes_dnlr.inference.checks.start import convexity
+    from bayes_dnlr.model import simulate
+
+    t = np.arange(0.0, 40.0, 0.1)
+    e = np.where(t < 5.0, 1e-4 * t, 5e-4 + 1.5e-3 * (t - 5.0))   # 1e-4 1/s, then 1.5e-3 from 5 s
+    stress = simulate(t, e, {"E": 1500.0, "G": 5.0, "tau_max": 30.0})
+    nominal = stress * np.exp(-e)
+    noisy = nominal + np.random.default_rng(2).normal(0, 0.002, t.size)
+    assert convexity(np.expm1(e), noisy, 0.002**2) > START_Z          # the data's slope rises
+    assert convexity(np.expm1(e), noisy, 0.002**2, nominal) < START_Z    # as the model's does
 
 
 def test_the_chord_noise_of_a_correlated_error_is_its_own():
