@@ -1,10 +1,15 @@
-"""Loading-unloading cycles: where the strain turns.
+"""Loading-unloading cycles: where the test turns.
 
 A cyclic test loads the specimen, unloads it, loads it again. Its turning points (the peaks and
 valleys of the strain) are the test's history, not corrupt samples, and a window for it is either
-the whole history or the first loading. A turn is a fall (or a rise) of the strain by more than
-TURN of its range from the extreme before it: the noise of an extensometer or of DIC (about 1 % of
-the range in a hold) never makes one.
+the whole history or the first loading. An unloading is told by the stress, which falls by more
+than UNLOAD of its value at the peak (and FLOOR of the test's largest stress) while the strain goes
+back by more than BACK of its range: a
+machine that unloads to a force may reverse the strain by a small share of its range (a stiff
+polymer: 0.25 % of strain takes 6 MPa off), a relaxation hold drops the stress by far less at a
+constant strain, the wander of a DIC strain in a hold moves the stress by nothing like it, and a
+force that falls after its peak in a tensile test (necking, a break) does so while the strain
+still rises.
 """
 
 from __future__ import annotations
@@ -13,7 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-TURN = 0.1          # the strain turns when it moves back by this share of its range
+UNLOAD = 0.5        # the stress falls by this share of its value at the peak: an unloading
+FLOOR = 0.1         # ... and by this share of the test's largest stress (a reload rises by as much)
+BACK = 0.02         # ... while the strain goes back by this share of its range
 
 
 @dataclass(frozen=True)
@@ -27,12 +34,12 @@ class Turns:
     @property
     def cyclic(self) -> bool:
         """Loaded again after an unloading: a loading-unloading test (one unloading at the end, e.g.
-        after a hold, is not)."""
+        after a hold or at a break, is not)."""
         return len(self.peaks) >= 2
 
     @property
     def first_loading_end(self) -> int | None:
-        """The index of the first peak: the end of the first loading (None: the strain never turns)."""
+        """The index of the first peak: the end of the first loading (None: no unloading)."""
         return self.peaks[0] if self.peaks else None
 
     @property
@@ -41,32 +48,56 @@ class Turns:
         return self.valleys[0] if self.valleys else None
 
 
-def _next_turn(x: np.ndarray, start: int, h: float, up: bool) -> tuple[int, int] | None:
-    """(the extreme, the index where x has moved back by more than h from it) after ``start``, for a
-    rise (``up``: a peak) or a fall (a valley); None when x never moves back that far."""
+def _next_turn(x: np.ndarray, start: int, floor: float, up: bool) -> tuple[int, int] | None:
+    """(the extreme, the index where x has moved back from it) from ``start`` on: for a peak
+    (``up``) a fall by more than UNLOAD of the peak's value and than ``floor``, for a valley a rise
+    by more than ``floor``; None when x never moves back that far."""
     seg = x[start:] if up else -x[start:]
     top = np.maximum.accumulate(seg)
-    back = np.flatnonzero(top - seg > h)
+    need = np.maximum(UNLOAD * top, floor) if up else floor
+    back = np.flatnonzero(top - seg > need)
     if not back.size:
         return None
     j = int(back[0])
     return start + int(np.argmax(seg[:j + 1])), start + j
 
 
-def turning_points(strain: np.ndarray) -> Turns:
-    """The peaks and valleys of ``strain`` (module doc); NaN-free input."""
-    x = np.asarray(strain, dtype=float)
-    if x.size < 3 or not np.ptp(x) > 0:
-        return Turns((), ())
-    h = TURN * float(np.ptp(x))
-    peaks: list[int] = []
-    valleys: list[int] = []
+def _stress_turns(stress: np.ndarray, floor: float) -> list[int]:
+    """Alternating peaks and valleys of the stress (``_next_turn``)."""
+    turns: list[int] = []
     i, up = 0, True
-    while True:         # each turn lies past the one before it: x moved back by more than h between
-        found = _next_turn(x, i, h, up)
-        if found is None or (found[0] <= i and (peaks or valleys)):
+    while True:
+        found = _next_turn(stress, i, floor, up)
+        if found is None or (turns and found[0] <= i):
             break
         i = found[0]
-        (peaks if up else valleys).append(i)
+        turns.append(i)
         up = not up
-    return Turns(tuple(peaks), tuple(valleys))
+    return turns
+
+
+def turning_points(strain: np.ndarray, stress: np.ndarray) -> Turns:
+    """The peaks and valleys of the strain where the test unloads and reloads (module doc): the
+    stress's turns, each placed on the strain's extreme between its neighbours, kept while the strain
+    goes back with the stress. NaN-free input."""
+    e = np.asarray(strain, dtype=float)
+    s = np.asarray(stress, dtype=float)
+    top = float(np.max(s)) if s.size else 0.0
+    if e.size < 3 or not top > 0:
+        return Turns((), ())
+    turns = _stress_turns(s, FLOOR * top)
+    edges = [0, *turns, e.size - 1]
+    peaks: list[int] = []
+    valleys: list[int] = []
+    for n in range(len(turns)):
+        a, b = edges[n], edges[n + 2]
+        seg = e[a:b + 1]
+        at = a + int(np.argmax(seg) if n % 2 == 0 else np.argmin(seg))
+        (peaks if n % 2 == 0 else valleys).append(at)
+    kept = 0                    # the strain must go back: an unloading, not a break or a hold's noise
+    for n, p in enumerate(peaks):
+        back = valleys[n] if n < len(valleys) else e.size - 1
+        if not e[p] - e[back] > BACK * float(np.ptp(e)):
+            break
+        kept = n + 1
+    return Turns(tuple(peaks[:kept]), tuple(valleys[:kept]))

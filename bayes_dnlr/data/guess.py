@@ -220,10 +220,14 @@ def _is_index(v: np.ndarray) -> bool:
         float(np.min(np.diff(v))) >= 1 and len(set(np.diff(v).tolist())) <= 2
 
 
-def _increasing(v: np.ndarray) -> float:
-    """Share of the steps between finite samples that go up."""
+def _time_like(v: np.ndarray) -> bool:
+    """A time: the steps between finite samples go up, but for 1 % of them, and none goes down but
+    for 1 % (a logger may write a time stamp twice: data.repeated_time)."""
     v = _finite(v)
-    return float(np.mean(np.diff(v) > 0)) if v.size >= 3 else 0.0
+    if v.size < 3:
+        return False
+    d = np.diff(v)
+    return float(np.mean(d > 0)) > 0.9 and float(np.mean(d >= 0)) > 0.99
 
 
 def _r2(t: np.ndarray, v: np.ndarray) -> float:
@@ -256,7 +260,7 @@ def guess_columns(path: Path) -> Guess:
     layout, cols, group, notes, group_from, by_name = read_columns(path)
     named = _named(cols)
     g = Guess(path, layout, cols, {}, group, notes, by_name, group_from)
-    times = [c for c, _ in named.get("time", []) if _increasing(c.values) > 0.99]
+    times = [c for c, _ in named.get("time", []) if _time_like(c.values)]
     if named.get("time") and not times:             # a 'Time' over a column that does not increase
         g.notes.append(f"{named['time'][0][0].label} does not increase: the header does not sit over "
                        f"its columns; columns guessed from the values")
@@ -284,7 +288,7 @@ def _pick_time(g: Guess, named: dict) -> None:
     used = {c.number for r in ("index", "eps22") for c, _ in named.get(r, [])}
     free = [c for c in cols if c.number not in used and _finite(c.values).size >= 3]
     index = [c for c in free if _is_index(c.values)]
-    times = [c for c in free if c not in index and _increasing(c.values) > 0.99]
+    times = [c for c in free if c not in index and _time_like(c.values)]
     if times:
         g.picks["time"] = Pick("time", times[0], "values: the first column that increases at every row"
                                + (f" ({index[0].label} counts rows: an index)" if index else ""))

@@ -145,7 +145,7 @@ def window_past_peak(d: DataConfig, time: np.ndarray, strain: np.ndarray, load: 
     if w.strain_max is None and w.time_max is None:
         return None
     load_end = time.size if relaxation_start is None else int(np.searchsorted(time, relaxation_start))
-    turns = turning_points(strain[first:load_end])
+    turns = turning_points(strain[first:load_end], load[first:load_end])
     if turns.first_unloading_end is not None:
         load_end = first + turns.first_unloading_end + 1
     v = load[first:load_end]

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bayes_dnlr.data.checks import noise_sd
+from bayes_dnlr.data.cycles import turning_points
 
 
 def ramp_strain_rate(time: np.ndarray, strain: np.ndarray, relaxation_start: float | None) -> float:
@@ -161,8 +162,8 @@ def find_hold(time: np.ndarray, strain: np.ndarray, stress: np.ndarray) -> Hold 
         return None
     top = float(np.max(np.abs(s)))
     fall = float(s[start] - s[-1])
-    if not top > 0 or fall < HOLD_FALL * top:
-        return None
+    if not top > 0 or fall < HOLD_FALL * top or turning_points(e, s).peaks:
+        return None                     # no fall, or an unloading: the strain went back with the stress
     return Hold(int(np.flatnonzero(ok)[start]), float(t[start]), float(t[-1]), level,
                 float(s[start]), float(s[-1]), band)
 

@@ -81,7 +81,9 @@ def _unit_text(unit: str | None) -> str | None:
 
 
 def _column_ref(pick: Pick, guess: Guess) -> str | int:
-    return pick.column.name if guess.by_name and pick.column.name else pick.column.number
+    """The column by its header name when names may be used, by number when its name is overruled."""
+    named = guess.by_name and pick.column.name and not pick.column.overruled
+    return pick.column.name if named else pick.column.number
 
 
 def _hencky(values: np.ndarray, factor: float, measure: str) -> np.ndarray:
@@ -320,8 +322,9 @@ def _window(guess: Guess, dr: _Draft, load: Pick, strain: Pick, strain_h: np.nda
     else:
         cycles = None
         if strain_h is not None and "time" in guess.picks:
-            ok = np.isfinite(strain_h) & np.isfinite(guess.picks["time"].column.values)
-            cycles = _cycles_window(guess.picks["time"].column.values[ok], strain_h[ok])
+            t, s = guess.picks["time"].column.values, load.column.values
+            ok = np.isfinite(strain_h) & np.isfinite(t) & np.isfinite(s)
+            cycles = _cycles_window(t[ok], strain_h[ok], s[ok])
         window, why = cycles or _peak_window(guess, load, strain_h, strain.column.label)
     dr.data["window"] = window
     dr.comments["window"] = why
@@ -443,11 +446,11 @@ def _force_only(note: str, test: Any) -> str:
     return first_sample_warning(test.stress, test.strain, int(test.lines[0]), force=test.force) or note
 
 
-def _cycles_window(time: np.ndarray, strain: np.ndarray, lines: np.ndarray | None = None
-                   ) -> tuple[dict[str, float], str] | None:
-    """For a loading-unloading test (the strain turns, data/cycles.py): the whole history, with the
-    first loading named as the other window that means something; None for a test without cycles."""
-    turns = turning_points(strain)
+def _cycles_window(time: np.ndarray, strain: np.ndarray, stress: np.ndarray,
+                   lines: np.ndarray | None = None) -> tuple[dict[str, float], str] | None:
+    """For a loading-unloading test (data/cycles.py): the whole history, with the first loading
+    named as the other window that means something; None for a test without cycles."""
+    turns = turning_points(strain, stress)
     if not turns.cyclic:
         return None
     k = turns.first_loading_end
@@ -464,7 +467,7 @@ def _window_at_peak(test: Any, raw: dict[str, Any], edits: list[Edit], comments:
     itself, the bound on the measured Hencky strain that the window's strain bounds read
     (``data.hints.peak_window``: strain_max, or time_max when the strain turns there)."""
     first = test.virtual_start
-    cycles = _cycles_window(test.time[first:], test.strain[first:], test.lines[first:])
+    cycles = _cycles_window(test.time[first:], test.strain[first:], test.stress[first:], test.lines[first:])
     load = test.force if test.force is not None else test.nominal_stress
     if load is None:
         load = test.stress * np.exp(-test.strain)
