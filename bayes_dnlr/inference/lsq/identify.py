@@ -202,7 +202,7 @@ class FitResult:
             same = "all at the same optimum" if ms["same_optimum"] else "NOT all at the same optimum"
             lines.append(f"multi-start: {ms['converged']}/{ms['starts']} converged, {same}")
         if self.deborah_max is not None:
-            lines.append(f"De_max = tau_max · rate = {self.deborah_max:.4g} (eq. 45)")
+            lines.append(f"De_max = tau_max · rate = {self.deborah_max:.4g} (eq. 45, white least squares)")
         if self.spectrum_exponent is not None:
             lines.append(spectrum_line(self.spectrum_exponent, self.estimate))
         lines += fit_lines(self.modulus_at)
@@ -243,10 +243,13 @@ def _discrepancy_lines(d: dict[str, Any], white_sd: dict[str, float]) -> list[st
     unit = d.get("axis_unit", "s")
     amp = "0 (no model error detected)" if d.get("amplitude_is_zero") else f"{fmt(h['amplitude'], 3)} MPa"
     proj = d.get("projection") or {}
-    lines = [f"discrepancy: {d['kernel']} kernel on the {d['axis']} axis (target "
-             f"{d.get('target', 'generalized')}), maximum likelihood: sigma0 = {fmt(h['sigma0'], 3)} MPa "
-             f"(noise floor {fmt(proj.get('sigma0_floor'), 3)}), amplitude {amp}, length "
-             f"{fmt(h['length'], 3)} {unit}"]
+    target = d.get("target", "generalized")
+    metric = (f"the estimate and the sampler in the {d['kernel']} kernel's metric (target {target})"
+              if target == "generalized" else
+              f"the estimate the L2 projection (target {target}), the sampler with the {d['kernel']} kernel")
+    lines = [f"discrepancy on the {d['axis']} axis: {metric}; its maximum likelihood: sigma0 = "
+             f"{fmt(h['sigma0'], 3)} MPa (noise floor {fmt(proj.get('sigma0_floor'), 3)}), amplitude "
+             f"{amp}, length {fmt(h['length'], 3)} {unit}"]
     widening = proj.get("widening") or {}
     if d.get("evidence") and widening:
         lines.append("  the estimate: " + str(proj.get("estimate", "")).split(" (")[0]
@@ -255,7 +258,7 @@ def _discrepancy_lines(d: dict[str, Any], white_sd: dict[str, float]) -> list[st
     lines.append(f"  whitened residuals: {d['whitened_residuals']['verdict']}")
     choice = d.get("kernel_choice")
     if choice and len(choice.get("weights") or {}) > 1:
-        lines.append(f"  kernel auto: {choice['reason']}")
+        lines.append(f"  the interval's width: kernel auto mixes the kernels, {choice['reason']}")
     return lines
 
 
@@ -374,7 +377,8 @@ def fit_test(cfg: Config, test) -> FitResult:
         disc = discrepancy_analysis(cfg, test, problem, best.beta, residuals)
         warnings.extend(disc.pop("warnings"))
     if not diag["white"]:
-        warnings.append("residuals are not white (model bias, see the verdict): the white-noise sd "
+        warnings.append("residuals are not white (model bias, see the residuals' diagnosis): the white-noise "
+                        "sd "
                         "are a lower bound" + ("; the discrepancy analysis accounts for the bias"
                                                if disc is not None else
                                                "; noise.discrepancy (on by default) accounts for it"))
