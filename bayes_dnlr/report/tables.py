@@ -398,10 +398,9 @@ def deborah(run: RunResults) -> tuple[float | None, float | None, str]:
     if run.draws is not None and "tau_max" in run.draws:
         d = run.draws["tau_max"].ravel() * rate
         return float(np.mean(d)), float(np.std(d)), "posterior mean"
-    v = (run.summary or {}).get("deborah_max")
-    v = v.get("mean", v.get("value")) if isinstance(v, dict) else v
-    if v is not None:
-        return float(v), None, "posterior mean"
+    v = (run.summary or {}).get("deborah_max_posterior")
+    if isinstance(v, dict) and v.get("mean") is not None:
+        return float(v["mean"]), v.get("sd"), "posterior mean"
     own = run.own_fit()
     if own is not None and own.deborah_max is not None:
         return own.deborah_max, None, "white least squares"

@@ -132,6 +132,14 @@ def noise_model_check(cfg: Config, noise: dict[str, dict]) -> dict[str, dict]:
     return out
 
 
+def _by_walker(draws: np.ndarray) -> np.ndarray:
+    """(steps, walkers, ndim) draws as (walkers × steps, ndim), each walker's steps in a row: the
+    order in which the draws' autocorrelation (the tail ESS of Pareto smoothing) is that of the
+    chains, as arviz_stats.psense reads a (chain, draw) posterior."""
+    return np.swapaxes(draws, 0, 1).reshape(-1, draws.shape[-1]) if draws.ndim == 3 else \
+        draws.reshape(-1, draws.shape[-1])
+
+
 def _log_prior_terms(flat: np.ndarray, priors) -> np.ndarray:
     """(draws, priors): each prior's log density at the draws ``flat`` (draws, ndim), in the
     parameters' own units: the prior as the config gives it (a log-uniform tau_max is 1/tau_max),
@@ -152,8 +160,9 @@ def _scaled(per: dict[str, np.ndarray], component: np.ndarray) -> dict[str, floa
 def prior_sensitivity_check(draws: np.ndarray, names: list[str], priors) -> dict[str, float]:
     """Power-scaling sensitivity of every sampled parameter to the run's prior (Kallioinen et al.
     2024: the prior p(θ) of the parameters as given, raised to a power)."""
-    per = {k: draws[..., j].reshape(-1) for j, k in enumerate(names)}
-    return _scaled(per, _log_prior_terms(draws.reshape(-1, draws.shape[-1]), priors).sum(axis=1))
+    flat = _by_walker(draws)
+    per = {k: flat[:, j] for j, k in enumerate(names)}
+    return _scaled(per, _log_prior_terms(flat, priors).sum(axis=1))
 
 
 def prior_sources(draws: np.ndarray, names: list[str], priors, flagged: list[str]
@@ -162,8 +171,9 @@ def prior_sources(draws: np.ndarray, names: list[str], priors, flagged: list[str
     prior alone, for every prior that is not flat at the draws (a flat one changes nothing)."""
     if not flagged:
         return {}
-    terms = _log_prior_terms(draws.reshape(-1, draws.shape[-1]), priors)
-    per = {k: draws[..., names.index(k)].reshape(-1) for k in flagged}
+    flat = _by_walker(draws)
+    terms = _log_prior_terms(flat, priors)
+    per = {k: flat[:, names.index(k)] for k in flagged}
     out: dict[str, dict[str, float]] = {k: {} for k in flagged}
     for j, p in enumerate(priors.priors):
         component = terms[:, j]

@@ -218,8 +218,8 @@ def spectrum_line(dep: dict[str, Any], estimate: dict[str, float]) -> str:
     dE = dep["per_tenth"].get("E")
     if dE is None:
         return f"spectrum exponent alpha = {a:.3g}"
-    how = "sampled; E moves along the posterior" if dep["sampled"] else (
-        "fixed; E moves when it is held elsewhere")
+    how = ("white least squares; sampled by `sample`, E moves along its posterior" if dep["sampled"]
+           else "fixed; E moves when it is held elsewhere")
     line = (f"spectrum exponent alpha = {a:.3g} ({how}): {dE:+.4g} MPa "
             f"({100 * dE / estimate['E']:+.2g} %) per +0.1 of alpha (eq. 12 has ½)")
     score = dep.get("score")
