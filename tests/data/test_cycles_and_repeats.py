@@ -142,3 +142,21 @@ def test_an_engineering_stress_is_converted_as_sigma_star_of_a_force(write_csv, 
     with pytest.raises(ConfigError, match="stress_measure: engineering"):
         make_config(columns={"time": "t_s", "strain": "e", "force": "F_N"}, area0=1.0,
                     stress_measure="engineering")
+
+
+def test_a_name_a_confirmed_relation_contradicts_is_overruled_with_where_it_fits():
+    from bayes_dnlr.data.name_check import Said, overruled, time_copies
+
+    t = np.arange(10.0)
+    values = [t, 0.001 * t, 2.0 * t, t.copy(), 0.001 * t, 2.0 * t * (1 + 0.001 * t)]
+    copies = time_copies(values, 0)
+    assert list(copies) == [3]                          # the time's copy, whatever its name
+    confirmed = {**copies, 5: Said("true stress", "column 6 = column 3 × (1 + column 2) (to 1e-16)")}
+    names = {3: Said("Hencky strain", "exxHencky"), 4: Said("true stress", "StressTrue"),
+             5: Said("Hencky strain", "SR0Hencky"), 2: Said("engineering stress", "StressEng")}
+    header = ["t", "e", "StressEng", "exxHencky", "StressTrue", "SR0Hencky"]
+    wrong, lines = overruled(names, confirmed, header)
+    assert sorted(wrong) == [3, 4, 5]                  # the engineering stress's name stands
+    assert lines[0].startswith("column 4 is named 'exxHencky' (a Hencky strain), but column 4 = column 1")
+    assert "the true stress is column 6" in lines[1]
+    assert "the name 'StressTrue' over column 5 fits it: the header is shifted" in lines[2]
