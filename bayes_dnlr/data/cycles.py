@@ -86,18 +86,22 @@ def turning_points(strain: np.ndarray, stress: np.ndarray) -> Turns:
     if e.size < 3 or not top > 0:
         return Turns((), ())
     turns = _stress_turns(s, FLOOR * top)
-    edges = [0, *turns, e.size - 1]
+    stress_peaks, stress_valleys = turns[0::2], turns[1::2]
+    span = float(np.ptp(e))
     peaks: list[int] = []
     valleys: list[int] = []
-    for n in range(len(turns)):
-        a, b = edges[n], edges[n + 2]
-        seg = e[a:b + 1]
-        at = a + int(np.argmax(seg) if n % 2 == 0 else np.argmin(seg))
-        (peaks if n % 2 == 0 else valleys).append(at)
-    kept = 0                    # the strain must go back: an unloading, not a break or a hold's noise
-    for n, p in enumerate(peaks):
-        back = valleys[n] if n < len(valleys) else e.size - 1
-        if not e[p] - e[back] > BACK * float(np.ptp(e)):
+    for n in range(len(stress_peaks)):
+        # the strain's peak between the last valley and the stress's next valley, then its valley
+        # before the stress's next peak: the strain must go back there, not only the stress (a
+        # force that falls while the strain rises is necking or a break, not an unloading)
+        lo = valleys[-1] if valleys else 0
+        sv = stress_valleys[n] if n < len(stress_valleys) else e.size - 1
+        p = lo + int(np.argmax(e[lo:sv + 1]))
+        nxt = stress_peaks[n + 1] if n + 1 < len(stress_peaks) else e.size - 1
+        v = p + int(np.argmin(e[p:nxt + 1]))
+        if not p < sv or not e[p] - e[v] > BACK * span:
             break
-        kept = n + 1
-    return Turns(tuple(peaks[:kept]), tuple(valleys[:kept]))
+        peaks.append(p)
+        if n + 1 < len(stress_peaks):
+            valleys.append(v)
+    return Turns(tuple(peaks), tuple(valleys))
