@@ -169,6 +169,8 @@ def _bound_words(entries: list[dict]) -> tuple[bool, list[str]]:
 def _widened_words(b: dict) -> str:
     """'moving that bound to 10 (the prior's box widened ×10, to [0, 10])': what the refit changed, in
     numbers, so that no bound is said to widen ×10 without the box it gives."""
+    if not b.get("widened"):
+        return "widening it ×10"
     lo, hi = b["widened"]
     new = lo if b["side"] == "low" else hi
     return (f"moving that bound to {fmt(new, 4)} (the prior's box widened ×10, to "
