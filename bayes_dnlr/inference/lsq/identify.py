@@ -365,8 +365,9 @@ def fit_test(cfg: Config, test) -> FitResult:
                         f"(SSR {best.criterion:.6g} < {main.criterion:.6g}): the estimate is that optimum")
     multistart = _multistart_summary(ms_runs, best, names, sa.sd, main)
     if n_ms and not multistart["same_optimum"]:
-        warnings.append(f"multi-start: {multistart['converged']}/{n_ms} converged, and not all to the same "
-                        "optimum: the criterion has several minima or flat directions in the prior box")
+        warnings.append(f"multi-start of the white least squares: {multistart['converged']}/{n_ms} "
+                        "converged, and not all to the same optimum: the criterion has several minima or "
+                        "flat directions in the prior box")
     warnings += [bound_warning(k, float(params[k]), *bounds[k], side, k in held)
                  for k, side in on_bound.items()]
     warnings.extend(identifiability_warnings(sa, held=held))
