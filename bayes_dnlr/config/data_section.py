@@ -87,6 +87,9 @@ class DataConfig(Strict):
     columns: Columns
     area0: float | None = Field(default=None, description="initial cross-section S0, mm²")
     strain_measure: Literal["hencky", "nominal"] = "hencky"
+    stress_measure: Literal["true", "engineering"] = Field(
+        default="true", description="the stress column: true (Cauchy) or engineering (F/S0, converted "
+                                    "to the true stress s·exp(ε), eq. 4-6)")
     observable: Literal["sigma_star", "sigma", "stress"] = Field(default="sigma_star", validate_default=True)
     strain_rate: float | None = Field(default=None, gt=0)
     strain_input: Literal["smoothed", "measured"] = "smoothed"
@@ -101,6 +104,9 @@ class DataConfig(Strict):
     header: bool | None = Field(default=None, description="null: detected; false: no header row")
     encoding: str = "utf-8"
     rows: Rows = Field(default_factory=Rows)
+    repeated_time: Literal["drop", "average"] | None = Field(
+        default=None, description="rows that repeat the time stamp before them: drop (keep the first "
+                                  "row of each time) or average (their mean); null: an error")
     specimen: Whole | None = Field(default=None, ge=1, description="which specimen of a file with "
                                                                   "several side by side (from 1)")
     specimen_columns: Whole | None = Field(default=None, ge=1, description="columns per specimen; "
@@ -200,6 +206,10 @@ class DataConfig(Strict):
             raise ValueError("observable 'sigma' (eq. 2) needs the transverse strain column eps22")
         if self.observable == "stress" and c.stress is None:
             raise ValueError("observable 'stress' needs a stress column (columns.stress)")
+        if self.stress_measure == "engineering" and (c.stress is None or self.observable != "stress"):
+            raise ValueError("stress_measure: engineering converts the stress column (columns.stress, "
+                             "observable: stress) to the true stress; with a force column the "
+                             "observable sigma_star (eq. 6) already does")
         if c.time is None and self.strain_rate is None:
             raise ValueError("without a time column, give strain_rate (t = strain / strain_rate)")
         return self

@@ -7,7 +7,9 @@ Modules, one concern each:
 - ``reading``: the CSV (sniffing and reading machine exports) to floats.
 - ``conversions``: eq. 1-8 (Hencky/nominal strain, true/nominal stress).
 - ``checks``: plausibility of the read columns.
+- ``repeats``: rows that repeat a time stamp (``data.repeated_time``).
 - ``ramp``: the ramp's strain rate and the start of a relaxation hold.
+- ``cycles``: the turning points of a loading-unloading test.
 - ``smoothing``: the GCV smoothing spline of the strain.
 - ``windows``: identification windows.
 - ``baseline``: the baseline noise of a window where the specimen is unloaded.

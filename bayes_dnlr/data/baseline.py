@@ -84,7 +84,7 @@ def baseline_sd(test: TestData, window: Window) -> float:
     window that is flat and unloaded (``check_baseline``).
     """
     v = test.virtual_start
-    mask = window_mask(test.time[v:], test.strain_input[v:], window, path=test.path,
+    mask = window_mask(test.time[v:], test.strain[v:], window, path=test.path,
                        key="noise.sigma0.baseline", min_points=MIN_BASELINE)
     mask = np.concatenate((np.zeros(v, bool), mask))
     check_baseline(test, mask, "noise.sigma0.baseline " + describe_window(window))

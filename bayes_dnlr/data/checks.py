@@ -139,23 +139,35 @@ def first_sample_warning(stress: np.ndarray, strain: np.ndarray, line: int,
             f"data.initial_state: ramp-from-zero (docs/data-input.md, 'The first sample')")
 
 
-def spike_warning(stress: np.ndarray, lines: np.ndarray, start: int = 0) -> str | None:
+def spike_warning(stress: np.ndarray, lines: np.ndarray, start: int = 0,
+                  strain: np.ndarray | None = None) -> str | None:
     """A note on the largest isolated spike of the stress: a sample far from both neighbours (more
     than 50 noise sd and 5 % of the stress range away from their mean), such as one force cell
-    written ×1000; it would dominate a least-squares fit."""
+    written ×1000; it would dominate a least-squares fit. A sample where the strain turns as well
+    (the peak or the valley of a loading-unloading cycle, the start of an unloading or of a hold,
+    sparsely sampled) is the test's history, not a spike: the strain's own excursion from its
+    neighbours' mean, relative to its range, is at least a quarter of the stress's, on the same side."""
     s = stress[start:]
     if s.size < 5:
         return None
-    dev = np.abs(s[1:-1] - 0.5 * (s[:-2] + s[2:]))
+    dev = s[1:-1] - 0.5 * (s[:-2] + s[2:])
     sd = noise_sd(s)
     spread = float(np.max(s) - np.min(s))
-    i = int(np.argmax(dev))
-    if not (dev[i] > 50 * max(sd, 1e-12) and dev[i] > 0.05 * spread):
+    big = (np.abs(dev) > 50 * max(sd, 1e-12)) & (np.abs(dev) > 0.05 * spread)
+    if strain is not None and big.any():
+        e = strain[start:]
+        de = e[1:-1] - 0.5 * (e[:-2] + e[2:])
+        span = float(np.max(e) - np.min(e))
+        if span > 0:
+            turning = (np.sign(de) == np.sign(dev)) & (np.abs(de) / span >= 0.25 * np.abs(dev) / spread)
+            big &= ~turning
+    if not big.any():
         return None
+    i = int(np.argmax(np.where(big, np.abs(dev), -np.inf)))
     k = start + i + 1
     return (f"warning: a spike at line {lines[k]}: the stress there is {stress[k]:.6g} MPa, its neighbours "
-            f"{stress[k - 1]:.6g} and {stress[k + 1]:.6g} MPa (stress noise sd about {sd:.2g} MPa): a "
-            f"corrupt cell? It would dominate the fit")
+            f"{stress[k - 1]:.6g} and {stress[k + 1]:.6g} MPa (stress noise sd about {sd:.2g} MPa), while "
+            f"the strain does not turn there: a corrupt cell? It would dominate the fit")
 
 
 NO_LOAD_NOISE = 10.0      # a peak stress within this many noise sd of zero is no load

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bayes_dnlr.data import name_check
 from bayes_dnlr.data import relations as rel
 from bayes_dnlr.data.errors import DataError
 from bayes_dnlr.data.header_names import line_up, split_index
@@ -42,17 +43,20 @@ GAUGE_MM = (5.0, 1000.0)    # a plausible gauge length, mm
 NAME_ROLES: tuple[tuple[str, re.Pattern[str]], ...] = tuple((r, re.compile(p)) for r, p in (
     ("index", r"^(index|#|no\.?|nr\.?|point|points|sample|row|n)$"),
     ("time", r"^t$|^t[_ ]|\btime\b|zeit|temps|tiempo|^sec"),
-    ("eps22", r"transverse|lateral|width|quer|eps_?22|\be22\b|poisson"),
+    ("eps22", r"transverse|lateral|width|quer|eps_?22|\be22\b|poisson|^e_?yy"),
     ("extension", r"extension|elongation|displacement|crosshead|traverse|stroke|position|\bweg\b|verl"),
     ("force", r"load|force|kraft|charge|fuerza|^f$|^f[_ ]"),
     ("stress", r"stress|spannung|contrainte|sigma|^s$"),
-    ("strain", r"strain|dehnung|eps|deform|^e$|^e11|ε"),
+    ("strain", r"strain|dehnung|eps|deform|^e$|^e11|ε|hencky|^e_?xx"),
 ))
 KIND_ROLE = {"time": "time", "force": "force", "stress": "stress", "strain": "strain",
              "length": "extension"}
 TRUE_NAME = re.compile(r"true|wahr|vraie|cauchy")
 HENCKY_NAME = re.compile(r"true|hencky|log")
 NOMINAL_NAME = re.compile(r"eng|nominal|tensile strain")
+# an engineering stress ('StressEng01', 'Eng. stress', 'nominal stress'), not 'length' or 'strength'
+ENG_NAME = re.compile(r"engineering|nominal|techn|(?:stress|sigma|spannung)[\s_.]*eng"
+                      r"|eng(?:\.|\b|[\s_]*stress)")
 
 
 @dataclass
@@ -65,9 +69,12 @@ class Column:
     values: np.ndarray           # a sample of its values, file units (NaN: missing)
     unit_in_suffix: bool = False  # the unit was read from a name such as 't_s' or 'F_kN'
     unit_read: bool = False       # the reader reads the unit itself (units row, or a header that lines up)
+    overruled: bool = False       # its name is contradicted by a confirmed relation (data/name_check.py)
 
     @property
     def label(self) -> str:
+        if self.overruled:
+            return f"column {self.number}"
         return f"'{self.name}'" if self.name else f"column {self.number}"
 
 
@@ -112,6 +119,8 @@ class Guess:
     engineering: Column | None = None     # the engineering stress beside a true stress
     extension_of_strain: str | None = None   # the extension column that the strain mirrors
     hold: Hold | None = None
+    stress_measure: Fact | None = None    # 'engineering' when a name says the only stress is one
+    overruled: list[str] = field(default_factory=list)  # names a confirmed relation contradicts
 
 
 def _sample(src: Source, layout: Layout) -> np.ndarray:
@@ -211,10 +220,14 @@ def _is_index(v: np.ndarray) -> bool:
         float(np.min(np.diff(v))) >= 1 and len(set(np.diff(v).tolist())) <= 2
 
 
-def _increasing(v: np.ndarray) -> float:
-    """Share of the steps between finite samples that go up."""
+def _time_like(v: np.ndarray) -> bool:
+    """A time: the steps between finite samples go up, but for 1 % of them, and none goes down but
+    for 1 % (a logger may write a time stamp twice: data.repeated_time)."""
     v = _finite(v)
-    return float(np.mean(np.diff(v) > 0)) if v.size >= 3 else 0.0
+    if v.size < 3:
+        return False
+    d = np.diff(v)
+    return float(np.mean(d > 0)) > 0.9 and float(np.mean(d >= 0)) > 0.99
 
 
 def _r2(t: np.ndarray, v: np.ndarray) -> float:
@@ -247,7 +260,7 @@ def guess_columns(path: Path) -> Guess:
     layout, cols, group, notes, group_from, by_name = read_columns(path)
     named = _named(cols)
     g = Guess(path, layout, cols, {}, group, notes, by_name, group_from)
-    times = [c for c, _ in named.get("time", []) if _increasing(c.values) > 0.99]
+    times = [c for c, _ in named.get("time", []) if _time_like(c.values)]
     if named.get("time") and not times:             # a 'Time' over a column that does not increase
         g.notes.append(f"{named['time'][0][0].label} does not increase: the header does not sit over "
                        f"its columns; columns guessed from the values")
@@ -255,10 +268,13 @@ def guess_columns(path: Path) -> Guess:
             c.name, c.unit = None, None
         named, g.by_name = {}, False
     _pick_time(g, named)
-    _pick_by_relations(g, named)
+    found = _relations(g, named)
+    named = _overrule(g, named, found)
+    _pick_by_relations(g, named, found)
     _pick_by_names(g, named)
     _pick_by_values(g)
     _strain_facts(g)
+    _stress_facts(g)
     _hold(g)
     return g
 
@@ -272,7 +288,7 @@ def _pick_time(g: Guess, named: dict) -> None:
     used = {c.number for r in ("index", "eps22") for c, _ in named.get(r, [])}
     free = [c for c in cols if c.number not in used and _finite(c.values).size >= 3]
     index = [c for c in free if _is_index(c.values)]
-    times = [c for c in free if c not in index and _increasing(c.values) > 0.99]
+    times = [c for c in free if c not in index and _time_like(c.values)]
     if times:
         g.picks["time"] = Pick("time", times[0], "values: the first column that increases at every row"
                                + (f" ({index[0].label} counts rows: an index)" if index else ""))
@@ -287,25 +303,73 @@ def _label(g: Guess):
     return lambda i: g.columns[i].label
 
 
-def _pick_by_relations(g: Guess, named: dict) -> None:
-    """Stress, strain and S0 from the relations between the columns, when they hold."""
+def _relations(g: Guess, named: dict) -> list[rel.Relation]:
+    """Every relation among the group's columns but the time and the row indices (the names do not
+    restrict them: a relation is found whatever the header says)."""
     skip = {g.picks["time"].column.number - 1} if "time" in g.picks else set()
-    skip |= {c.number - 1 for r in ("index", "eps22") for c, _ in named.get(r, [])}
     skip |= {c.number - 1 for c in g.columns if _is_index(c.values)}
-    values = [c.values for c in g.columns]
-    found = rel.find(values, _time_values(g), skip)
+    return rel.find([c.values for c in g.columns], _time_values(g), skip)
+
+
+def _true_stress(found: list[rel.Relation], named: dict) -> rel.Relation | None:
+    """The true-stress relation init reads: the first true stress; with strain columns of equal
+    values (an extension in mm on a 100 mm gauge is the strain in %), the one named a strain."""
+    names = {c.number - 1: role for role, cs in named.items() for c, _ in cs}
+    trues = sorted((r for r in found if r.kind in ("true-stress", "true-stress-hencky")),
+                   key=lambda r: (r.target, names.get(r.sources[1]) not in (None, "strain"),
+                                  r.kind != "true-stress", r.deviation))
+    return trues[0] if trues else None
+
+
+def _name_kind(c: Column, role: str) -> str | None:
+    """What the header name of a column says it is, for name_check (None: nothing it can contradict)."""
+    low = (c.name or "").lower()
+    if role == "stress":
+        return ("true stress" if TRUE_NAME.search(low) else "engineering stress" if ENG_NAME.search(low)
+                else "stress")
+    if role == "strain":
+        return "Hencky strain" if HENCKY_NAME.search(low) else "strain"
+    return role if role in ("time", "force", "extension") else None
+
+
+def _overrule(g: Guess, named: dict, found: list[rel.Relation]) -> dict:
+    """Names that a confirmed relation contradicts (data/name_check.py): a line each in
+    ``g.overruled``, the column labelled by its number, and its name no longer a candidate."""
+    by_number = lambda i: f"column {i + 1}"      # noqa: E731 - the relations' columns by number
+    values: dict[int, name_check.Said] = {}
+    if "time" in g.picks:
+        time = g.picks["time"].column.number - 1
+        values.update(name_check.time_copies([c.values for c in g.columns], time))
+    r = _true_stress(found, named)
+    if r is not None:
+        values[r.sources[0]] = name_check.Said("engineering stress", r.text(by_number))
+        values[r.sources[1]] = name_check.Said("strain", r.text(by_number))
+        values[r.target] = name_check.Said("true stress", r.text(by_number))
+    for h in (x for x in found if x.kind == "hencky"):
+        values.setdefault(h.target, name_check.Said("Hencky strain", h.text(by_number)))
+    names = {}
+    for role, cs in named.items():
+        for c, how in cs:
+            kind = _name_kind(c, role)
+            if kind is not None and how == "header name":
+                names[c.number - 1] = name_check.Said(kind, c.name or "")
+    wrong, lines = name_check.overruled(names, values, [c.name or "" for c in g.columns])
+    if not wrong:
+        return named
+    for j in wrong:
+        g.columns[j].overruled = True
+    g.overruled = ["names overruled by the values: " + line for line in lines]
+    return {role: [(c, how) for c, how in cs if not c.overruled] for role, cs in named.items()}
+
+
+def _pick_by_relations(g: Guess, named: dict, found: list[rel.Relation]) -> None:
+    """Stress, strain and S0 from the relations between the columns, when they hold."""
     label = _label(g)
     by_kind: dict[str, list[rel.Relation]] = {}
     for r in found:
         by_kind.setdefault(r.kind, []).append(r)
-    names = {c.number - 1: role for role, cs in named.items() for c, _ in cs}
-    # the first true stress; with strain columns of equal values (an extension in mm on a 100 mm
-    # gauge is the strain in %), the one named a strain
-    trues = sorted(by_kind.get("true-stress", []) + by_kind.get("true-stress-hencky", []),
-                   key=lambda r: (r.target, names.get(r.sources[1]) not in (None, "strain"),
-                                  r.kind != "true-stress", r.deviation))
-    if trues:
-        r = trues[0]
+    r = _true_stress(found, named)
+    if r is not None:
         eng, strain = r.sources
         g.engineering = g.columns[eng]
         g.picks["stress"] = Pick("stress", g.columns[r.target], "relation",
@@ -455,6 +519,18 @@ def _strain_facts(g: Guess) -> None:
         g.measure = Fact("hencky", f"the name {g.picks['strain'].column.label}")
     elif NOMINAL_NAME.search(label):
         g.measure = Fact("nominal", f"the name {g.picks['strain'].column.label}")
+
+
+def _stress_facts(g: Guess) -> None:
+    """An engineering stress by its name, when it is the only stress (no relation shows a true
+    stress beside it): 'StressEng01', 'Eng. stress', 'nominal stress'."""
+    pick = g.picks.get("stress")
+    if pick is None or pick.relation or pick.others or not pick.column.name:
+        return
+    low = pick.column.name.lower()
+    if ENG_NAME.search(low) and not TRUE_NAME.search(low):
+        g.stress_measure = Fact("engineering", f"the name {pick.column.label} says an engineering stress "
+                                               f"(F/S0), and no other column is a stress")
 
 
 def _hold(g: Guess) -> None:

@@ -19,6 +19,7 @@ import numpy as np
 
 from bayes_dnlr.config import DataConfig
 from bayes_dnlr.data import relations as rel
+from bayes_dnlr.data.cycles import turning_points
 from bayes_dnlr.data.ramp import find_hold
 from bayes_dnlr.data.reading import Table
 
@@ -58,7 +59,7 @@ def hold_without_start(d: DataConfig, time: np.ndarray, strain: np.ndarray, stre
 def engineering_as_true(d: DataConfig, table: Table, nominal: np.ndarray) -> str | None:
     """``observable: stress`` on a column that another column of the file shows to be the
     engineering stress (that column = this one × (1 + e), or × exp(ε))."""
-    if d.observable != "stress" or "stress" not in table.values:
+    if d.observable != "stress" or "stress" not in table.values or d.stress_measure == "engineering":
         return None
     rows = _rows(nominal.size)
     others = table.group_sample(rows)
@@ -100,26 +101,53 @@ def area_check(d: DataConfig, table: Table) -> str | None:
     return None
 
 
-def _bound(x: float, nxt: float) -> float:
-    """The shortest decimal d with x <= d < nxt: a strain_max that ends the window on the sample x."""
+def _bound(x: float, nxt: float) -> float | None:
+    """The shortest decimal d with x <= d < nxt: a strain_max that ends the window on the sample x;
+    None when there is none (the strain does not rise after x)."""
     for digits in range(3, 13):
         scale = 10.0 ** (np.floor(np.log10(x)) - digits + 1)
         v = float(f"{np.ceil(x / scale) * scale:.{digits}g}")
         if x <= v < nxt:
             return v
-    return float(f"{x:.4g}")
+    return None
 
 
-def window_past_peak(d: DataConfig, time: np.ndarray, strain_input: np.ndarray, load: np.ndarray,
+def _time_bound(t: float, nxt: float) -> float:
+    """The shortest decimal d with t <= d < nxt: a time_max that ends the window on the sample t."""
+    for digits in range(3, 16):
+        v = float(f"{t:.{digits}g}")
+        if t <= v < nxt:
+            return v
+    return t
+
+
+def peak_window(time: np.ndarray, strain: np.ndarray, k: int) -> dict[str, float]:
+    """The window that ends on sample k: ``{strain_max: ...}`` when the strain rises past sample k
+    (the bound reads the measured strain), else ``{time_max: ...}`` (the strain turns there: an
+    unloading follows)."""
+    nxt = float(strain[k + 1]) if k + 1 < strain.size else np.inf
+    x = float(strain[k])
+    v = _bound(x, nxt) if x > 0 and float(np.max(strain[:k + 1])) <= x else None
+    if v is not None:
+        return {"strain_max": v}
+    return {"time_max": _time_bound(float(time[k]), float(time[k + 1]) if k + 1 < time.size else np.inf)}
+
+
+def window_past_peak(d: DataConfig, time: np.ndarray, strain: np.ndarray, load: np.ndarray,
                      window: np.ndarray, relaxation_start: float | None, first: int) -> str | None:
     """A window that ends just past the load peak (yield): its upper bound was meant for the peak
     (a bound on another strain column, a rounding) and lets in samples of the load's fall, where a
     crosshead strain is not the specimen's (necking). A window that goes on well past the peak, or
-    to the end of the loading, is a choice, not flagged."""
+    to the end of the loading, is a choice, not flagged. In a loading-unloading test the loading is
+    the first one (its peak a turning point, the unloading after it the fall). ``strain``: the
+    measured Hencky strain, which the window's strain bounds read. Never recommends the window set."""
     w = d.window
     if w.strain_max is None and w.time_max is None:
         return None
     load_end = time.size if relaxation_start is None else int(np.searchsorted(time, relaxation_start))
+    turns = turning_points(strain[first:load_end], load[first:load_end])
+    if turns.first_unloading_end is not None:
+        load_end = first + turns.first_unloading_end + 1
     v = load[first:load_end]
     if v.size < 10:
         return None
@@ -128,14 +156,17 @@ def window_past_peak(d: DataConfig, time: np.ndarray, strain_input: np.ndarray, 
     end = int(np.flatnonzero(window)[-1]) - first
     if not top > 0 or float(v[k:].min()) > (1 - PEAK_DROP) * top or end <= k or end >= v.size - 1:
         return None
-    e = strain_input[first:load_end]
+    e = strain[first:load_end]
     rise = float(e[k] - e[0])
     if not rise > 0 or float(e[end] - e[k]) > JUST_PAST * rise:
         return None
+    fix = peak_window(time[first:load_end], e, k)
+    if all(getattr(w, key) == value for key, value in fix.items()):
+        return None
     past = float(time[first + end] - time[first + k])
-    nxt = float(e[k + 1]) if k + 1 < e.size else np.inf
+    said = ", ".join(f"{key}: {value:g}" for key, value in fix.items())
     return (f"warning: data.window ends {past:.3g} s ({end - k} samples) past the load peak (yield) at "
             f"t = {time[first + k]:.6g} s, Hencky strain {e[k]:.4g}: a bound meant for the peak lets in "
             f"the load's fall, where a crosshead strain is not the specimen's (necking); end the window "
-            f"at the peak, data.window: {{strain_max: {_bound(float(e[k]), nxt):g}}} (or take the whole "
-            f"test, {{}}, with a strain measured on a homogeneous specimen)")
+            f"at the peak, data.window: {{{said}}} (or take the whole test, {{}}, with a strain measured "
+            f"on a homogeneous specimen)")

@@ -6,6 +6,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bayes_dnlr.data.checks import noise_sd
+from bayes_dnlr.data.cycles import turning_points
+
 
 def ramp_strain_rate(time: np.ndarray, strain: np.ndarray, relaxation_start: float | None) -> float:
     """Mean Hencky strain rate of the loading ramp: least-squares slope of ε(t) up to relaxation_start."""
@@ -109,6 +112,8 @@ def window_strain_rate(time: np.ndarray, strain: np.ndarray, window: np.ndarray,
 HOLD_FLAT = 0.01        # the strain of a hold stays within this share of its range
 HOLD_SHARE = 0.1        # ... for at least this share of the test's duration, at its end
 HOLD_FALL = 0.02        # ... while the stress falls by at least this share of its largest value
+HOLD_OUTLIERS = 0.02    # ... a share of the hold's samples may leave that band (a DIC glitch)
+HOLD_NOISE = 5.0        # ... or within this many noise sd of its level, when the noise is larger
 
 
 @dataclass(frozen=True)
@@ -122,31 +127,50 @@ class Hold:
     strain: float
     stress_from: float
     stress_to: float
+    band: float = 0.0         # the strain stays within ± band of its level
 
     def describe(self, strain_what: str = "the strain", load_what: str = "the stress") -> str:
-        return (f"{strain_what} stays at {self.strain:.4g} (within {100 * HOLD_FLAT:g} % of its range) "
+        return (f"{strain_what} stays at {self.strain:.4g} (within ±{self.band:.2g}) "
                 f"from t = {self.time:.4g} s to the end ({self.end_time:.4g} s) while {load_what} falls "
                 f"from {self.stress_from:.4g} to {self.stress_to:.4g}")
 
 
 def find_hold(time: np.ndarray, strain: np.ndarray, stress: np.ndarray) -> Hold | None:
-    """A relaxation hold: the strain stays within HOLD_FLAT of its range from some sample to the end,
-    for at least HOLD_SHARE of the test, near its largest value, while the stress falls by HOLD_FALL
-    of its largest value or more. None for a tensile test (or a machine that only stopped). NaN rows
+    """A relaxation hold: the strain stays within HOLD_FLAT of its range (or within HOLD_NOISE sd of
+    its scatter in the test's last tenth, for a noisy strain such as DIC's) of its level at the end,
+    but for HOLD_OUTLIERS of its samples, from some sample to the end, for at least HOLD_SHARE of the
+    test, near its largest value, while the stress falls by HOLD_FALL of
+    its largest value or more. None for a tensile test (or a machine that only stopped). NaN rows
     (padding) are left out."""
     ok = np.isfinite(time) & np.isfinite(strain) & np.isfinite(stress)
     t, e, s = time[ok], strain[ok], stress[ok]
     if t.size < 20 or np.ptp(e) == 0:
         return None
-    flat = np.abs(e - e[-1]) <= HOLD_FLAT * np.ptp(e)
+    tail = slice(e.size - max(10, e.size // 10), e.size)
+    level = float(np.median(e[tail]))
+    sd = max(noise_sd(e), _scatter(t[tail], e[tail]))
+    band = max(HOLD_FLAT * float(np.ptp(e)), HOLD_NOISE * sd)
+    flat = np.abs(e - level) <= band
     if flat.all():
         return None
-    start = int(np.flatnonzero(~flat)[-1]) + 1
-    if start == 0 or e[-1] < 0.9 * e.max() or t[-1] - t[start] < HOLD_SHARE * (t[-1] - t[0]):
+    # the first flat sample after which at most HOLD_OUTLIERS of the samples leave the band
+    outside = np.concatenate((np.cumsum((~flat)[::-1])[::-1], [0]))[:-1]
+    stays = flat & (outside <= HOLD_OUTLIERS * (e.size - np.arange(e.size)))
+    start = int(np.argmax(stays)) if stays.any() else e.size
+    if start == 0 or start >= e.size or level < 0.9 * e.max() or \
+            t[-1] - t[start] < HOLD_SHARE * (t[-1] - t[0]):
         return None
     top = float(np.max(np.abs(s)))
     fall = float(s[start] - s[-1])
-    if not top > 0 or fall < HOLD_FALL * top:
-        return None
-    return Hold(int(np.flatnonzero(ok)[start]), float(t[start]), float(t[-1]), float(e[-1]),
-                float(s[start]), float(s[-1]))
+    if not top > 0 or fall < HOLD_FALL * top or turning_points(e, s).peaks:
+        return None                     # no fall, or an unloading: the strain went back with the stress
+    return Hold(int(np.flatnonzero(ok)[start]), float(t[start]), float(t[-1]), level,
+                float(s[start]), float(s[-1]), band)
+
+
+def _scatter(t: np.ndarray, e: np.ndarray) -> float:
+    """Robust sd of e about a straight line of t: the noise of a hold's strain, slow wander
+    included (DIC), which second differences do not see."""
+    line = np.polyval(np.polyfit(t - t.mean(), e, 1), t - t.mean())
+    r = e - line
+    return float(1.4826 * np.median(np.abs(r - np.median(r))))

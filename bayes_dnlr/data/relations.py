@@ -24,6 +24,7 @@ import numpy as np
 
 TOL = 2e-3          # largest deviation, relative to the column's largest value, of a relation that holds
 MIN_ROWS = 10       # rows needed to call a relation confirmed
+APART_MIN = 1e-9    # two readings closer than this (relative) are one, whatever the file's precision
 STRAIN_UNITS = ((1.0, False), (0.01, True))     # (factor to a fraction, percent?)
 
 
@@ -74,6 +75,13 @@ def _misfit(target: np.ndarray, model: np.ndarray, ok: np.ndarray) -> float:
     return float(np.max(np.abs(target[ok] - model[ok]))) / scale if scale > 0 else np.inf
 
 
+def _tells(apart: float, dev: float) -> bool:
+    """A relation that holds to ``dev`` tells its two readings apart (a true from an engineering
+    stress, ln(1 + e) from e) when they differ by ``apart``, ten times more: a file written to 9
+    digits tells them apart at 0.8 % strain, one that rounds to 2e-3 only past 2 %."""
+    return apart > max(10.0 * dev, APART_MIN)
+
+
 def true_stress(eng: np.ndarray, true: np.ndarray, strain: np.ndarray, i: int, j: int, k: int,
                 hencky: bool = False) -> Relation | None:
     """``true`` (column j) = ``eng`` (column i) × (1 + e) with ``strain`` (column k) the nominal
@@ -90,7 +98,7 @@ def true_stress(eng: np.ndarray, true: np.ndarray, strain: np.ndarray, i: int, j
         model = eng * (np.exp(e) if hencky else 1.0 + e)
         dev = _misfit(true, model, ok)
         apart = _misfit(true, eng, ok)           # how far the two stresses are: the relation must matter
-        if dev <= TOL and apart > 10 * TOL and (best is None or dev < best.deviation):
+        if dev <= TOL and _tells(apart, dev) and (best is None or dev < best.deviation):
             kind = "true-stress-hencky" if hencky else "true-stress"
             best = Relation(kind, j, (i, k), dev, percent=percent)
     return best
@@ -106,7 +114,7 @@ def hencky(h: np.ndarray, e: np.ndarray, i: int, k: int) -> Relation | None:
         x = factor * e
         model = np.log1p(np.where(ok, x, 0.0))
         dev = _misfit(h, model, ok)
-        if dev <= TOL and _misfit(h, x, ok) > 10 * TOL:
+        if dev <= TOL and _tells(_misfit(h, x, ok), dev):
             return Relation("hencky", i, (k,), dev, percent=percent)
     return None
 
@@ -182,20 +190,26 @@ def classify(values: list[np.ndarray], time: np.ndarray, skip: set[int] = frozen
 
 def find(values: list[np.ndarray], time: np.ndarray, skip: set[int] = frozenset()) -> list[Relation]:
     """Every relation among the rising columns of ``values`` (indices not in ``skip``), each between
-    the columns it can join: a true stress from a load, another load and a deformation; an area
-    between two loads; a Hencky strain and a linear pair between two deformations."""
+    the columns it can join: a true stress from two other columns (an engineering stress and a
+    strain, whichever of them the machine drives: a stress-controlled ramp rises as straight as a
+    strain); an area between two loads; a Hencky strain and a linear pair between two deformations.
+    The true stress is sought among every rising column, so that no guess about which column is a
+    load decides it: the relation itself does."""
     deform, loads = classify(values, time, skip)
+    rising_cols = sorted({*deform, *loads})
     out: list[Relation | None] = []
     for i in loads:
         for j in loads:
-            if i == j:
+            if i != j and np.nanmax(np.abs(values[i])) > np.nanmax(np.abs(values[j])):
+                out.append(area(values[i], values[j], i, j))
+    for i in rising_cols:
+        for j in rising_cols:
+            if i == j or not np.nanmax(values[j]) > np.nanmax(values[i]):   # σ = s·(1 + e) > s
                 continue
-            a, b = values[i], values[j]
-            if np.nanmax(np.abs(a)) > np.nanmax(np.abs(b)):
-                out.append(area(a, b, i, j))
-            for k in deform:
-                out.append(true_stress(a, b, values[k], i, j, k)
-                           or true_stress(a, b, values[k], i, j, k, hencky=True))
+            for k in rising_cols:
+                if k not in (i, j):
+                    out.append(true_stress(values[i], values[j], values[k], i, j, k)
+                               or true_stress(values[i], values[j], values[k], i, j, k, hencky=True))
     for i in deform:
         for j in deform:
             if i != j:

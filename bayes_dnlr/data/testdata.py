@@ -38,6 +38,7 @@ from bayes_dnlr.data.errors import DataError
 from bayes_dnlr.data.initial_state import plan_start
 from bayes_dnlr.data.ramp import detect_relaxation_start, window_strain_rate
 from bayes_dnlr.data.reading import Table, read_table
+from bayes_dnlr.data.repeats import merge_repeats
 from bayes_dnlr.data.smoothing import (
     UnkeptSmoothing,
     sampling_breaks,
@@ -104,6 +105,8 @@ def _observable(cfg: Config, values: dict[str, np.ndarray], strain: np.ndarray,
     d = cfg.data
     area0 = d.area0
     if d.observable == "stress":
+        if d.stress_measure == "engineering":      # isovolumic, as σ* of a force (eq. 4-6)
+            return values["stress"] * np.exp(strain)
         return values["stress"]
     if area0 is None or not area0 > 0:
         raise DataError(f"{path}: data.area0 must be a positive cross-section in mm² to turn the "
@@ -116,6 +119,8 @@ def _observable(cfg: Config, values: dict[str, np.ndarray], strain: np.ndarray,
 def _nominal_stress(cfg: Config, values: dict[str, np.ndarray], strain: np.ndarray) -> np.ndarray | None:
     if "force" in values and cfg.data.area0:
         return nominal_stress(values["force"], cfg.data.area0)
+    if "stress" in values and cfg.data.stress_measure == "engineering":
+        return values["stress"]
     if "stress" in values:
         return nominal_from_true_stress(values["stress"], strain)
     return None
@@ -218,7 +223,8 @@ def load_test(cfg: Config, cache: Path | None = None) -> TestData:
     d = cfg.data
     path = _check_file(cfg)
     table = read_table(path, d)
-    notes = list(table.notes)
+    table, repeats = merge_repeats(table, d.repeated_time)
+    notes = [*table.notes, *repeats]
     strain, nominal, strain_role, more = _axial(cfg, table)
     raw_nominal = nominal
     notes += more
@@ -265,8 +271,11 @@ def load_test(cfg: Config, cache: Path | None = None) -> TestData:
     else:
         strain_input = strain
     stress = _observable(cfg, values, strain, eps22, path)
+    if d.observable == "stress" and d.stress_measure == "engineering":
+        notes.append("stress: engineering -> true, σ = s·exp(ε) = s·(1 + e) (isovolumic, eq. 4-6; "
+                     "data.stress_measure: engineering)")
     nom_stress = _nominal_stress(cfg, values, strain)
-    window = window_mask(time[virtual:], strain_input[virtual:], d.window, path=path, key="data.window")
+    window = window_mask(time[virtual:], strain[virtual:], d.window, path=path, key="data.window")
     used = int(np.flatnonzero(window)[-1]) + 1 if window.any() else window.size  # rows to the window's end
     k = reduction.rows_per_point(d.reduce, used, d.strain_input)
     if k > 1:       # after the smoothing: the spline of every row, averaged like the stress
@@ -279,7 +288,7 @@ def load_test(cfg: Config, cache: Path | None = None) -> TestData:
         eps22 = None if eps22 is None else reduction.bin_means(eps22, cuts)
         values = {r: reduction.bin_means(v, cuts) for r, v in values.items()}
         lines = np.asarray(lines)[cuts[:-1]]
-    window = window_mask(time[virtual:], strain_input[virtual:], d.window, path=path, key="data.window")
+    window = window_mask(time[virtual:], strain[virtual:], d.window, path=path, key="data.window")
     window = np.concatenate((np.zeros(virtual, bool), window))
     rate, how = window_strain_rate(time, strain, window, rs, first=virtual)
     notes.append(f"strain_rate: {rate:.4g} 1/s ({how})")
@@ -289,9 +298,9 @@ def load_test(cfg: Config, cache: Path | None = None) -> TestData:
         if warn:
             notes.append(warn)
     check_load(stress, window, lines, path, _load_source(d))
-    notes += _hints(cfg, table, raw_nominal, time, strain, strain_input, stress, values.get("force"),
-                    nom_stress, window, rs, virtual)
-    spike = spike_warning(stress, lines, virtual)
+    notes += _hints(cfg, table, raw_nominal, time, strain, stress, values.get("force"), nom_stress,
+                    window, rs, virtual)
+    spike = spike_warning(stress, lines, virtual, strain)
     if spike:
         notes.append(spike)
     if d.strain_unit is None and strain_role != "extension" and not notes_have_units(table, strain_role, d):
@@ -309,7 +318,7 @@ def load_test(cfg: Config, cache: Path | None = None) -> TestData:
 
 
 def _hints(cfg: Config, table: Table, nominal: np.ndarray, time: np.ndarray, strain: np.ndarray,
-           strain_input: np.ndarray, stress: np.ndarray, force: np.ndarray | None,
+           stress: np.ndarray, force: np.ndarray | None,
            nom_stress: np.ndarray | None, window: np.ndarray, rs: float | None, virtual: int) -> list[str]:
     """What init would have noticed (data/hints.py), as warning notes."""
     d = cfg.data
@@ -317,8 +326,7 @@ def _hints(cfg: Config, table: Table, nominal: np.ndarray, time: np.ndarray, str
     found = [hints.hold_without_start(d, time, strain, stress, window, virtual),
              hints.engineering_as_true(d, table, nominal),
              hints.area_check(d, table),
-             None if load is None else hints.window_past_peak(d, time, strain_input, load, window, rs,
-                                                                virtual)]
+             None if load is None else hints.window_past_peak(d, time, strain, load, window, rs, virtual)]
     return [n for n in found if n]
 
 

@@ -131,7 +131,7 @@ def rate_section(run: RunResults, ra) -> list[str]:
         method = ra.to_dict()["method"]
         cls = {"consistent": "ok", "rate-dependent": "warn"}.get(ra.verdict, "")
         words = ra.words.removeprefix(ra.verdict + ": ")
-        sec.append(f'<div class="box {cls}"><b>Verdict: {html.escape(ra.verdict)}.</b> '
+        sec.append(f'<div class="box {cls}"><b>The rate question: {html.escape(ra.verdict)}.</b> '
                    f"{html.escape(words)}<br>Model comparison, one E for all rates against one E per "
                    f"rate: ln BF<sub>01</sub> = {ra.log_bf01:+.2f}, method: {html.escape(method)}, "
                    f"under the likelihood of each test ({likelihoods(run)}).</div>")

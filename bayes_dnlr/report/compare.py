@@ -182,12 +182,14 @@ def run_row(run: RunResults) -> dict[str, Any]:
 
 def consistency_of_e(rows: Sequence[dict[str, Any]]) -> Consistency:
     """χ² test of one E across runs, the largest pairwise gap in combined sd, and the spread."""
-    pts = []
+    pts, sources = [], set()
     for r in rows:
         if r.get("E_post") is not None and r.get("E_post_sd"):
             pts.append((r["run"], r["E_post"], r["E_post_sd"]))
+            sources.add("posterior mean")
         elif r.get("E_gn") is not None and r.get("E_gn_sd"):
             pts.append((r["run"], r["E_gn"], r["E_gn_sd"]))
+            sources.add("white least-squares")
     c = Consistency(n=len(pts))
     if len(pts) < 2:
         c.verdict = "Fewer than two runs with E and its sd: nothing to compare."
@@ -211,7 +213,8 @@ def consistency_of_e(rows: Sequence[dict[str, Any]]) -> Consistency:
     c.spread = (max(es) - min(es)) / mean
     ok = c.p_value >= P_CONSISTENT
     c.verdict = (
-        f"{'Yes' if ok else 'No'}: E = {fmt(mean)} MPa (weighted mean of {len(pts)} runs); "
+        f"{'Yes' if ok else 'No'}: E = {fmt(mean)} MPa (weighted mean of {len(pts)} runs' "
+        f"{' and '.join(sorted(sources))} E); "
         f"χ² = {c.chi2:.2f} on {c.dof} degrees of freedom, p = {c.p_value:.3g} "
         f"({'consistent' if ok else 'not consistent'} with one E at the {100 * P_CONSISTENT:.0f} % level). "
         f"Largest pairwise difference: {c.max_pair_sd:.2f} combined sd ({c.max_pair[0]} vs {c.max_pair[1]}). "

@@ -93,11 +93,13 @@ def headline(run: RunResults, standards: dict[str, dict | None] | None = None, r
         above = tb.standards_above_e(view, standards.get(t))
         if above:
             parts.append(f'<span class="bad">{html.escape(labels[t] + above)}</span>')
-    de = [(labels[t], tb.deborah(view)[0]) for t, view in run.tests.items()]
-    de = [(lab, v) for lab, v in de if v is not None]
+    de = [(labels[t], *tb.deborah(view)) for t, view in run.tests.items()]
+    de = [(lab, v, src) for lab, v, _, src in de if v is not None]
     if de:
+        srcs = sorted({src for *_, src in de})
         parts.append("De<sub>max</sub> = τ<sub>max</sub>·ε̇ = "
-                     + ", ".join(html.escape(lab) + fmt(v, 3) for lab, v in de) + " (eq. 45).")
+                     + ", ".join(html.escape(lab) + fmt(v, 3) for lab, v, _ in de)
+                     + f" (eq. 45, {html.escape(' and '.join(srcs))}).")
     true = truths(run, ["E"])
     if true and true[0] is not None and e is not None:
         te = true[0]
@@ -116,7 +118,7 @@ def checks_box(run: RunResults) -> str:
     css = "ok" if checks.get("trust_interval") else "warn"
     head, points = verdict_lines(checks)          # one finding per line: four in a paragraph read as one
     words = f"<b>{html.escape(head)}</b>" + bullets(points) if points else html.escape(head)
-    return f'<div class="box {css}"><b>Checks</b> (docs/sampling.md, "checks"): {words}</div>'
+    return f'<div class="box {css}"><b>Verdict</b> of the checks (docs/sampling.md, "checks"): {words}</div>'
 
 
 def warnings(run: RunResults) -> list[str]:
@@ -131,10 +133,12 @@ def warnings(run: RunResults) -> list[str]:
         own = rec.tests.get(t) if rec is not None else None
         out += [labels[t] + w for w in (own.warnings if own is not None else []) if labels[t] + w not in out]
         point = view.point()
+        which = "least squares under model error" if view.compared_with_gls else "white least squares"
         post = (view.summary or {}).get("posterior") or {}
         if post:      # the posterior medians too: a fit.json made before the check, or a shifted posterior
             point = {**point, **{k: v["median"] for k, v in post.items() if k in ("E", "G")}}
-        for w in plausibility_warnings(point):
+            which = "posterior medians"
+        for w in plausibility_warnings(point, which):
             kind = labels[t] + w.split("=")[0]     # "3G ": one of each kind, the fit's when it has one
             if not any(x.startswith(kind) for x in out):
                 out.append(labels[t] + w)

@@ -80,7 +80,7 @@ def _per_test(write: Callable[[ts.Part, Path], list[str]]) -> Callable[[Page], l
 def _model_error(page: Page) -> list[str]:
     note = ("" if page.run.layout.plain else
             f"These rows are the run's: its joint analyses and its posterior from all "
-            f"{len(page.parts)} tests; the verdict, δ and the autocorrelation are this test's.")
+            f"{len(page.parts)} tests; the noise model, δ and the autocorrelation are this test's.")
     return [h for p in page.parts.values()
             for h in ts.model_error_section(p, page.figdir, note, "Model error: " if p.heading else "")]
 

@@ -6,7 +6,8 @@
 - the discrepancy's hyperparameters: maximum likelihood, prior, posterior;
 - the autocorrelation of the residuals (white fit, and whitened by the discrepancy);
 - the posterior mean of δ (runs/curves.py), drawn on the residual plot by html.py;
-- the verdict of summary.json's ``noise`` block, in words.
+- what summary.json's ``noise`` block says of the noise model, in words (its ``verdict`` key; the
+  page keeps the word "verdict" for the checks' verdict).
 """
 
 from __future__ import annotations
@@ -144,7 +145,7 @@ def noise_section(run: RunResults, figure: Path, disc: Discrepancy | None,
                       if residuals.get("white") is False else ""))
     resid_white = residuals.get("white")
     cls = "ok" if resid_white else "warn"
-    out.append(f'<div class="box {cls}"><b>Verdict.</b> {html.escape(verdict)}</div>')
+    out.append(f'<div class="box {cls}"><b>The noise model.</b> {html.escape(verdict)}</div>')
     for t in (interval_table(run, note=note), hyper_table(run)):
         if t is not None:
             out.append(t.html())

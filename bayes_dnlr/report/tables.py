@@ -15,7 +15,6 @@ import numpy as np
 
 from bayes_dnlr.crosscheck import crosscheck_values, deborah_max
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pct
-from bayes_dnlr.runs.layout import FIT_FILE
 from bayes_dnlr.runs.records import TestFit
 from bayes_dnlr.runs.results import RunResults
 from bayes_dnlr.vocabulary import QUANTITIES, unit
@@ -307,7 +306,7 @@ def residual_words(fit: TestFit | None, sigma0: float | None = None) -> list[str
     elif r.get("white") and not r.get("verdict"):
         out.append("The residuals look like white noise.")
     if r.get("verdict"):
-        out.append(f"Verdict: {r['verdict']}")
+        out.append(f"Residuals: {r['verdict']}")
     if fit.rms_alone is not None:
         out.append(f"RMS of this test's residuals at its own estimate (fitted alone): "
                    f"{fmt(fit.rms_alone, 3)} MPa; above: at the run's estimate, shared with the other tests.")
@@ -392,33 +391,35 @@ def e_model(run: RunResults) -> tuple[float | None, float | None, str]:
 
 
 def deborah(run: RunResults) -> tuple[float | None, float | None, str]:
-    """De_max = tau_max · ε̇ (eq. 45): (value, sd, source)."""
+    """De_max = tau_max · ε̇ (eq. 45): (value, sd, the estimate of tau_max it uses, in words)."""
     rate = run.strain_rate()
     if rate is None:
         return None, None, "no strain rate"
     if run.draws is not None and "tau_max" in run.draws:
         d = run.draws["tau_max"].ravel() * rate
-        return float(np.mean(d)), float(np.std(d)), "posterior of tau_max"
-    v = (run.summary or {}).get("deborah_max")
-    v = v.get("mean", v.get("value")) if isinstance(v, dict) else v
-    if v is not None:
-        return float(v), None, "summary"
+        return float(np.mean(d)), float(np.std(d)), "posterior mean"
+    v = (run.summary or {}).get("deborah_max_posterior")
+    if isinstance(v, dict) and v.get("mean") is not None:
+        return float(v["mean"]), v.get("sd"), "posterior mean"
     own = run.own_fit()
     if own is not None and own.deborah_max is not None:
-        return own.deborah_max, None, FIT_FILE
+        return own.deborah_max, None, "white least squares"
     tau = run.point().get("tau_max")
-    return (None, None, "no tau_max") if tau is None else (deborah_max(tau, rate), None, "point estimate")
+    return ((None, None, "no tau_max") if tau is None else
+            (deborah_max(tau, rate), None, "least squares" + (" under model error" if run.uses_discrepancy
+                                                              else "")))
 
 
 def deborah_table(run: RunResults) -> Table:
     rate = run.strain_rate()
     de, de_sd, src = deborah(run)
-    tau = run.point().get("tau_max")
-    rows = [["strain rate ε̇ (1/s)", fmt(rate, 3)], ["tau_max (s)", fmt(tau)],
+    tau = de / rate if de is not None and rate else None        # the same estimate's tau_max
+    rows = [["strain rate ε̇ (1/s)", fmt(rate, 3)], [f"tau_max (s), {src}", fmt(tau)],
             ["De_max = tau_max·ε̇", fmt(de, 3) + (f" ± {fmt(de_sd, 2)}" if de_sd else "")]]
     return Table(["quantity", "value"], rows, "Deborah number (eq. 45)",
-                 [f"De_max from the {src}. The paper's Table 5: about 0.03 for HDPE at 2.5e-3 to 1e-2 1/s: "
-                  "the material's longest relaxation time is two decades below the test's time scale."],
+                 [f"De_max from the {src} of tau_max. The paper's Table 5: about 0.03 for HDPE at 2.5e-3 "
+                  "to 1e-2 1/s: the material's longest relaxation time is two decades below the test's "
+                  "time scale."],
                  css="num")
 
 

@@ -132,14 +132,37 @@ def noise_model_check(cfg: Config, noise: dict[str, dict]) -> dict[str, dict]:
     return out
 
 
+def _by_walker(draws: np.ndarray) -> np.ndarray:
+    """(steps, walkers, ndim) draws as (walkers × steps, ndim), each walker's steps in a row: the
+    order in which the draws' autocorrelation (the tail ESS of Pareto smoothing) is that of the
+    chains, as arviz_stats.psense reads a (chain, draw) posterior."""
+    return np.swapaxes(draws, 0, 1).reshape(-1, draws.shape[-1]) if draws.ndim == 3 else \
+        draws.reshape(-1, draws.shape[-1])
+
+
+def _log_prior_terms(flat: np.ndarray, priors) -> np.ndarray:
+    """(draws, priors): each prior's log density at the draws ``flat`` (draws, ndim), in the
+    parameters' own units: the prior as the config gives it (a log-uniform tau_max is 1/tau_max),
+    never the sampler's coordinates, whose Jacobian is not the user's prior and whose round trip can
+    put a draw on a bound one ulp outside it (a non-finite term then made every sensitivity 0)."""
+    return np.column_stack([p.logpdf(flat[:, j]) for j, p in enumerate(priors.priors)])
+
+
+def _scaled(per: dict[str, np.ndarray], component: np.ndarray) -> dict[str, float]:
+    """Power-scaling sensitivity to ``component`` over the draws where it is finite (a draw outside a
+    prior's support has no density to scale; the sampler keeps none, an adjusted draw may)."""
+    ok = np.isfinite(component)
+    if np.ptp(component[ok]) == 0:
+        return dict.fromkeys(per, 0.0)        # a flat prior: power-scaling changes nothing
+    return power_scaling.sensitivity({k: v[ok] for k, v in per.items()}, component[ok])
+
+
 def prior_sensitivity_check(draws: np.ndarray, names: list[str], priors) -> dict[str, float]:
-    """Power-scaling sensitivity of every sampled parameter to the run's prior."""
-    z = priors.from_physical(draws.reshape(-1, draws.shape[-1]))
-    log_prior = priors.log_prior(z)
-    if not np.all(np.isfinite(log_prior)) or np.ptp(log_prior) == 0:
-        return dict.fromkeys(names, 0.0)      # a flat prior: power-scaling changes nothing
-    per = {k: draws[..., j].reshape(-1) for j, k in enumerate(names)}
-    return power_scaling.sensitivity(per, log_prior)
+    """Power-scaling sensitivity of every sampled parameter to the run's prior (Kallioinen et al.
+    2024: the prior p(θ) of the parameters as given, raised to a power)."""
+    flat = _by_walker(draws)
+    per = {k: flat[:, j] for j, k in enumerate(names)}
+    return _scaled(per, _log_prior_terms(flat, priors).sum(axis=1))
 
 
 def prior_sources(draws: np.ndarray, names: list[str], priors, flagged: list[str]
@@ -148,14 +171,16 @@ def prior_sources(draws: np.ndarray, names: list[str], priors, flagged: list[str
     prior alone, for every prior that is not flat at the draws (a flat one changes nothing)."""
     if not flagged:
         return {}
-    z = priors.from_physical(draws.reshape(-1, draws.shape[-1]))
-    per = {k: draws[..., names.index(k)].reshape(-1) for k in flagged}
+    flat = _by_walker(draws)
+    terms = _log_prior_terms(flat, priors)
+    per = {k: flat[:, names.index(k)] for k in flagged}
     out: dict[str, dict[str, float]] = {k: {} for k in flagged}
     for j, p in enumerate(priors.priors):
-        component = p.logpdf_sampling(z[:, j])
-        if not np.all(np.isfinite(component)) or np.ptp(component) == 0:
+        component = terms[:, j]
+        ok = np.isfinite(component)
+        if not ok.any() or np.ptp(component[ok]) == 0:
             continue
-        for k, v in power_scaling.sensitivity(per, component).items():
+        for k, v in _scaled(per, component).items():
             out[k][p.name] = v
     return out
 
@@ -288,6 +313,7 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
 
 
 def _log_prior(draws: np.ndarray, priors) -> np.ndarray | None:
-    """The log prior of every kept draw (None when it cannot be evaluated)."""
-    lp = priors.log_prior(priors.from_physical(draws.reshape(-1, draws.shape[-1])))
+    """The log prior of every kept draw, in the order of ``draws.reshape(-1, ndim)``, as the config
+    gives it (``_log_prior_terms``; None when it cannot be evaluated)."""
+    lp = _log_prior_terms(draws.reshape(-1, draws.shape[-1]), priors).sum(axis=1)
     return lp if np.all(np.isfinite(lp)) else None

@@ -151,6 +151,16 @@ def _spectrum_block(cfg: Config, fit: dict[str, Any], names: list[str],
     return block
 
 
+def _deborah_posterior(draws: np.ndarray, names: list[str], tau: str, rate: float
+                       ) -> dict[str, float] | None:
+    """De_max = tau_max · ε̇ (eq. 45) over the posterior draws: its mean and sd (the report's),
+    beside ``deborah_max``, the fit's (white least squares); None with tau_max fixed."""
+    if tau not in names or not rate > 0:
+        return None
+    d = draws[..., names.index(tau)].ravel() * rate
+    return {"mean": float(np.mean(d)), "sd": float(np.std(d))}
+
+
 def write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Convergence | None,
                   reason: str | None, fp: str, test, sigma0_source: str, *, wall_time: float,
                   store_time: float, evals: int, check_time: float | None = None,
@@ -187,6 +197,9 @@ def write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Converg
         "standards": layout.collapse({t: _standards(d) for t, d in test.tests.items()}),
         "deborah_max": layout.collapse({t: (fit if layout.plain else singles.get(t) or {}).get("deborah_max")
                                         for t in layout.tests}),
+        "deborah_max_posterior": layout.collapse(
+            {t: _deborah_posterior(draws, names, layout.name("tau_max", t), test.tests[t].strain_rate)
+             for t in layout.tests}),
         "name": cfg.name, "stop_reason": reason, "converged": reason == "converged",
         "burn_in": int(burn), "target_ess": sc.target_ess,
         "moves": run.attrs.get("moves_detail") or MOVES.get(sc.moves, sc.moves),

@@ -154,7 +154,8 @@ class RunResults:
                        "posterior": {k: post[g] for k, g in own.items() if g in post},
                        "noise": ((s.get("noise") or {}).get("tests") or {}).get(test),
                        "sigma0": per("sigma0"), "standards": per("standards"),
-                       "deborah_max": per("deborah_max")}
+                       "deborah_max": per("deborah_max"),
+                       "deborah_max_posterior": per("deborah_max_posterior")}
         draws = None
         if self.draws is not None:
             draws = {k: self.draws[g] for k, g in own.items() if g in self.draws}

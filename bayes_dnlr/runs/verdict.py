@@ -89,7 +89,8 @@ def _plausibility_words(test: str, checks: dict, several: bool) -> list[tuple[st
     s = checks.get("sigma_inf")
     if s is not None and not s["ok"]:
         out.append(("adequate", False,
-                    f"{who}σ∞ = {fmt(s['sigma_inf_median'], 4)} MPa lies above the last stress of the "
+                    f"{who}σ∞ = {fmt(s['sigma_inf_median'], 4)} MPa (posterior median) lies above the last "
+                    "stress of the "
                     f"hold ({fmt(s['last_stress'], 4)} MPa), which still falls: impossible. The model's "
                     "relaxation does not describe this hold (a second, slower process?); a longer hold "
                     "or a relaxation spectrum of its own would tell."))
@@ -97,7 +98,8 @@ def _plausibility_words(test: str, checks: dict, several: bool) -> list[tuple[st
         c = checks.get(k)
         if c is not None and not c["ok"]:
             out.append(("trust", False,
-                        f"{who}{k} = {fmt(c['median'], 3)} s is more than {physical.SPAN_FACTOR:g}× the "
+                        f"{who}{k} = {fmt(c['median'], 3)} s (posterior median) is more than "
+                        f"{physical.SPAN_FACTOR:g}× the "
                         f"test's duration ({fmt(c['test_duration'], 3)} s): the test does not measure "
                         "it, and what trades off with it comes from the prior box."))
     c = checks.get("E_chord")
@@ -153,14 +155,26 @@ def _bound_words(entries: list[dict]) -> tuple[bool, list[str]]:
                           "so a wider box only moves where the box decides it. Fix "
                           f"parameters.{name} at a value another test measures, or identify on a "
                           f"window that measures {name}.")
-            words.append(f"The posterior of {b['parameter']} piles against {where}; widening it ×10 "
-                         f"moves {moves}: the prior box decides E. {remedy}")
-        elif b.get("note"):
-            words.append(f"The posterior of {b['parameter']} piles against {where} ({b['note']}).")
+            words.append(f"The posterior of {b['parameter']} piles against {where}; {_widened_words(b)} "
+                         f"moves {moves} (least squares): the prior box decides E. {remedy}")
+        elif b.get("note") or not b.get("widened"):
+            words.append(f"The posterior of {b['parameter']} piles against {where}"
+                         + (f" ({b['note']})." if b.get("note") else "."))
         else:
-            words.append(f"The posterior of {b['parameter']} piles against {where}; widening it ×10 "
-                         f"moves E by less than {SHIFT_SD:g} sd.")
+            words.append(f"The posterior of {b['parameter']} piles against {where}; {_widened_words(b)} "
+                         f"moves E by less than {SHIFT_SD:g} sd (least squares).")
     return ok, words
+
+
+def _widened_words(b: dict) -> str:
+    """'moving that bound to 10 (the prior's box widened ×10, to [0, 10])': what the refit changed, in
+    numbers, so that no bound is said to widen ×10 without the box it gives."""
+    if not b.get("widened"):
+        return "widening it ×10"
+    lo, hi = b["widened"]
+    new = lo if b["side"] == "low" else hi
+    return (f"moving that bound to {fmt(new, 4)} (the prior's box widened ×10, to "
+            f"[{fmt(lo, 4)}, {fmt(hi, 4)}])")
 
 
 def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[bool, bool, str, list[str]]:
@@ -204,11 +218,12 @@ def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[boo
                      "sampler.max_steps and run `sample` again).")
     trust &= not reaches_e
     trust &= not implausible
-    head = ("Use E's interval as it is." + ("" if adequate else " The model does not describe all "
-                                            "of this test (below), but not where E is measured.")
+    these = "these tests" if several else "this test"
+    head = ("Use E's interval as it is." + ("" if adequate else f" The model does not describe all "
+                                            f"of {these} (below), but not where E is measured.")
             if trust else
-            "The model describes this test, but do not use E's interval as it is." if adequate else
-            "The model does not describe this test: E's interval is not reliable.")
+            f"The model describes {these}, but do not use E's interval as it is." if adequate else
+            f"The model does not describe {these}: E's interval is not reliable.")
     return adequate, trust, head, [_cap(w) for w in words]
 
 

@@ -20,7 +20,9 @@ import numpy as np
 
 from bayes_dnlr.config import NAME_PATTERN, ConfigError, parse_config
 from bayes_dnlr.data.checks import LOADED_START
+from bayes_dnlr.data.cycles import turning_points
 from bayes_dnlr.data.guess import FRACTION_MAX, Guess, Pick, guess_columns
+from bayes_dnlr.data.hints import peak_window
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.numbers import fmt
 from bayes_dnlr.units import lookup
@@ -79,7 +81,9 @@ def _unit_text(unit: str | None) -> str | None:
 
 
 def _column_ref(pick: Pick, guess: Guess) -> str | int:
-    return pick.column.name if guess.by_name and pick.column.name else pick.column.number
+    """The column by its header name when names may be used, by number when its name is overruled."""
+    named = guess.by_name and pick.column.name and not pick.column.overruled
+    return pick.column.name if named else pick.column.number
 
 
 def _hencky(values: np.ndarray, factor: float, measure: str) -> np.ndarray:
@@ -169,7 +173,8 @@ def build_config(data: Path, out: Path) -> tuple[dict[str, Any], list[Edit], lis
         missing = "a strain or extension column" if strain is None else "a force or stress column"
         raise RunError(f"{data}: {missing} cannot be told from the header or the values; write "
                        "data.columns by hand (docs/data-input.md)")
-    dr = _Draft({"file": _data_file(data, out)}, found=["read: " + ", ".join(guess.notes)])
+    dr = _Draft({"file": _data_file(data, out)}, found=["read: " + ", ".join(guess.notes),
+                                                        *guess.overruled])
     _specimens(guess, dr)
     columns: dict[str, str | int] = {}
     for role in ("time", "force", "stress", "strain", "extension"):
@@ -271,6 +276,14 @@ def _stress_keys(guess: Guess, dr: _Draft, columns: dict) -> None:
         pick = p["stress"]
         if pick.relation:
             dr.comments["observable"] = f"the true stress: {p['stress'].column.label} (its relation above)"
+        elif guess.stress_measure is not None:
+            dr.data["stress_measure"] = guess.stress_measure.value
+            dr.comments["observable"] = "the stress column, converted below"
+            dr.comments["stress_measure"] = (f"{guess.stress_measure.why}: the true stress is s·exp(ε) "
+                                             f"= s·(1 + e) (isovolumic, eq. 4-6)")
+            dr.edits.append(Edit("check", "data.stress_measure", guess.stress_measure.value,
+                                 f"{guess.stress_measure.why} (a name, no relation): it is converted "
+                                 "to the true stress s·exp(ε) (eq. 4-6); `true` if it is a true stress"))
         else:
             dr.comments["observable"] = "the stress column, taken as the true stress (docs/data-input.md)"
             dr.edits.append(Edit("check", "data.observable", "stress",
@@ -307,13 +320,15 @@ def _window(guess: Guess, dr: _Draft, load: Pick, strain: Pick, strain_h: np.nda
         window, why = {}, ("the whole test: the ramp and the hold (sigma_inf and tau_max_R are identified "
                            "on the hold)")
     else:
-        window, why = _peak_window(guess, load, strain_h, strain.column.label)
+        cycles = None
+        if strain_h is not None and "time" in guess.picks:
+            t, s = guess.picks["time"].column.values, load.column.values
+            ok = np.isfinite(strain_h) & np.isfinite(t) & np.isfinite(s)
+            cycles = _cycles_window(t[ok], strain_h[ok], s[ok])
+        window, why = cycles or _peak_window(guess, load, strain_h, strain.column.label)
     dr.data["window"] = window
     dr.comments["window"] = why
-    dr.edits.append(Edit("check", "data.window", window,
-                         f"the identification window: {why}. {{}} is the whole test: right when the "
-                         "strain is measured on the specimen (extensometer, DIC) and the deformation "
-                         "stays homogeneous; a crosshead strain past yield (necking) is not"))
+    dr.edits.append(Edit("check", "data.window", window, _window_why(why)))
 
 
 def config_text(raw: dict[str, Any], comments: dict[str, str], source: Path,
@@ -334,7 +349,7 @@ def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
         raise RunError(f"{out}: exists; init never overwrites a config (give --out another path)")
     raw, edits, found, comments, column_notes = build_config(data, out)
     raw["name"] = run_name(out.parent.name) if out.name == "config.yaml" else run_name(out.stem)
-    problems, test = _trial(raw, edits, out)
+    problems, test = _trial(raw, edits, out, comments)
     if test is not None and "relaxation_start" not in raw["data"]:
         _window_at_peak(test, raw, edits, comments)
     if any(p.startswith(LOADED_START) for p in problems):
@@ -369,13 +384,16 @@ def _loaded_start(raw: dict[str, Any], edits: list[Edit], comments: dict[str, st
                       "zero; `none` keeps the model's unloaded start there, which biases E"))
 
 
-def _trial(raw: dict[str, Any], edits: list[Edit], out: Path) -> tuple[list[str], Any]:
+def _trial(raw: dict[str, Any], edits: list[Edit], out: Path, comments: dict[str, str]
+           ) -> tuple[list[str], Any]:
     """Read the data with the config as written (placeholders for the values to set; the whole test
     as the window): what fails, or the reader's warnings about the data (a loaded first sample, a
-    spike, ...), and the TestData read (None when reading failed)."""
+    spike, ...), and the TestData read (None when reading failed). A time stamp repeated by the
+    logger is answered in the config (``data.repeated_time: drop``) and read again."""
     import copy
 
     from bayes_dnlr.data import load_test
+    from bayes_dnlr.data.repeats import RepeatedTime
 
     trial = copy.deepcopy(raw)
     trial["data"]["file"] = str((out.absolute().parent / raw["data"]["file"]).resolve()
@@ -386,7 +404,12 @@ def _trial(raw: dict[str, Any], edits: list[Edit], out: Path) -> tuple[list[str]
         if e.action == "set" and e.key in PLACEHOLDER:
             trial["data"][e.key.split(".", 1)[1]] = placeholders[e.key] = PLACEHOLDER[e.key]
     try:
-        test = load_test(parse_config(trial, source=out.resolve()))
+        try:
+            test = load_test(parse_config(trial, source=out.resolve()))
+        except RepeatedTime as err:
+            _repeated_time(raw, edits, comments, err.seen)
+            trial["data"]["repeated_time"] = raw["data"]["repeated_time"]
+            test = load_test(parse_config(trial, source=out.resolve()))
     except (ConfigError, RunError) as err:
         return [f"the data cannot be read with these guesses yet: {str(err).splitlines()[0]}"], None
     except Exception as err:  # noqa: BLE001 - a DataError or any reader failure is reported, not raised
@@ -399,6 +422,21 @@ def _trial(raw: dict[str, Any], edits: list[Edit], out: Path) -> tuple[list[str]
     return [n.removeprefix("warning: ") + where for n in notes if n.startswith("warning:")], test
 
 
+def _repeated_time(raw: dict[str, Any], edits: list[Edit], comments: dict[str, str], seen: str) -> None:
+    """The file repeats time stamps (the reader's error, ``seen``: how many, where):
+    data.repeated_time: drop, written after the columns, with what was seen and a check line."""
+    data = raw["data"]
+    keys = list(data)
+    at = keys.index("columns") + 1 if "columns" in keys else len(keys)
+    raw["data"] = {**{k: data[k] for k in keys[:at]}, "repeated_time": "drop",
+                   **{k: data[k] for k in keys[at:]}}
+    comments["repeated_time"] = (f"{seen}: the first row of each time stamp is kept (average: their "
+                                 "mean)")
+    edits.append(Edit("check", "data.repeated_time", "drop",
+                      f"{seen}; `drop` keeps the first row of each time stamp, `average` takes their "
+                      "mean"))
+
+
 def _force_only(note: str, test: Any) -> str:
     """The first-sample warning in newtons: with a placeholder area a stress in MPa means nothing."""
     from bayes_dnlr.data.checks import first_sample_warning
@@ -408,22 +446,28 @@ def _force_only(note: str, test: Any) -> str:
     return first_sample_warning(test.stress, test.strain, int(test.lines[0]), force=test.force) or note
 
 
-def _bound_at(x: float, nxt: float) -> float:
-    """The shortest decimal d with x <= d < nxt (at least 3 significant digits): a strain_max that
-    keeps the peak sample (x) and stops before the next one; rounded down when none is found."""
-    for digits in range(3, 13):
-        scale = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
-        d = float(f"{math.ceil(x / scale) * scale:.{digits}g}")
-        if x <= d < nxt:
-            return d
-    return float(f"{x:.4g}") if float(f"{x:.4g}") <= x else float(f"{x * (1 - 1e-4):.4g}")
+def _cycles_window(time: np.ndarray, strain: np.ndarray, stress: np.ndarray,
+                   lines: np.ndarray | None = None) -> tuple[dict[str, float], str] | None:
+    """For a loading-unloading test (data/cycles.py): the whole history, with the first loading
+    named as the other window that means something; None for a test without cycles."""
+    turns = turning_points(strain, stress)
+    if not turns.cyclic:
+        return None
+    k = turns.first_loading_end
+    first = peak_window(time, strain, k)
+    at = f" (line {int(lines[k])})" if lines is not None else ""
+    return {}, (f"the whole history: {len(turns.peaks)} loading-unloading cycles (the strain turns "
+                f"back first at t = {fmt(float(time[k]), 5)} s{at}, Hencky strain "
+                f"{fmt(float(strain[k]), 4)}); the first loading alone is {_flow(first)}")
 
 
 def _window_at_peak(test: Any, raw: dict[str, Any], edits: list[Edit], comments: dict[str, str]) -> None:
-    """The window up to the peak of the nominal load (yield), on the strain the model's window reads
-    (the Hencky input strain), from the data as the reader reads them: the peak sample itself, not
-    one of a sample of rows; strain_max is rounded down so that the window never runs past it."""
+    """The window of the test as the reader reads it: for a loading-unloading test the whole history
+    (data/cycles.py); else up to the peak of the nominal load (yield), ending on the peak sample
+    itself, the bound on the measured Hencky strain that the window's strain bounds read
+    (``data.hints.peak_window``: strain_max, or time_max when the strain turns there)."""
     first = test.virtual_start
+    cycles = _cycles_window(test.time[first:], test.strain[first:], test.stress[first:], test.lines[first:])
     load = test.force if test.force is not None else test.nominal_stress
     if load is None:
         load = test.stress * np.exp(-test.strain)
@@ -432,16 +476,16 @@ def _window_at_peak(test: Any, raw: dict[str, Any], edits: list[Edit], comments:
     v = np.asarray(load[first:], float)
     k = int(np.argmax(v))
     top = float(v[k])
-    if not top > 0 or float(v[k:].min()) > (1 - PEAK_DROP) * top:
+    if cycles is not None:
+        window, why = cycles
+    elif not top > 0 or float(v[k:].min()) > (1 - PEAK_DROP) * top:
         window, why = {}, f"the whole test ({what} rises to the end: no yield peak)"
     else:
-        x = float(test.strain_input[first + k])
+        x = float(test.strain[first + k])
         if not x > 0:
             return
-        nxt = float(test.strain_input[first + k + 1]) if first + k + 1 < test.time.size else math.inf
-        val = _bound_at(x, nxt)
+        window = peak_window(test.time[first:], test.strain[first:], k)
         line = int(test.lines[first + k])
-        window = {"strain_max": val}
         why = (f"up to the load peak (yield): {what} {fmt(top, 4)} {unit} at t = "
                f"{fmt(float(test.time[first + k]), 5)} s (line {line}), Hencky strain {fmt(x, 4)}")
     raw["data"]["window"] = window
@@ -449,6 +493,10 @@ def _window_at_peak(test: Any, raw: dict[str, Any], edits: list[Edit], comments:
     for e in edits:
         if e.key == "data.window":
             e.value = window
-            e.why = (f"the identification window: {why}. {{}} is the whole test: right when the strain "
-                     "is measured on the specimen (extensometer, DIC) and the deformation stays "
-                     "homogeneous; a crosshead strain past yield (necking) is not")
+            e.why = _window_why(why)
+
+
+def _window_why(why: str) -> str:
+    return (f"the identification window: {why}. {{}} is the whole test: right when the strain is measured "
+            "on the specimen (extensometer, DIC) and the deformation stays homogeneous; a crosshead "
+            "strain past yield (necking) is not")

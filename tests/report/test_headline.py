@@ -66,7 +66,7 @@ def test_the_checks_verdict_sits_under_the_headline(tmp_path):
     points = summary["checks"]["verdict_points"]          # the verdict after its first sentence
     assert points and summary["checks"]["verdict"].endswith(" ".join(points))
     page = build_report(run).read_text()
-    box = re.search(r'<div class="box (ok|warn)"><b>Checks</b>(.*?)</div>', page, re.S)
+    box = re.search(r'<div class="box (ok|warn)"><b>Verdict</b>(.*?)</div>', page, re.S)
     assert box is not None
     assert box.group(1) == ("ok" if summary["checks"]["trust_interval"] else "warn")
     assert _words(box.group(2)).endswith(" ".join(summary["checks"]["verdict"].split()))
@@ -89,7 +89,7 @@ def test_each_finding_of_the_checks_is_an_item_of_its_own():
               "The posterior of G piles against its prior's high bound (50.00) & more."]
     checks = {"trust_interval": False, "verdict": " ".join([head, *points]), "verdict_points": points}
     box = checks_box(SimpleNamespace(summary={"checks": checks}))
-    assert box.startswith('<div class="box warn"><b>Checks</b>')
+    assert box.startswith('<div class="box warn"><b>Verdict</b>')
     assert f"<b>{html.escape(head)}</b><ul>" in box
     assert re.findall(r"<li>(.*?)</li>", box) == [html.escape(p) for p in points]
     assert _words(box).endswith(checks["verdict"])

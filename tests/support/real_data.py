@@ -45,3 +45,46 @@ def real(test):
     for mark in REAL_MARKS:
         test = mark(test)
     return test
+
+
+# more real exports of the same ETFE film (fbosi/ETFENLVEconstitutivemodel, rawData/): a ramp then a
+# hold whose header is shifted against its data, and loading-unloading cycles with an engineering
+# stress only and repeated time stamps. The folder is $BAYES_DNLR_REAL_EXPORTS when set, else the
+# first scratch/real beside the clone or above it.
+EXPORTS_ENV = "BAYES_DNLR_REAL_EXPORTS"
+RELAX_NAME = "OUTRaw_MD_Rel_9MPa_T20.csv"
+CYCLES_NAME = "OUTRaw_MD_CYC_CSR_01_T20.csv"
+
+
+def exports_folder() -> Path:
+    """$BAYES_DNLR_REAL_EXPORTS, else the nearest scratch/real among the clone's ancestors."""
+    given = os.environ.get(EXPORTS_ENV)
+    if given:
+        return Path(given)
+    repo = Path(__file__).resolve().parents[2]
+    for up in repo.parents:
+        folder = up / "scratch" / "real"
+        if (folder / RELAX_NAME).is_file() or (folder / CYCLES_NAME).is_file():
+            return folder
+    return repo.parent / "scratch" / "real"
+
+
+EXPORTS = exports_folder()
+RELAX = EXPORTS / RELAX_NAME
+CYCLES = EXPORTS / CYCLES_NAME
+
+
+def export_marks(path: Path) -> tuple:
+    """The marks of a test that reads one of the exports: real_data, and a skip naming the file
+    when it is absent."""
+    reason = f"the real export {path.name} is absent from {path.parent} (set {EXPORTS_ENV} to its folder)"
+    return pytest.mark.real_data, pytest.mark.skipif(not path.is_file(), reason=reason)
+
+
+def reads_export(path: Path):
+    """Decorate a test that reads the real export ``path``."""
+    def decorate(test):
+        for mark in export_marks(path):
+            test = mark(test)
+        return test
+    return decorate

@@ -202,7 +202,7 @@ class FitResult:
             same = "all at the same optimum" if ms["same_optimum"] else "NOT all at the same optimum"
             lines.append(f"multi-start: {ms['converged']}/{ms['starts']} converged, {same}")
         if self.deborah_max is not None:
-            lines.append(f"De_max = tau_max · rate = {self.deborah_max:.4g} (eq. 45)")
+            lines.append(f"De_max = tau_max · rate = {self.deborah_max:.4g} (eq. 45, white least squares)")
         if self.spectrum_exponent is not None:
             lines.append(spectrum_line(self.spectrum_exponent, self.estimate))
         lines += fit_lines(self.modulus_at)
@@ -218,8 +218,8 @@ def spectrum_line(dep: dict[str, Any], estimate: dict[str, float]) -> str:
     dE = dep["per_tenth"].get("E")
     if dE is None:
         return f"spectrum exponent alpha = {a:.3g}"
-    how = "sampled; E moves along the posterior" if dep["sampled"] else (
-        "fixed; E moves when it is held elsewhere")
+    how = ("white least squares; sampled by `sample`, E moves along its posterior" if dep["sampled"]
+           else "fixed; E moves when it is held elsewhere")
     line = (f"spectrum exponent alpha = {a:.3g} ({how}): {dE:+.4g} MPa "
             f"({100 * dE / estimate['E']:+.2g} %) per +0.1 of alpha (eq. 12 has ½)")
     score = dep.get("score")
@@ -243,10 +243,13 @@ def _discrepancy_lines(d: dict[str, Any], white_sd: dict[str, float]) -> list[st
     unit = d.get("axis_unit", "s")
     amp = "0 (no model error detected)" if d.get("amplitude_is_zero") else f"{fmt(h['amplitude'], 3)} MPa"
     proj = d.get("projection") or {}
-    lines = [f"discrepancy: {d['kernel']} kernel on the {d['axis']} axis (target "
-             f"{d.get('target', 'generalized')}), maximum likelihood: sigma0 = {fmt(h['sigma0'], 3)} MPa "
-             f"(noise floor {fmt(proj.get('sigma0_floor'), 3)}), amplitude {amp}, length "
-             f"{fmt(h['length'], 3)} {unit}"]
+    target = d.get("target", "generalized")
+    metric = (f"the estimate and the sampler in the {d['kernel']} kernel's metric (target {target})"
+              if target == "generalized" else
+              f"the estimate the L2 projection (target {target}), the sampler with the {d['kernel']} kernel")
+    lines = [f"discrepancy on the {d['axis']} axis: {metric}; its maximum likelihood: sigma0 = "
+             f"{fmt(h['sigma0'], 3)} MPa (noise floor {fmt(proj.get('sigma0_floor'), 3)}), amplitude "
+             f"{amp}, length {fmt(h['length'], 3)} {unit}"]
     widening = proj.get("widening") or {}
     if d.get("evidence") and widening:
         lines.append("  the estimate: " + str(proj.get("estimate", "")).split(" (")[0]
@@ -255,7 +258,7 @@ def _discrepancy_lines(d: dict[str, Any], white_sd: dict[str, float]) -> list[st
     lines.append(f"  whitened residuals: {d['whitened_residuals']['verdict']}")
     choice = d.get("kernel_choice")
     if choice and len(choice.get("weights") or {}) > 1:
-        lines.append(f"  kernel auto: {choice['reason']}")
+        lines.append(f"  the interval's width: kernel auto mixes the kernels, {choice['reason']}")
     return lines
 
 
@@ -362,8 +365,9 @@ def fit_test(cfg: Config, test) -> FitResult:
                         f"(SSR {best.criterion:.6g} < {main.criterion:.6g}): the estimate is that optimum")
     multistart = _multistart_summary(ms_runs, best, names, sa.sd, main)
     if n_ms and not multistart["same_optimum"]:
-        warnings.append(f"multi-start: {multistart['converged']}/{n_ms} converged, and not all to the same "
-                        "optimum: the criterion has several minima or flat directions in the prior box")
+        warnings.append(f"multi-start of the white least squares: {multistart['converged']}/{n_ms} "
+                        "converged, and not all to the same optimum: the criterion has several minima or "
+                        "flat directions in the prior box")
     warnings += [bound_warning(k, float(params[k]), *bounds[k], side, k in held)
                  for k, side in on_bound.items()]
     warnings.extend(identifiability_warnings(sa, held=held))
@@ -374,7 +378,8 @@ def fit_test(cfg: Config, test) -> FitResult:
         disc = discrepancy_analysis(cfg, test, problem, best.beta, residuals)
         warnings.extend(disc.pop("warnings"))
     if not diag["white"]:
-        warnings.append("residuals are not white (model bias, see the verdict): the white-noise sd "
+        warnings.append("residuals are not white (model bias, see the residuals' diagnosis): the white-noise "
+                        "sd "
                         "are a lower bound" + ("; the discrepancy analysis accounts for the bias"
                                                if disc is not None else
                                                "; noise.discrepancy (on by default) accounts for it"))

@@ -16,17 +16,18 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 
-def plausibility_warnings(params: Mapping[str, float]) -> list[str]:
-    """Warnings for physically impossible estimates (never errors: the data decide, the user reads)."""
+def plausibility_warnings(params: Mapping[str, float], estimate: str = "white least squares") -> list[str]:
+    """Warnings for physically impossible estimates (never errors: the data decide, the user reads);
+    ``estimate``: which estimate ``params`` are, said beside the numbers."""
     out: list[str] = []
     e, g = params.get("E"), params.get("G")
     if e is not None and g is not None and e > 0 and 3.0 * g > e:
         out.append(
-            f"3G = {3.0 * g:.4g} MPa exceeds E = {e:.4g} MPa: the relaxed modulus at small strain (3G, "
-            "the slope of G·ε_HT, eq. 7 and 17) above the instantaneous one (E, eq. 18) is physically "
-            "impossible (a viscoelastic solid relaxes from E towards a lower modulus). Wide priors let "
-            "the optimum land there when E, G and tau_max trade off on the window; if the data demand "
-            "it, the model does not describe this test (a toe, a preload, stiffening). Bound G "
+            f"3G = {3.0 * g:.4g} MPa exceeds E = {e:.4g} MPa ({estimate}): the relaxed modulus at small "
+            "strain (3G, the slope of G·ε_HT, eq. 7 and 17) above the instantaneous one (E, eq. 18) is "
+            "physically impossible (a viscoelastic solid relaxes from E towards a lower modulus). Wide "
+            "priors let the optimum land there when E, G and tau_max trade off on the window; if the data "
+            "demand it, the model does not describe this test (a toe, a preload, stiffening). Bound G "
             f"(parameters.G.high below E/3, about {e / 3.0:.3g} MPa) and compare the residuals, or "
             "widen the window")
     return out

@@ -183,7 +183,8 @@ def _joint_identifiability(sa: StochasticAnalysis) -> list[str]:
 
     found = [re.match(r"\|ρ\((.+?), (.+?)\)\| = ([0-9.]+)", w) for w in pairs]
     names = "; ".join(f"{m[1]}–{m[2]} {m[3]}" for m in found if m)
-    merged = (f"strongly correlated pairs (|ρ| > {RHO_WARN}): {names}. A shared parameter ties "
+    merged = (f"strongly correlated pairs (|ρ| > {RHO_WARN}, the joint white least squares): {names}. "
+              "A shared parameter ties "
               "each test's own parameters to it and so to each other. The paper finds ρ(E, tau_max) "
               "≈ -0.9988 on one whole curve and still identifies both (Err ≈ 1.4 %); check Err")
     return [w for w in out if w not in pairs] + [merged]

@@ -283,7 +283,8 @@ def bound_warning(name: str, value: float, low: float, high: float, side: str, h
     stochastic analysis, what to do."""
     b = low if side == "lower" else high
     shown = f"{b:g}" if abs(value - b) <= 1e-9 * max(abs(high - low), abs(b), 1e-300) else f"{value:.6g}"
-    text = (f"{name} = {shown} (its {side} bound; prior [{low:g}, {high:g}]): the data push {name} "
+    text = (f"{name} = {shown} (its {side} bound; prior [{low:g}, {high:g}]), the white least-squares "
+            f"estimate: the data push {name} "
             f"{'below' if side == 'lower' else 'above'} what the prior allows, a constrained optimum. ")
     if held:
         text += (f"The stochastic analysis holds {name} there: the sd, Err and Δ̃ of the other "
@@ -308,15 +309,16 @@ def identifiability_warnings(a: StochasticAnalysis, held: Sequence[str] = ()) ->
     out: list[str] = []
     if not a.condition_number < CONDITION_WARN:
         out.append(f"the normalised information matrix X̃ᵀX̃ is ill-conditioned (condition number "
-                   f"{a.condition_number:.3g} ≥ {CONDITION_WARN:.0e}): some combination of "
-                   "parameters is not identified on this window")
+                   f"{a.condition_number:.3g} ≥ {CONDITION_WARN:.0e}, white least squares): some "
+                   "combination of parameters is not identified on this window")
     p = len(a.names)
     for r in range(p):
         for s in range(r + 1, p):
             rho = a.correlation[r, s]
             if abs(rho) > RHO_WARN:
                 out.append(
-                    f"|ρ({a.names[r]}, {a.names[s]})| = {abs(rho):.4f} > {RHO_WARN}: the two are strongly "
+                    f"|ρ({a.names[r]}, {a.names[s]})| = {abs(rho):.4f} > {RHO_WARN} (white least squares): "
+                    "the two are strongly "
                     "correlated; their sensitivities are nearly proportional over most of the window. "
                     "The paper finds ρ(E, tau_max) ≈ -0.9988 on the whole curve and still identifies "
                     "both (Err ≈ 1.4 %); check Err and the multi-start outcome before trusting them")
@@ -325,11 +327,13 @@ def identifiability_warnings(a: StochasticAnalysis, held: Sequence[str] = ()) ->
     for k, m, e in zip(a.names, a.max_normalised, a.err, strict=True):
         if k not in skip and top > 0 and m < NEGLIGIBLE_SENSITIVITY * top and e > NEGLIGIBLE_ERR:
             out.append(f"the normalised sensitivity to {k} is negligible on this window (max |X̃| = "
-                       f"{m:.3g} MPa, {100 * m / top:.1f} % of the largest; Err({k}) = {100 * e:.0f} %): "
+                       f"{m:.3g} MPa, {100 * m / top:.1f} % of the largest; Err({k}) = {100 * e:.0f} %, "
+                       "white least squares): "
                        f"fix {k} (value: ...) or widen the window (paper 4.2: G on interval I)")
     for k, e in zip(a.names, a.err, strict=True):
         if k not in skip and e > RELATIVE_ERROR_WARN:
-            out.append(f"Err({k}) = {100 * e:.0f} %: {k} is poorly determined by these data")
+            out.append(f"Err({k}) = {100 * e:.0f} % (white least squares): {k} is poorly determined by "
+                       "these data")
     return out
 
 

@@ -93,7 +93,12 @@ def residual_diagnostics(e: np.ndarray, sigma0: float | None = None,
                    f"for {runs['expected']:.0f} expected); the residuals look like noise")
     else:
         verdict = _not_white(r1, dw, runs, n, z_crit)
-    if sigma0 is not None and sigma0_source not in (None, "residuals") and sigma0 > 0:
+    if sigma0_source == "whitened" and sigma0 is not None and sigma0 > 0:
+        ratio = rms / sigma0                # L⁻¹e has no unit: 1 under the modelled noise
+        if ratio > 1.5 or ratio < 1 / 1.5:
+            verdict += (f". The rms of the whitened residuals ({rms:.3g}, no unit) is {ratio:.2g}x the "
+                        f"{sigma0:g} they have when the model of the noise holds")
+    elif sigma0 is not None and sigma0_source not in (None, "residuals") and sigma0 > 0:
         ratio = rms / sigma0
         if ratio > 1.5:
             verdict += (f". The rms residual ({rms:.3g} MPa) is {ratio:.1f}x sigma0 "

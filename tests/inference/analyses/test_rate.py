@@ -40,7 +40,7 @@ def test_one_e_is_consistent(tmp_path, monkeypatch):
     ra, page = _verdict(tmp_path, "one-e", 0.0, whole_page=True)
     assert ra.verdict == "consistent", ra.words
     assert ra.log_bf01 > 0 and ra.slope["lo95"] <= 0 <= ra.slope["hi95"]
-    assert "Verdict: consistent." in page and "Savage-Dickey" in page
+    assert "The rate question: consistent." in page and "Savage-Dickey" in page
 
 
 def test_e_rising_ten_percent_per_decade_is_rate_dependent(tmp_path):
@@ -49,7 +49,7 @@ def test_e_rising_ten_percent_per_decade_is_rate_dependent(tmp_path):
     # the trend recovers the 10 % per decade within its interval
     assert ra.slope["lo95"] < 10.0 < ra.slope["hi95"], ra.slope
     assert ra.differences["r1e-2"]["mean"] > 0
-    assert "Verdict: rate-dependent." in section
+    assert "The rate question: rate-dependent." in section
 
 
 @pytest.mark.parametrize("per_decade", [0.0])
