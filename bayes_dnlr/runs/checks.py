@@ -312,8 +312,14 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
     return checks, modulus, curve
 
 
-def _log_prior(draws: np.ndarray, priors) -> np.ndarray | None:
-    """The log prior of every kept draw, in the order of ``draws.reshape(-1, ndim)``, as the config
-    gives it (``_log_prior_terms``; None when it cannot be evaluated)."""
-    lp = _log_prior_terms(draws.reshape(-1, draws.shape[-1]), priors).sum(axis=1)
-    return lp if np.all(np.isfinite(lp)) else None
+def _log_prior(draws: np.ndarray, priors) -> np.ndarray:
+    """The log prior of every kept draw in the coordinates the sampler draws in (ln of a time
+    constant), in the order of ``draws.reshape(-1, ndim)``, for E(t)'s own prior check: there a
+    uniform or log-uniform prior is flat and says nothing, an informative one (a normal prior on
+    alpha or E) is what power-scaling asks about. Non-finite where a draw sits a rounding error
+    outside a bound (runs/modulus.py leaves those out)."""
+    flat = draws.reshape(-1, draws.shape[-1])
+    z = priors.from_physical(flat)
+    with np.errstate(all="ignore"):
+        return np.column_stack([p.logpdf_sampling(z[:, j]) for j, p in enumerate(priors.priors)]
+                               ).sum(axis=1)

@@ -24,7 +24,6 @@ of the spectrum's exponent): it rests on checks of where E(t) draws its informat
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -32,6 +31,7 @@ import numpy as np
 
 from bayes_dnlr.config import Config
 from bayes_dnlr.inference.checks import power_scaling
+from bayes_dnlr.inference.checks.predictive import band_floor
 from bayes_dnlr.inference.layout import Layout
 from bayes_dnlr.inference.modulus import (
     MODULUS_PARAMETERS,
@@ -48,16 +48,9 @@ from bayes_dnlr.runs.testset import TestSet
 from bayes_dnlr.runs.verdict import SHIFT_SD
 from bayes_dnlr.vocabulary import SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT
 
-BAND_Z = 2.326          # one-sided 1 % quantile of the standard normal
 SHAPE_SEED = 7919       # the draws of the spectrum exponent's spread: the same outputs every time
 CURVE_TIMES = 80        # the report's E(t) curve: times and draws
 CURVE_DRAWS = 400
-CALIBRATED = 0.90       # the share of the data a calibrated 90 % band holds
-
-
-def band_floor(n_eff: float) -> float:
-    """The weighted share below which a 90 % band is too narrow where the weights lie."""
-    return CALIBRATED - BAND_Z * math.sqrt(CALIBRATED * (1 - CALIBRATED) / max(n_eff, 1e-12))
 
 
 def test_columns(cfg: Config, layout: Layout, test: str, draws: np.ndarray,
@@ -241,8 +234,12 @@ def modulus_block(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray
         view = cfg.for_test(test)
         if not ({"E", "tau_max"} <= set(view.parameters)):
             continue
-        times, why, window = times_for(view, data)
         columns = test_columns(cfg, layout, test, draws, names)
+        first = first_loading(view, data, columns)
+        if first is not None:
+            per_test[test], curves[test] = first
+            continue
+        times, why, window = times_for(view, data)
         values = modulus_draws(columns, times, cfg.model.modes, cfg.model.decades)
         own = fit if layout.plain else (fit.get("single_fits") or {}).get(test) or {}
         shape = spectrum_spread(own, columns, times, uses_discrepancy(checks, layout, test),
@@ -255,8 +252,9 @@ def modulus_block(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray
         for i, t in enumerate(times):
             stats = draw_stats(values[:, i])
             prior = None
-            if log_prior is not None and np.all(np.isfinite(log_prior)) and np.ptp(log_prior) > 0:
-                prior = power_scaling.sensitivity({"E(t)": values[:, i]}, log_prior)["E(t)"]
+            ok = np.isfinite(log_prior) if log_prior is not None else None
+            if ok is not None and ok.sum() > 1 and np.ptp(log_prior[ok]) > 0:
+                prior = power_scaling.sensitivity({"E(t)": values[ok, i]}, log_prior[ok])["E(t)"]
             row_checks = {
                 "inside_window": window.contains(t),
                 "band": _band_check(band, t, window.origin),
@@ -282,6 +280,27 @@ def modulus_block(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray
     if layout.plain:
         return next(iter(per_test.values()), []), next(iter(curves.values()), None)
     return {"tests": per_test}, curves
+
+
+def first_loading(view: Config, data, columns: Mapping[str, Any]) -> tuple[list[dict], dict] | None:
+    """A cyclic test whose window runs past its first turning point: E(t) from its first loading
+    (runs/first_loading.py), each row with the whole window's posterior E(t) beside it
+    (``whole_window``) and its trust; None for any other test."""
+    from bayes_dnlr.inference.lsq.identify import fit_test
+    from bayes_dnlr.runs.first_loading import first_loading_rows, first_peak
+
+    if first_peak(data) is None:
+        return None
+    found = first_loading_rows(view, data, fit_test, spectrum_spread)
+    if found is None:
+        return None
+    values = modulus_draws(columns, [r["t"] for r in found["rows"]], view.model.modes,
+                           view.model.decades)
+    for i, row in enumerate(found["rows"]):
+        row["whole_window"] = draw_stats(values[:, i])
+        row["trust_reasons"] = _reasons(row, "")
+        row["trust"] = not row["trust_reasons"]
+    return found["rows"], found["curve"]
 
 
 def _curve(columns: Mapping[str, Any], values: np.ndarray, window, modes: int, decades: float,

@@ -121,7 +121,7 @@ def test_each_check_withdraws_e_t_s_trust_and_says_why(failed, words):
 
 
 def test_the_band_floor_is_a_one_sided_binomial_bound():
-    from bayes_dnlr.runs.modulus import band_floor
+    from bayes_dnlr.inference.checks.predictive import band_floor
 
     assert band_floor(100) == pytest.approx(0.9 - 2.326 * 0.03)
     assert band_floor(9) == pytest.approx(0.9 - 2.326 * 0.1)

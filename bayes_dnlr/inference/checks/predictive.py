@@ -16,12 +16,16 @@ told apart from one where it has.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from bayes_dnlr.vocabulary import Z90
 
 TIME_BLOCKS = 5
 REVERSAL = 0.05     # a strain reversal of this share of the strain's range is a turning point
+BAND_Z = 2.326      # one-sided 1 % quantile of the standard normal
+CALIBRATED = 0.90   # the share of the data a calibrated 90 % band holds
 
 
 def inside_band(y: np.ndarray, curves: np.ndarray, noise_var: np.ndarray | float) -> np.ndarray:
@@ -119,3 +123,10 @@ def weights(X: np.ndarray, column: int) -> np.ndarray:
 def weighted_share(inside: np.ndarray, w: np.ndarray) -> float:
     """The share of the points inside the band, each counted with its weight."""
     return float(np.sum(w * inside) / np.sum(w))
+
+
+def band_floor(n_eff: float) -> float:
+    """The weighted share below which a 90 % band is too narrow where the weights lie: a one-sided
+    1 % binomial test of the share a calibrated band holds, over ``n_eff`` samples (the weights'
+    effective number, 1/Σw²)."""
+    return CALIBRATED - BAND_Z * math.sqrt(CALIBRATED * (1 - CALIBRATED) / max(n_eff, 1e-12))

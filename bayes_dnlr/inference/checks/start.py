@@ -213,8 +213,10 @@ def convexity(nominal_strain: np.ndarray, nominal_stress: np.ndarray, sigma0_sq:
     j = 1 + int(np.argmax(slopes[1:]))
     rise = slopes[j] - slopes[0]
     if model is not None:
+        # the data's slope must rise, and rise beyond the model's where the model's rises too (a
+        # model whose slope falls faster than the data's is another misfit, not a toe)
         m = np.asarray(model, dtype=float)
-        rise -= slope(m, windows[j]) - slope(m, windows[0])
+        rise -= max(slope(m, windows[j]) - slope(m, windows[0]), 0.0)
     return rise / math.sqrt(sigma0_sq / windows[0][2] + sigma0_sq / windows[j][2])
 
 
