@@ -101,7 +101,8 @@ def _checks(cfg: Config, data, result, estimate: dict, names: list[str], model_e
     amplitude² under model error), weighted by E(t)'s information."""
     from bayes_dnlr.inference.lsq.problem import LsqProblem
 
-    problem = LsqProblem.for_config(cfg, data)
+    held = ((result.identifiability or {}).get("held") or {})
+    problem = LsqProblem.for_config(cfg.with_holds({k: v["value"] for k, v in held.items()}), data)
     params = problem.params([estimate[k] for k in names])
     residuals = problem.raw_residuals(params)
     X = problem.jacobian(params)

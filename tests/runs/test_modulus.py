@@ -155,3 +155,20 @@ def test_widening_is_advised_only_for_a_parameter_the_window_identifies():
     assert not ok and "Widen parameters.tau_max and run again" in words
     ok, [words] = _bound_words([{**entry, "identified": False}])
     assert not ok and "Widen parameters.tau_max" not in words and "Do not just widen it" in words
+
+
+def test_a_cyclic_test_takes_e_t_from_its_first_loading(tmp_path):
+    """Cycles fitted over their whole history: E(t) comes from the first loading, where the model
+    holds, with the whole window's posterior E(t) beside it."""
+    truth = {"params": {"E": 2000.0, "G": 5.0, "tau_max": 60.0}, "strain_rate": 1e-3,
+             "strain_max": 0.02, "cycles": {"count": 3}, "sample_rate": 5,
+             "noise": {"strain_sd": 0.0, "stress_sd": 0.02}, "seed": 5}
+    path = make_run(tmp_path, "cycles", truth, sigma0=0.02, sampler={"max_steps": 300, "target_ess": 100})
+    s = sample(load_config(path), progress=False).summary
+    [row] = s["modulus_at"]
+    assert row["source"].startswith("first loading") and "its peak at t = 6.66667 s" in row["why"]
+    truth_e = relaxation_modulus([row["t"]], 2000.0, 5.0, 60.0)[0]
+    assert abs(row["mean"] - truth_e) < 3 * row["sd"]
+    assert abs(row["whole_window"]["mean"] - truth_e) < 3 * row["whole_window"]["sd"]
+    assert row["resolved"][1] == pytest.approx(6.67, abs=0.01)
+    assert s["modulus_curve"]["resolved"] == row["resolved"]
