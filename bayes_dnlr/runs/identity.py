@@ -290,14 +290,21 @@ def _current_values(cfg: Config, secs: tuple[str, ...], exclude_none: bool) -> d
 
 
 def _default_of(cfg: Config, key: str) -> tuple[bool, Any]:
-    """(True, the schema's default) of a config key such as ``data.reduce``, or (False, None) for a
-    key without one (inside a list, a mapping of the user's, or required)."""
-    if "[" in key:
-        return False, None
+    """(True, the schema's default) of a config key such as ``data.reduce`` or
+    ``tests[0].data.reduce`` (an item of a list of sections), or (False, None) for a key without one
+    (a mapping of the user's, or required)."""
     *parents, leaf = key.split(".")
+    if "[" in leaf:
+        return False, None
     obj: Any = cfg
     for part in parents:
-        obj = getattr(obj, part, None)
+        name, _, index = part.partition("[")
+        obj = getattr(obj, name, None)
+        if index:
+            try:
+                obj = obj[int(index.rstrip("]"))]
+            except (TypeError, ValueError, IndexError):
+                return False, None
         if obj is None:
             return False, None
     field = getattr(type(obj), "model_fields", {}).get(leaf)

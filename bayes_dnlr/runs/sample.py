@@ -64,10 +64,11 @@ from bayes_dnlr.runs.outputs import (
     load_posterior,
     read_summary,
 )
-from bayes_dnlr.runs.records import FitRecord, held_config
+from bayes_dnlr.runs.records import FitRecord, held_config, held_parameters
 from bayes_dnlr.runs.result import json_attr, package_version, stopping_settings, write_result
 from bayes_dnlr.runs.target import Target, build_target
 from bayes_dnlr.runs.testset import TestSet, load_tests
+from bayes_dnlr.vocabulary import base_name
 
 # config sections that change the posterior or the chain; max_steps, target_ess, checkpoint_every,
 # burn_in_tau and min_tau_multiple only decide how long to sample and what to keep.
@@ -337,6 +338,21 @@ def _sigma0_attr(sigma0: Any) -> Any:
     return float("nan") if sigma0 is None else float(sigma0)
 
 
+def _check_holds(cfg: Config, stored: StoredRun, fit: dict[str, Any]) -> None:
+    """A chain samples the parameters the fit leaves free: one that samples a parameter fit.json
+    now holds (a chain made before the window was found not to identify it), or holds one it now
+    leaves free, belongs to another analysis (StaleRunError)."""
+    held = set(held_parameters(fit))
+    sampled = {base_name(n) for n in stored.names}
+    wrong = sorted((held & sampled) | ({k for k in cfg.free_parameters if k not in held} - sampled))
+    if wrong:
+        raise StaleRunError(
+            f"{cfg.run_dir / CHAINS_FILE} samples {sorted(sampled & set(cfg.parameter_names))}, but "
+            f"the fit now holds {sorted(held) or 'nothing'} (the parameters the window cannot "
+            f"identify, docs/fit.md): they differ on {', '.join(wrong)}. The chain is kept: `sample "
+            "--restart` discards it and samples the fit's parameters")
+
+
 def _finished_result(cfg: Config, test, stored: StoredRun, fp: str,
                      record: dict[str, Any] | None = None) -> Posterior | None:
     """For a finished run whose stopping rule still holds: its Posterior (outputs rewritten only
@@ -359,6 +375,7 @@ def _finished_result(cfg: Config, test, stored: StoredRun, fp: str,
         return load_posterior(cfg.run_dir, note=note)
     # outputs missing or made with other burn-in/stopping settings: rebuild them from the chain
     fit = _current_fit(cfg, test, replace=False, progress=False)
+    _check_holds(cfg, stored, fit)
     post = write_result(held_config(cfg, fit), stored, fit, conv, reason, fp, test,
                          json_attr(stored.attrs.get("sigma0_source", "")), wall_time=stored.elapsed,
                          store_time=stored.store_time, evals=stored.n_evals, record=record)

@@ -172,3 +172,19 @@ def test_a_cyclic_test_takes_e_t_from_its_first_loading(tmp_path):
     assert abs(row["whole_window"]["mean"] - truth_e) < 3 * row["whole_window"]["sd"]
     assert row["resolved"][1] == pytest.approx(6.67, abs=0.01)
     assert s["modulus_curve"]["resolved"] == row["resolved"]
+
+
+def test_a_chain_that_samples_a_parameter_the_fit_now_holds_is_refused(tmp_path):
+    from types import SimpleNamespace
+
+    from bayes_dnlr.errors import StaleRunError
+    from bayes_dnlr.runs.sample import _check_holds
+
+    cfg = load_config(make_run(tmp_path, "r", ramp_truth(0.2, n_points=50)))
+    held = {"identifiability": {"held": {"G": {"value": 0.0}}}}
+    with pytest.raises(StaleRunError, match="they differ on G"):
+        _check_holds(cfg, SimpleNamespace(names=["E", "G", "tau_max", "sigma0"]), held)
+    _check_holds(cfg, SimpleNamespace(names=["E", "tau_max"]), held)
+    _check_holds(cfg, SimpleNamespace(names=["E", "G", "tau_max"]), {})
+    with pytest.raises(StaleRunError, match="they differ on G"):
+        _check_holds(cfg, SimpleNamespace(names=["E", "tau_max"]), {})
