@@ -110,7 +110,11 @@ def _checks(cfg: Config, data, result, estimate: dict, names: list[str], model_e
     h = d.get("hyperparameters") or {}
     var = float(h.get("sigma0", result.sigma0)) ** 2 if model_error else float(result.sigma0) ** 2
     amp = float(h.get("amplitude") or 0.0) if model_error else 0.0
-    inside = np.abs(residuals) <= Z90 * math.sqrt(var + amp**2)
+    # the predictive band of the linearized posterior: the model's spread x_iᵀ Σ x_i beside the
+    # noise, as the posterior's band has its draws' spread (runs/bands.py)
+    cov = np.asarray(d["covariance"] if model_error else result.covariance, dtype=float)
+    spread = np.einsum("ij,jk,ik->i", X, np.nan_to_num(cov), X)
+    inside = np.abs(residuals) <= Z90 * np.sqrt(var + amp**2 + np.maximum(spread, 0.0))
     rows = np.flatnonzero(np.asarray(data.window)[: data.model_end])
     time = np.asarray(data.time, dtype=float)[rows]
     bands: list[dict | None] = []
