@@ -279,3 +279,80 @@ def test_e_shaped_by_its_own_prior_is_asked_for_a_wider_one() -> None:
     assert sens["E"] > power_scaling.SENSITIVE and list(sources["E"]) == ["E"]
     _, _, words = verdict(_checks(sens=sens["E"]) | {"prior_sources": sources}, True, False)
     assert "through the prior of E" in words and "give E a wider prior or more data" in words
+
+
+def test_an_e_below_the_standards_chord_is_neither_adequate_nor_trusted() -> None:
+    """E's 95 % quantile below the standards' chord, a lower bound of the instantaneous modulus:
+    the model does not describe the start of the curve, and E's interval is not to be used."""
+    checks = _checks()
+    checks["plausibility"]["t"]["E_chord"] = physical.chord_check(np.full(100, 900.0), 1000.0)
+    adequate, trust, words = verdict(checks, True, False)
+    assert not adequate and not trust
+    assert words.startswith("The model does not describe this test: E's interval is not reliable.")
+    assert "E's 95 % quantile (900.0 MPa) lies below the standards' chord (1000 MPa)" in words
+    # the same E above the chord changes nothing
+    checks["plausibility"]["t"]["E_chord"] = physical.chord_check(np.full(100, 1100.0), 1000.0)
+    assert verdict(checks, True, False)[:2] == (True, True)
+    # with a failing coverage where E draws no information, the chord still withdraws trust
+    checks = _checks(block=0.3)
+    checks["predictive_coverage"]["t"]["E_weighted"] = 0.999
+    checks["plausibility"]["t"]["E_chord"] = physical.chord_check(np.full(100, 900.0), 1000.0)
+    adequate, trust, words = verdict(checks, True, False)
+    assert not adequate and not trust and "Use E's interval" not in words
+
+
+@pytest.mark.parametrize("sampled", [False, True])
+def test_the_predictive_band_under_the_discrepancy_equals_a_dense_computation(tmp_path, sampled) -> None:
+    """The band of the coverage check under the model discrepancy: at each sample the spread of the
+    model curves over the draws plus what the likelihood puts around them, σ0² + the discrepancy's
+    variance (the diagonal of its dense covariance, averaged over the draws' amplitudes). On data
+    with that error the band holds about 90 % of the points; without the discrepancy's part, far
+    fewer."""
+    from bayes_dnlr.config import parse_config
+    from bayes_dnlr.inference.discrepancy import gp
+    from bayes_dnlr.model import simulate
+    from bayes_dnlr.runs.checks import coverage_check
+    from bayes_dnlr.runs.testset import load_tests
+    from bayes_dnlr.vocabulary import Z90
+
+    truth, n, rate = {"E": 2854.0, "G": 2.32, "tau_max": 3.15}, 200, 1e-2
+    t = np.linspace(0.0, 1.0 / rate, n)
+    rng = np.random.default_rng(11)
+    # data with the error the likelihood describes: a discrepancy of amplitude 0.5 MPa and white noise
+    delta = np.linalg.cholesky(gp.covariance(t, 0.5, 5.0, kind="exp", sigma0=1e-6)) @ rng.normal(size=n)
+    stress = simulate(t, rate * t, truth) + delta + rng.normal(0.0, 0.3, n)
+    np.savetxt(tmp_path / "d.csv", np.column_stack([t, rate * t, stress]), delimiter=",",
+               header="t,e,s", comments="")
+    amplitude = {"prior": "half-normal", "scale": 1.0} if sampled else {"value": 0.5}
+    raw = {"name": "band", "data": {"file": "d.csv", "columns": {"time": "t", "strain": "e", "stress": "s"},
+                                    "observable": "stress"},
+           "noise": {"sigma0": 0.3, "discrepancy": {"kernel": "exp", "amplitude": amplitude,
+                                                    "length": {"value": 5.0}}}}
+    cfg = parse_config(raw, source=tmp_path / "config.yaml")
+    tests = load_tests(cfg)
+    name = cfg.test_names[0]
+    data = tests.tests[name]
+    names = ["E", "G", "tau_max"] + (["disc_amplitude"] if sampled else [])
+    layout = Layout.build({name: names}, (), plain=True)
+    k = 160                                    # fewer than the check's 200 curves: it uses every draw
+    draws = np.column_stack([rng.normal(truth["E"], 2.0, k), rng.normal(truth["G"], 0.001, k),
+                             rng.normal(truth["tau_max"], 0.003, k)]
+                            + ([rng.uniform(0.05, 0.95, k)] if sampled else []))
+    noise = {name: {"model": "discrepancy", "kernel": "exp", "amplitude":
+                    {"sampled": True} if sampled else {"sampled": False, "value": 0.5}}}
+    got = coverage_check(cfg, tests, layout, draws.reshape(20, 8, -1), names, noise, {name: 0.3})[name]
+
+    # the dense computation: each draw's model curve and the diagonal of its dense covariance
+    assert data.model_end == n and data.window.all()
+    curves = np.array([simulate(t, rate * t, dict(zip(["E", "G", "tau_max"], d[:3], strict=True)))
+                       for d in draws])
+    amplitudes = draws[:, 3] if sampled else np.full(k, 0.5)
+    around = np.mean([np.diag(gp.covariance(t, a, 5.0, kind="exp", sigma0=0.3)) for a in amplitudes],
+                     axis=0)
+    inside = np.abs(stress - curves.mean(axis=0)) <= Z90 * np.sqrt(curves.var(axis=0) + around)
+    assert got["overall"] == pytest.approx(inside.mean(), abs=1.5 / n)
+    blocks = predictive.segments(t, None)
+    for seg, mask in blocks.items():
+        assert got["segments"][seg]["share"] == pytest.approx(inside[mask].mean(), abs=1.5 / mask.sum())
+    white_only = np.abs(stress - curves.mean(axis=0)) <= Z90 * np.sqrt(curves.var(axis=0) + 0.09)
+    assert 0.8 < inside.mean() < 0.97 and white_only.mean() < 0.7
