@@ -286,3 +286,24 @@ def test_a_key_a_newer_version_added_at_its_default_keeps_the_results(run: Path,
     _edit(run, data__reduce="none")
     code, text = _sample(run, capsys)
     assert code == 2 and "data.reduce" in text, text
+
+
+def test_a_noise_change_stales_the_chain_even_after_a_new_fit(run: Path, capsys) -> None:
+    """The likelihood is part of what a chain was sampled from: a chain sampled with one ``noise:``
+    is never continued under another, even once fit.json has been redone for the new one."""
+    from bayes_dnlr.runs.chains import read_attrs
+    from bayes_dnlr.runs.identity import chain_stale_reason, data_sha
+
+    assert _sample(run, capsys)[0] == 0
+    chains = run.parent / "chains.h5"
+    before = chains.read_bytes()
+    _edit(run, noise__sigma0=0.5)
+    assert cli.main(["fit", "--quiet", "--force", str(run)]) == 0
+    capsys.readouterr()
+    code, text = _sample(run, capsys)
+    assert code == 2, text
+    assert "noise" in text and "noise.sigma0: 0.3 -> 0.5" in text and "--restart" in text, text
+    assert chains.read_bytes() == before
+    cfg = load_config(run)
+    reason = chain_stale_reason(read_attrs(chains), cfg, data_sha(cfg), run.parent)
+    assert reason is not None and "config section(s) noise changed" in reason, reason
