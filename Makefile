@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 EXAMPLE ?= runs/hdpe-a-5e-3/config.yaml
 export PYTHON
 
-.PHONY: install bytecode demo test test-slow bench lint clean-runs
+.PHONY: install bytecode demo test test-slow bench lint mutants clean-runs
 
 install: $(VENV)/.installed
 
@@ -48,6 +48,15 @@ bench: bytecode
 
 lint: install
 	$(PY) -m ruff check .
+
+# Mutation testing of the modules that decide what a user is told (docs/mutation-testing.md): not
+# part of `make test`. mutmut keeps its results in mutants/ and goes on where it stopped; `make
+# mutants MUTANTS='bayes_dnlr.standards*'` runs a subset, `$(PY) -m mutmut results` lists survivors.
+MUTANTS ?=
+mutants: bytecode
+	$(PY) -m pip install --quiet 'mutmut>=3.3,<4'
+	nice -n 10 $(PY) -m mutmut run --max-children 1 $(MUTANTS)
+	$(PY) scripts/mutation_score.py
 
 clean-runs:
 	git clean -fdX runs/
