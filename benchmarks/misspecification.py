@@ -303,7 +303,7 @@ def modulus_table(results: list[dict[str, Any]]) -> str:
 
 
 def check_values(checks: dict[str, Any]) -> dict[str, float | None]:
-    """The numbers the trust thresholds of runs/checks.py are compared with, for one-test runs:
+    """The numbers the trust thresholds of runs/verdict.py are compared with, for one-test runs:
     the overall and E-weighted predictive coverage, the lowest share of a segment with enough
     points, the score test's |z| and E's shift at the preferred exponent, the largest move of E
     when a bound is widened (in posterior sd). Read back by benchmarks/thresholds.py."""

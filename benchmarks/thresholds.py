@@ -1,4 +1,4 @@
-"""The trust thresholds of runs/checks.py on data they were chosen on and on data they were not.
+"""The trust thresholds of runs/verdict.py on data they were chosen on and on data they were not.
 
 Reads the replicate records of benchmarks/misspecification.py (``--out``), each file labelled
 ``in`` (the kinds, strength and seeds a threshold was chosen on: mild strength, replicates 0-29)
@@ -29,7 +29,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bayes_dnlr.runs import checks  # noqa: E402
+from bayes_dnlr.runs import verdict as checks  # noqa: E402
 
 STATS = (("coverage", checks.COVERAGE_LOW), ("segment_min", checks.SEGMENT_LOW),
          ("score_z", checks.SCORE_Z), ("score_shift_sd", checks.SHIFT_SD),
