@@ -230,3 +230,40 @@ def test_the_model_only_origin_sample_is_never_used(tmp_path):
     assert r["iso527_1"].modulus is None and "starts above" in r["iso527_1"].reason
     astm = r["astm_d638"]
     assert astm.strain_range[0] >= test.nominal_strain[1] - 1e-15
+
+
+def test_each_result_describes_itself_in_one_line_for_the_report():
+    e = np.linspace(0.0, 0.01, 1001)
+    s = E_LIN * e + 0.2
+    assert iso527_1_modulus(e, s).describe() == (
+        "ISO 527-1: 1500 MPa, least-squares slope over nominal strain 0.050-0.250 % (201 samples)")
+    assert astm_d638_modulus(e, s).describe() == (
+        "ASTM D638: 1500 MPa, steepest window (toe-compensated) over nominal strain 0.000-0.250 % "
+        "(251 samples), corrected zero at -0.0133 %")
+    assert iso527_1_modulus(e[:50], s[:50]).describe() == (
+        "ISO 527-1: not available (the curve does not reach 0.25 % nominal strain (max 0.049 %))")
+    sparse = iso527_1_modulus(np.array([0.0, 0.001, 0.002, 0.003]), np.array([0.0, 1.5, 3.0, 4.5]))
+    assert sparse.describe() == (
+        "ISO 527-1: 1500 MPa, chord over nominal strain 0.050-0.250 % (2 samples); only 2 sample(s) "
+        "between the two strains, fewer than the 5 a least-squares slope needs")
+
+
+def test_a_derived_nominal_stress_is_said_after_the_methods_own_note():
+    """Without a force, F/S0 comes from the true stress (eq. 6): that note follows any note of the
+    method (here the chord's), and a standard that is not available keeps its reason alone."""
+    t = np.linspace(0.0, 2.0, 5)
+    eps = np.array([0.0, 0.001, 0.002, 0.003, 0.004])
+    stress = E_LIN * np.expm1(eps) * np.exp(eps)
+    test = bd_data.TestData(path=Path("s.csv"), sha256="0" * 64, time=t, strain=eps, strain_input=eps,
+                            stress=stress, nominal_strain=np.expm1(eps), nominal_stress=None,
+                            window=np.ones(5, bool), relaxation_start=None, strain_rate=1e-3,
+                            observable="sigma_star")
+    r = standard_results(test)
+    iso = r["iso527_1"]
+    assert iso.method == "chord" and iso.reason.startswith("only 2 sample(s) between the two strains")
+    derived = "nominal stress derived from the true stress as σ·exp(-ε) (isovolumic, eq. 6)"
+    assert iso.reason.endswith("; " + derived) and r["astm_d638"].reason == derived
+    short = bd_data.TestData(**{**test.__dict__, "time": t[:2], "strain": eps[:2], "strain_input": eps[:2],
+                                "stress": stress[:2], "nominal_strain": np.expm1(eps[:2]),
+                                "window": np.ones(2, bool)})
+    assert standard_results(short)["iso527_1"].reason.startswith("the curve does not reach")
