@@ -29,7 +29,7 @@ def _data(folder: Path, name: str = "d.csv", shift: float = 0.0) -> Path:
 
 
 def _config(folder: Path, *, file: str = "d.csv", noise: dict | None = None, sampler: dict | None = None,
-            parameters: dict | None = None, tests: list[str] | None = None):
+            parameters: dict | None = None, tests: list[str] | None = None, sigma0s: tuple = (0.3, 0.3)):
     raw: dict = {"name": "run", "sampler": {"walkers": 8, "seed": 1, **(sampler or {})}}
     if tests is None:
         raw["data"] = {"file": file, "columns": COLUMNS, "observable": "stress"}
@@ -37,7 +37,8 @@ def _config(folder: Path, *, file: str = "d.csv", noise: dict | None = None, sam
     else:
         raw["tests"] = [{"name": Path(f).stem,
                          "data": {"file": f, "columns": COLUMNS, "observable": "stress"},
-                         "noise": {"sigma0": 0.3, "discrepancy": "none"}} for f in tests]
+                         "noise": {"sigma0": s0, "discrepancy": "none"}}
+                        for f, s0 in zip(tests, sigma0s, strict=False)]
     if parameters is not None:
         raw["parameters"] = parameters
     return parse_config(raw, source=folder / "config.yaml")
@@ -248,3 +249,106 @@ def test_a_stored_fingerprint_is_kept_only_for_a_current_chain(tmp_path: Path) -
     new = digest(identity.chain_parts(cfg, sha))
     assert identity.chain_fingerprint(cfg, tmp_path, sha, {"fingerprint": new}) == new
     assert identity.chain_fingerprint(cfg, tmp_path, sha, {"fingerprint": "old"}) == new    # no chain file
+
+
+def test_the_tests_of_a_run_are_compared_without_their_files_spelling(tmp_path: Path) -> None:
+    _data(tmp_path, "a.csv")
+    _data(tmp_path, "b.csv", shift=1.0)
+    cfg = _config(tmp_path, tests=["a.csv", "b.csv"])
+    values = identity.section_values(cfg, ("tests",))["tests"]
+    assert all("file" not in t["data"] and t["data"]["columns"]["stress"] == "s" for t in values)
+    attrs = _stored_chain(cfg)
+    assert _reason(attrs, _config(tmp_path, tests=["./a.csv", str(tmp_path / "b.csv")])) is None
+    reason = _reason(attrs, _config(tmp_path, tests=["a.csv", "b.csv"], sigma0s=(0.3, 0.4)))
+    assert reason == "config section(s) tests changed (tests[1].noise.sigma0: 0.3 -> 0.4)", reason
+    # a key a newer version added inside a test is not taken for its default: the list's entries
+    # have no schema default to compare with
+    record = json.loads(attrs["identity"])
+    record["values"]["tests"][0]["data"].pop("reduce")
+    parts = json.loads(attrs["fingerprint_parts"])
+    parts["tests"] = "0" * 64
+    older = {**attrs, "identity": json.dumps(record), "fingerprint_parts": json.dumps(parts)}
+    assert _reason(older, cfg).startswith(
+        "config section(s) tests changed (tests[0].data.reduce: (not set) ->")
+
+
+def test_the_fingerprint_of_a_current_chain_is_the_one_it_carries(tmp_path: Path, monkeypatch) -> None:
+    """A chain of the previous form keeps its own fingerprint in the outputs; a stale one, one
+    without a fingerprint or one that cannot be read gives way to the new form's."""
+    from bayes_dnlr.runs import chains
+
+    _data(tmp_path)
+    cfg = _config(tmp_path)
+    sha = identity.data_sha(cfg)
+    new = digest(identity.chain_parts(cfg, sha))
+    legacy = _previous_form_chain(cfg, "d.csv")
+    assert legacy["fingerprint"] != new
+    stored: dict = {}
+
+    def read_attrs(path):
+        assert Path(path) == tmp_path / "chains.h5"
+        if isinstance(stored.get("error"), Exception):
+            raise stored["error"]
+        return stored
+
+    monkeypatch.setattr(chains, "read_attrs", read_attrs)
+    stored.update(legacy)
+    assert identity.chain_fingerprint(cfg, tmp_path, sha) == legacy["fingerprint"]
+    assert identity.chain_fingerprint(cfg, tmp_path, sha, {"fingerprint": "other"}) == legacy["fingerprint"]
+    assert identity.chain_fingerprint(cfg, tmp_path, sha, {"fingerprint": new}) == new   # file not read
+    noisy = _config(tmp_path, noise={"sigma0": 0.9, "discrepancy": "none"})
+    assert identity.chain_fingerprint(noisy, tmp_path, sha) == digest(identity.chain_parts(noisy, sha))
+    stored.pop("fingerprint")
+    assert identity.chain_fingerprint(cfg, tmp_path, sha) == new
+    stored["error"] = OSError("unreadable")
+    assert identity.chain_fingerprint(cfg, tmp_path, sha) == new
+
+
+def test_a_chain_of_the_previous_form_with_other_data_or_sampler_is_stale(tmp_path: Path) -> None:
+    _data(tmp_path)
+    cfg = _config(tmp_path)
+    legacy = _previous_form_chain(cfg, "d.csv")
+    parts = json.loads(legacy["fingerprint_parts"])
+    parts[identity.DATA_FILE] = "e" * 64
+    other = {**legacy, "fingerprint_parts": json.dumps(parts)}
+    assert _reason(other, cfg) == f"the data file changed ({tmp_path / 'd.csv'}: sha256 differs)"
+    # an identity record that is not JSON is a record of the previous form
+    assert _reason({**legacy, "identity": "not json"}, cfg) is None
+    # no parts at all: every section is named
+    assert _reason({}, cfg) == ("config section(s) data, model, parameters, noise, "
+                                "sampler.walkers/seed/moves changed and the data file changed "
+                                f"({tmp_path / 'd.csv'}: sha256 differs)")
+
+
+def test_a_fit_of_the_previous_form_is_current_under_any_spelling_and_stale_for_a_change(tmp_path):
+    _data(tmp_path / "proj")
+    now = _config(tmp_path / "proj", file="../proj/d.csv")
+    secs = sections(now)
+    sha = identity.data_sha(now)
+    old = _config(tmp_path / "proj", file="./d.csv")
+    saved = {"config_sections": legacy_section_digests(old, secs), "config_digest": "legacy",
+             "data_sha256": sha}
+    assert identity.fit_stale_reason(saved, now, secs, sha, now.run_dir) is None
+    noisy = _config(tmp_path / "proj", file="../proj/d.csv", noise={"sigma0": 0.6, "discrepancy": "none"})
+    assert identity.fit_stale_reason(saved, noisy, secs, sha, noisy.run_dir) == (
+        "a different config (sections noise)")
+    assert identity.fit_stale_reason({"data_sha256": sha}, now, secs, sha, now.run_dir) == (
+        "a different config (sections data, model, parameters, noise, fit)")
+    # the data file named in the reason is the one the fit recorded
+    record = identity.fit_record(now, secs, load_tests(now), identity.stat_data(now))
+    moved = {**saved, "identity": record, "data_sha256": "0" * 64}
+    moved["identity"]["data_files"][now.test_names[0]]["path"] = "/elsewhere/d.csv"
+    reason = identity.fit_stale_reason(moved, now, secs, sha, now.run_dir)
+    assert reason.endswith("a different data file (" + str(now.data_path) + ": sha256 differs; it was made "
+                           "from /elsewhere/d.csv)"), reason
+
+
+def test_fit_json_with_other_data_or_none_at_all(tmp_path: Path) -> None:
+    path = _data(tmp_path)
+    cfg = _config(tmp_path)
+    cfg.run_dir.mkdir(parents=True, exist_ok=True)
+    (cfg.run_dir / "fit.json").write_text(json.dumps(_saved_fit(cfg)))
+    assert identity.stale_fit_reason(cfg, "f" * 64) == f"a different data file ({path}: sha256 differs)"
+    assert not identity.fit_is_current(cfg, "f" * 64)
+    path.unlink()
+    assert not identity.fit_is_current(cfg)                 # no data file: nothing is current
