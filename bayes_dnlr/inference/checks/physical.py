@@ -23,7 +23,9 @@ def hold_still_falling(time: np.ndarray, stress: np.ndarray, start: float) -> tu
     th, sh = t[hold], s[hold]
     if th.size < 10:
         return False, float(sh[-1]) if sh.size else float("nan")
-    tail = slice(int(th.size * (1 - FALLING_SAMPLES)), None)
+    # the last tenth, and at least 3 samples: a line through 1 or 2 says nothing of the noise (a hold
+    # of 10 samples left 1, and the fit failed)
+    tail = slice(min(int(th.size * (1 - FALLING_SAMPLES)), th.size - 3), None)
     tt, st = th[tail], sh[tail]
     slope = np.polyfit(tt - tt.mean(), st, 1)[0]
     resid = st - np.polyval(np.polyfit(tt - tt.mean(), st, 1), tt - tt.mean())
