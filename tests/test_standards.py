@@ -267,3 +267,37 @@ def test_a_derived_nominal_stress_is_said_after_the_methods_own_note():
                                 "stress": stress[:2], "nominal_strain": np.expm1(eps[:2]),
                                 "window": np.ones(2, bool)})
     assert standard_results(short)["iso527_1"].reason.startswith("the curve does not reach")
+
+
+def test_iso_without_enough_samples_says_why_and_refuses_bad_arguments():
+    r = iso527_1_modulus(np.array([0.001]), np.array([1.0]))
+    assert (r.standard, r.modulus, r.method, r.reason) == (
+        "ISO 527-1", None, "auto", "fewer than two samples")
+    e = np.array([0.0, 0.0006, 0.003, 0.004])
+    r = iso527_1_modulus(e, 1500.0 * e, method="regression")
+    assert (r.standard, r.modulus, r.method, r.reason) == (
+        "ISO 527-1", None, "regression", "1 sample(s) between the two strains")
+    two = np.array([0.0, 0.0006, 0.002, 0.003, 0.004])
+    r = iso527_1_modulus(two, 1500.0 * two, method="regression")       # 2 samples: a slope, with a note
+    assert r.modulus == pytest.approx(1500.0) and r.n_points == 2
+    assert r.reason == "only 2 samples in the range"
+    five = np.array([0.0, 0.0005, 0.001, 0.0015, 0.002, 0.0025, 0.004])
+    r = iso527_1_modulus(five, 1500.0 * five)                        # 6 samples: a slope, no note
+    assert r.method == "least-squares slope" and r.reason is None
+    r = iso527_1_modulus(e + 0.001, 1500.0 * e)
+    assert (r.standard, r.method) == ("ISO 527-1", "auto")
+    assert r.reason == "the curve starts above 0.05 % nominal strain (0.100 %)"
+    r = iso527_1_modulus(e[:2], 1500.0 * e[:2])
+    assert (r.standard, r.method) == ("ISO 527-1", "auto")
+    assert r.reason == "the curve does not reach 0.25 % nominal strain (max 0.060 %)"
+    # the range may start at 0; it may not be empty or reversed, and the method is one of three
+    line = np.linspace(0.0, 0.01, 101)
+    assert iso527_1_modulus(line, 1500.0 * line, strains=(0.0, 0.0025)).modulus == pytest.approx(1500.0)
+    with pytest.raises(ValueError, match=r"strains must satisfy 0 <= e1 < e2, got \(0.0025, 0.0025\)"):
+        iso527_1_modulus(line, line, strains=(0.0025, 0.0025))
+    with pytest.raises(ValueError, match="method must be auto, regression or chord, got 'slope'"):
+        iso527_1_modulus(line, line, method="slope")
+    # only the first passage: samples after the strain first exceeds twice e2 are never read
+    back = np.concatenate([line[:60], line[30::-1]])
+    assert iso527_1_modulus(back, np.concatenate([1500.0 * line[:60], np.zeros(31)])).modulus == (
+        pytest.approx(1500.0))
