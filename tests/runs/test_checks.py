@@ -432,6 +432,7 @@ def test_a_time_constant_beyond_the_test_withdraws_trust_in_words() -> None:
         checks = _at_thresholds(plausibility={"t": {k: failing}})
         adequate, trust, head, words = verdict_parts(checks, True, False)
         assert adequate and not trust
-        assert words[1] == (f"{k[0].upper() + k[1:]} = 20000 s is more than 10× the test's duration (400 s): "
+        assert words[1] == (f"{k[0].upper() + k[1:]} = 20000 s (posterior median) is more than 10× the "
+                            "test's duration (400 s): "
                             "the test does not measure it, and what trades off with it comes from the "
                             "prior box.")

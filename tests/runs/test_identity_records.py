@@ -261,15 +261,17 @@ def test_the_tests_of_a_run_are_compared_without_their_files_spelling(tmp_path: 
     assert _reason(attrs, _config(tmp_path, tests=["./a.csv", str(tmp_path / "b.csv")])) is None
     reason = _reason(attrs, _config(tmp_path, tests=["a.csv", "b.csv"], sigma0s=(0.3, 0.4)))
     assert reason == "config section(s) tests changed (tests[1].noise.sigma0: 0.3 -> 0.4)", reason
-    # a key a newer version added inside a test is not taken for its default: the list's entries
-    # have no schema default to compare with
+    # a key a newer version added inside a test, at its default, keeps the chain current; the
+    # same record with that key at another value does not
     record = json.loads(attrs["identity"])
     record["values"]["tests"][0]["data"].pop("reduce")
     parts = json.loads(attrs["fingerprint_parts"])
     parts["tests"] = "0" * 64
     older = {**attrs, "identity": json.dumps(record), "fingerprint_parts": json.dumps(parts)}
-    assert _reason(older, cfg).startswith(
-        "config section(s) tests changed (tests[0].data.reduce: (not set) ->")
+    assert _reason(older, cfg) is None
+    record["values"]["tests"][0]["data"]["reduce"] = "none"
+    other = {**older, "identity": json.dumps(record)}
+    assert _reason(other, cfg) == "config section(s) tests changed (tests[0].data.reduce: none -> auto)"
 
 
 def test_the_fingerprint_of_a_current_chain_is_the_one_it_carries(tmp_path: Path, monkeypatch) -> None:
