@@ -14,6 +14,12 @@ class StaleRunError(RunError):
     be continued): ``sample --restart`` (``batch --restart``) discards it and starts again."""
 
 
+class DamagedFileError(StaleRunError):
+    """A file the package wrote into a run folder cannot be read back: cut, its bytes changed on
+    disk, or another program's file put in its place. The message names the file, what is damaged
+    and what can still be read (readback.py)."""
+
+
 class StorageError(BayesDnlrError):
     """A file could not be written (I/O error, read-only or full file system); nothing committed
     before was lost."""

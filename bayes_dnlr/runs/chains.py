@@ -17,6 +17,11 @@ Plain h5py in SWMR mode (single writer, multiple readers; HDF5 ``libver='latest'
     attrs: names, log_space, walkers, config (resolved YAML), fingerprint, data_sha256, version,
            modes, decades, moves, seed, status (running), stop_reason, ...
 
+Every piece of the file carries a checksum, so that damage on disk is an error, never a wrong
+number: HDF5's metadata its own, the chain rows zlib's (gzip), the checkpoints and the finish record
+Fletcher-32 (files of earlier versions have none there). A read runs within a deadline and names
+what is damaged and what can still be read (``read_run``; docs/sampling.md, "A damaged chain").
+
 Chain rows are appended in blocks (chunked, gzip + shuffle), then the checkpoint row, whose
 ``step`` entry is written last, then the file is flushed: a reader, or a resume after Ctrl-C or
 SIGKILL, trusts only steps covered by a complete checkpoint. Checkpoint 0 is the starting state.
@@ -56,8 +61,11 @@ import h5py
 import numpy as np
 
 from bayes_dnlr.diskio import ensure_free, fsync_dir, kill_point, storage_error
+from bayes_dnlr.errors import DamagedFileError
 from bayes_dnlr.inference.mcmc.state import SamplerState
+from bayes_dnlr.readback import Broken, Emit, Pieces, piece, within_deadline
 from bayes_dnlr.runs.chain_flags import release_stale_writer, write_flags
+from bayes_dnlr.runs.swmr_reader import open_swmr
 
 __all__ = ["ChainWriter", "SamplerState", "StoredRun", "read_attrs", "read_run", "release_stale_writer",
            "write_flags"]
@@ -135,7 +143,9 @@ def _attr(v: Any) -> Any:
 
 
 def _open_reader(path: Path) -> h5py.File:
-    return h5py.File(path, "r", libver="latest", swmr=True)
+    """A SWMR reader whose metadata retries are bounded (runs/swmr_reader.py): many only while a
+    live `sample` has the file open for write."""
+    return open_swmr(path, live_writer=bool(write_flags(path)))
 
 
 def _committed(f: h5py.File) -> int:
@@ -152,7 +162,7 @@ def _committed(f: h5py.File) -> int:
             break      # a checkpoint whose steps did not reach the file
         last, prev = i, s
     if last < 0:
-        raise OSError(f"{f.filename}: no complete checkpoint (the file was cut before its first one)")
+        raise OSError("no complete checkpoint (the file was cut before its first one)")
     return last
 
 
@@ -170,44 +180,118 @@ def _finish_record(f: h5py.File, steps: int) -> dict[str, Any] | None:
     return record
 
 
-def _read_attrs(f: h5py.File, path: Path) -> tuple[dict[str, Any], int]:
-    """The file's attributes with the finish record applied, and its last complete checkpoint."""
-    attrs = {k: _attr(v) for k, v in f.attrs.items()}
-    if attrs.get("format") not in READABLE_FORMATS:
-        raise OSError(f"{path}: not a bayes_dnlr chain file (format {attrs.get('format')!r})")
-    k = _committed(f)
-    record = _finish_record(f, int(f[_CK]["step"][k]))
-    if record is not None:
-        attrs.update(record)
-    return attrs, k
+_ARRAYS = ("chain", "log_prob", "accepted")
+
+
+def _read_pieces(path: Path, emit: Emit, arrays: bool) -> None:
+    """Send the file's pieces (runs in the reading child, readback.py): the committed checkpoint,
+    the finish record, (``arrays``) the committed steps and every checkpoint, and the attributes
+    last (h5py keeps strings in HDF5's global heap, which has no checksum: the likeliest to hang)."""
+    with _open_reader(path) as f:
+        kn: tuple[int, int] | None = None
+
+        def committed() -> tuple[int, int]:
+            nonlocal kn
+            k = _committed(f)
+            kn = (k, int(f[_CK]["step"][k]))
+            return kn
+
+        piece(emit, "committed", committed)
+        piece(emit, "layout", lambda: (tuple(f["chain"].shape), f["chain"].chunks))
+        reads: dict[str, Callable[[int, int], Any]] = {"finish": lambda k, n: _finish_record(f, n)}
+        if arrays:
+            reads["checkpoints"] = lambda k, n: {name: ds[: k + 1] for name, ds in f[_CK].items()}
+            for name in _ARRAYS:
+                reads[name] = lambda k, n, name=name: f[name][:n]
+        if kn is None:                # no committed step: what the arrays still hold, to say so
+            reads = {name: (lambda k, n, name=name: f[name][:]) for name in _ARRAYS}
+        for name, read in reads.items():
+            piece(emit, name, lambda read=read: read(*(kn or (-1, -1))))
+        piece(emit, "attrs", lambda: dict(f.attrs.items()))
+
+
+def _stored(path: Path, arrays: bool) -> Pieces:
+    """The pieces of chains.h5, read within a deadline; DamagedFileError (naming what is damaged
+    and what can still be read) unless every piece was read and the file is a chain of ours."""
+    release_stale_writer(path)
+    got = within_deadline(lambda emit: _read_pieces(path, emit, arrays), path)
+    broken = {name: v.why for name, v in got.items() if isinstance(v, Broken)}
+    attrs = got.get("attrs")
+    if isinstance(attrs, dict) and _attr(attrs.get("format")) not in READABLE_FORMATS:
+        raise DamagedFileError(f"{path}: not a bayes_dnlr chain file (format "
+                               f"{_attr(attrs.get('format'))!r}): another program's file, or one "
+                               f"this version cannot read. {_REMEDY}")
+    if got.failure is None and not broken and isinstance(attrs, dict):
+        return got
+    raise DamagedFileError(damage_report(path, got, broken))
+
+
+_REMEDY = ("`sample --restart` discards it and samples again; docs/sampling.md (\"A damaged chain\") "
+           "shows how to copy out what can still be read")
+_WHAT = {"committed": "its checkpoints (which steps are complete)", "layout": "the chain's shape",
+         "finish": "the finish record", "checkpoints": "the checkpoints (the sampler's state)",
+         "chain": "the chain's positions", "log_prob": "the log-posterior of the steps",
+         "accepted": "the acceptance of the steps", "attrs": "its attributes (names, config, identity)"}
+
+
+def damage_report(path: Path, got: Pieces, broken: dict[str, str]) -> str:
+    """What is damaged in chains.h5 and what can still be read, in one paragraph."""
+    damaged = [f"{_WHAT.get(name, name)} ({why})" for name, why in broken.items()]
+    if got.failure is not None:
+        unread = [_WHAT[name] for name in _WHAT if name not in got]
+        if not got:
+            damaged.append(f"the file cannot be opened as HDF5 ({got.failure})")
+        else:
+            damaged.append(f"{', '.join(unread) or 'the rest'} ({got.failure})")
+    readable = []
+    kn, layout = got.get("committed"), got.get("layout")
+    if isinstance(kn, tuple):
+        readable.append(f"the checkpoints up to step {kn[1]}")
+    chain = got.get("chain")
+    if isinstance(chain, np.ndarray):
+        readable.append(f"{chain.shape[0]} steps of the chain ({chain.shape[1]} walkers x "
+                        f"{chain.shape[2]} parameters)")
+    elif isinstance(layout, tuple):
+        readable.append(f"the chain's shape ({layout[0][0]} steps x {layout[0][1]} walkers x "
+                        f"{layout[0][2]} parameters)")
+    readable += [_WHAT[name] for name in ("log_prob", "accepted", "attrs")
+                 if name in got and not isinstance(got[name], Broken)]
+    still = ("Still readable: " + "; ".join(readable) + "." if readable
+             else "Nothing in it can be read.")
+    return f"{path} is damaged: {'; '.join(damaged)}. {still} {_REMEDY}"
+
+
+def _attributes(got: Pieces) -> tuple[dict[str, Any], int, int]:
+    """The attributes with the finish record applied, the last complete checkpoint and its step."""
+    attrs = {k: _attr(v) for k, v in got["attrs"].items()}
+    k, n = got["committed"]
+    if got.get("finish") is not None:
+        attrs.update(got["finish"])
+    return attrs, k, n
 
 
 def read_run(path: Path | str) -> StoredRun:
     """Read the committed chain and the last checkpoint's state (works while a writer appends, and
-    after a writer was killed at any instant)."""
-    path = Path(path)
-    release_stale_writer(path)
-    with _open_reader(path) as f:
-        attrs, k = _read_attrs(f, path)
-        ck = f[_CK]
-        n = int(ck["step"][k])
-        state = SamplerState(
-            coords=ck["coords"][k], log_prob=ck["log_prob"][k],
-            rng=SamplerState.rng_tuple(ck["rng_key"][k], ck["rng_pos"][k], ck["rng_has_gauss"][k],
-                                       ck["rng_gauss"][k]))
-        return StoredRun(
-            path=path, attrs=attrs, chain=f["chain"][:n], log_prob=f["log_prob"][:n],
-            accepted=f["accepted"][:n].astype(bool), checkpoint_steps=ck["step"][: k + 1],
-            state=state, elapsed=float(ck["elapsed"][k]), store_time=float(ck["store_time"][k]),
-            n_evals=int(ck["n_evals"][k]))
+    after a writer was killed at any instant). A damaged file: DamagedFileError, within seconds."""
+    return _run_of(Path(path), _stored(Path(path), arrays=True))
+
+
+def _run_of(path: Path, got: Pieces) -> StoredRun:
+    attrs, k, n = _attributes(got)
+    ck = {name: a[k] for name, a in got["checkpoints"].items()}
+    state = SamplerState(
+        coords=ck["coords"], log_prob=ck["log_prob"],
+        rng=SamplerState.rng_tuple(ck["rng_key"], ck["rng_pos"], ck["rng_has_gauss"], ck["rng_gauss"]))
+    return StoredRun(
+        path=path, attrs=attrs, chain=got["chain"], log_prob=got["log_prob"],
+        accepted=got["accepted"].astype(bool), checkpoint_steps=got["checkpoints"]["step"],
+        state=state, elapsed=float(ck["elapsed"]), store_time=float(ck["store_time"]),
+        n_evals=int(ck["n_evals"]))
 
 
 def read_attrs(path: Path | str) -> dict[str, Any]:
-    """The file's metadata only (cheap)."""
-    path = Path(path)
-    release_stale_writer(path)
-    with _open_reader(path) as f:
-        return _read_attrs(f, path)[0]
+    """The file's metadata only (cheap). A damaged file: DamagedFileError, within seconds."""
+    return _attributes(_stored(Path(path), arrays=False))[0]
 
 
 # ---------------------------------------------------------------- failed writes
@@ -292,14 +376,12 @@ class ChainWriter:
         continues (whatever the old file's state: finished, or left by a killed writer)."""
         t0 = time.perf_counter()
         path = Path(path)
-        run = read_run(path)
-        k = run.checkpoint_steps.size
-        with _open_reader(path) as src:
-            raw_attrs = dict(src.attrs.items())
-            walkers, ndim = src["chain"].shape[1:]
-            chunk_rows = src["chain"].chunks[0]
-            ck = {name: src[_CK][name][:k] for name in src[_CK]}
-        attrs = {key: v for key, v in raw_attrs.items() if key not in (*_FINISH_ATTRS, "format")}
+        got = _stored(path, arrays=True)
+        run = _run_of(path, got)
+        (_, walkers, ndim), chunks = got["layout"]
+        chunk_rows = chunks[0]
+        ck = got["checkpoints"]
+        attrs = {key: v for key, v in got["attrs"].items() if key not in (*_FINISH_ATTRS, "format")}
 
         def fill(g: h5py.File) -> None:
             _layout(g, {}, walkers, ndim, chunk_rows)
@@ -423,8 +505,9 @@ def _layout(f: h5py.File, attrs: dict[str, Any], walkers: int, ndim: int, chunk_
              "elapsed": ((), "f8", 0.0), "store_time": ((), "f8", 0.0), "n_evals": ((), "i8", 0)}
     for name, (shape, dtype, fill) in specs.items():
         ck.create_dataset(name, shape=(0, *shape), maxshape=(None, *shape), chunks=(16, *shape),
-                          dtype=dtype, fillvalue=fill)
-    f.create_dataset(_FINISH, shape=(0,), maxshape=(None,), chunks=(1,), dtype=f"S{_FINISH_BYTES}")
+                          dtype=dtype, fillvalue=fill, fletcher32=True)
+    f.create_dataset(_FINISH, shape=(0,), maxshape=(None,), chunks=(1,), dtype=f"S{_FINISH_BYTES}",
+                     fletcher32=True)
     f.attrs["format"] = FORMAT
     f.attrs["status"] = "running"
     f.attrs["stop_reason"] = ""

@@ -9,15 +9,16 @@ ArviZ (seconds) for a few arrays.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from bayes_dnlr.errors import RunError
+from bayes_dnlr.errors import DamagedFileError, RunError
+from bayes_dnlr.readback import read_json, within_deadline
 from bayes_dnlr.runs.layout import FIT_FILE, POSTERIOR_FILE, SUMMARY_FILE
+from bayes_dnlr.runs.results import REWRITE_POSTERIOR
 
 
 @dataclass(frozen=True)
@@ -42,9 +43,25 @@ class RunDraws:
 
 def _read_json(path: Path, what: str) -> dict[str, Any]:
     try:
-        return json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError, UnicodeDecodeError) as err:
-        raise RunError(f"{path}: not a readable {what} ({err})") from None
+        return read_json(path, what)
+    except OSError as err:
+        raise RunError(f"{path}: not a readable {what} ({err.strerror or err})") from None
+
+
+def _flat_draws(nc_path: Path) -> dict[str, np.ndarray]:
+    """Every (chain, draw) variable of posterior.nc's ``posterior`` group, flattened."""
+    import h5py
+
+    values = {}
+    with h5py.File(nc_path, "r") as f:
+        group = f["posterior"]
+        for k in group:
+            if k in ("chain", "draw"):
+                continue
+            a = np.asarray(group[k][...], dtype=float)
+            if a.ndim == 2:
+                values[k] = a.reshape(-1)
+    return values
 
 
 def load_run_draws(run_dir: str | Path, key: str = "run directory") -> RunDraws:
@@ -63,20 +80,11 @@ def load_run_draws(run_dir: str | Path, key: str = "run directory") -> RunDraws:
     names = list(summary.get("parameters") or [])
     if not names:
         raise RunError(f"{summary_path}: no 'parameters' list; re-run `sample`")
-    import h5py
-
-    values: dict[str, np.ndarray] = {}
-    try:
-        with h5py.File(nc_path, "r") as f:
-            group = f["posterior"]
-            for k in group:
-                if k in ("chain", "draw"):
-                    continue
-                a = np.asarray(group[k][...], dtype=float)
-                if a.ndim == 2:
-                    values[k] = a.reshape(-1)
-    except (OSError, KeyError) as err:
-        raise RunError(f"{nc_path}: not a readable posterior ({err}); re-run `sample`") from None
+    got = within_deadline(lambda emit: emit("values", _flat_draws(nc_path)), nc_path)
+    if got.failure is not None:
+        raise DamagedFileError(f"{nc_path}: not a readable posterior ({got.failure}); "
+                               f"{REWRITE_POSTERIOR}") from None
+    values: dict[str, np.ndarray] = got["values"]
     absent = [k for k in names if k not in values]
     if absent:
         raise RunError(f"{nc_path}: the draws of {absent} are missing; re-run `sample`")

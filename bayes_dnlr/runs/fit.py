@@ -7,14 +7,14 @@ fit.json is never replaced silently (``overwrite`` / ``--force`` does it).
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 from typing import Any
 
 from bayes_dnlr.config import Config
-from bayes_dnlr.errors import RunError
+from bayes_dnlr.errors import DamagedFileError, RunError
 from bayes_dnlr.inference.lsq.run_fit import RunFit, fit_run
+from bayes_dnlr.readback import read_json
 from bayes_dnlr.runs import identity
 from bayes_dnlr.runs.folder import (
     check_output_dir,
@@ -42,9 +42,9 @@ def load_fit(run_dir: str | Path) -> dict[str, Any]:
     if not path.is_file():
         raise RunError(f"{path}: no fit.json in this run directory (run `fit` first)")
     try:
-        return json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as err:
-        raise RunError(f"{path}: not a readable fit.json ({err}); run `fit --force` to redo it") from None
+        return read_json(path, FIT_FILE)
+    except DamagedFileError as err:
+        raise DamagedFileError(f"{err}; run `fit --force` to redo it") from None
 
 
 def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) -> RunFit:

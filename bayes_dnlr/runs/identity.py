@@ -31,6 +31,8 @@ import yaml
 
 from bayes_dnlr.config import Config
 from bayes_dnlr.digests import digest, file_sha256
+from bayes_dnlr.errors import DamagedFileError
+from bayes_dnlr.readback import read_json
 from bayes_dnlr.runs.layout import CHAINS_FILE, FIT_FILE
 from bayes_dnlr.runs.testset import plain_names, sections
 
@@ -396,8 +398,8 @@ def fit_is_current(cfg: Config, data_sha256: str | None = None) -> bool:
     if not path.is_file() or sha is None:
         return False
     try:
-        saved = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError, OSError):
+        saved = read_json(path, FIT_FILE)
+    except (DamagedFileError, OSError):
         return False
     return fit_stale_reason(saved, cfg, sections(cfg), sha, cfg.run_dir) is None
 
@@ -410,10 +412,10 @@ def stale_fit_reason(cfg: Config, data_sha256: str) -> str | None:
     if not path.exists():
         return None
     try:
-        return fit_stale_reason(json.loads(path.read_text()), cfg, sections(cfg), data_sha256,
+        return fit_stale_reason(read_json(path, FIT_FILE), cfg, sections(cfg), data_sha256,
                                 cfg.run_dir)
-    except (json.JSONDecodeError, UnicodeDecodeError) as err:
-        return f"an unreadable file ({err})"
+    except DamagedFileError as err:
+        return f"an unreadable file ({str(err).removeprefix(f'{path}: ')})"
 
 
 def chain_fingerprint(cfg: Config, run_dir: Path, data_sha256: str,
@@ -427,7 +429,7 @@ def chain_fingerprint(cfg: Config, run_dir: Path, data_sha256: str,
 
     try:
         attrs = read_attrs(Path(run_dir) / CHAINS_FILE)
-    except (OSError, KeyError, ValueError):
+    except (OSError, KeyError, ValueError, DamagedFileError):
         return new
     if chain_stale_reason(attrs, cfg, data_sha256, run_dir) is None and attrs.get("fingerprint"):
         return str(attrs["fingerprint"])

@@ -28,9 +28,11 @@ from typing import Any
 
 import numpy as np
 
+from bayes_dnlr.errors import DamagedFileError
 from bayes_dnlr.inference.mcmc import ess
 from bayes_dnlr.inference.mcmc.ess import diagnostics
 from bayes_dnlr.numbers import interval, pm
+from bayes_dnlr.readback import read_json
 from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
 from bayes_dnlr.runs.layout import CHAINS_FILE, POSTERIOR_FILE, SUMMARY_FILE
 from bayes_dnlr.runs.results import verdict_lines
@@ -174,8 +176,8 @@ def read_summary(run_dir: Path) -> dict[str, Any] | None:
     """summary.json of a run directory, or None when missing or unreadable."""
     path = Path(run_dir) / SUMMARY_FILE
     try:
-        return json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError, UnicodeDecodeError):
+        return read_json(path, SUMMARY_FILE)
+    except (OSError, DamagedFileError):
         return None
 
 

@@ -16,6 +16,7 @@ from typing import Any
 
 from bayes_dnlr.config import Config, load_config
 from bayes_dnlr.digests import digest
+from bayes_dnlr.errors import DamagedFileError
 from bayes_dnlr.runs import identity
 from bayes_dnlr.runs.layout import (
     CHAINS_FILE,
@@ -45,9 +46,11 @@ def _in(cfg: Config, run_dir: Path) -> Config:
 
 
 def stale_results(run_dir: Path, cfg: Config, fit: Mapping[str, Any] | None,
-                  summary: Mapping[str, Any] | None, source: Path | str | None = None) -> list[str]:
+                  summary: Mapping[str, Any] | None, source: Path | str | None = None,
+                  problems: list[str] | None = None) -> list[str]:
     """One sentence per result of the folder made from another config or data than the current
-    ones (empty when they match, or when it cannot be told)."""
+    ones (empty when they match, or when it cannot be told). A chains.h5 that cannot be read is
+    told in ``problems`` (when given)."""
     run_dir = Path(run_dir)
     path = user_config(run_dir, source)
     try:
@@ -79,8 +82,10 @@ def stale_results(run_dir: Path, cfg: Config, fit: Mapping[str, Any] | None,
 
         try:
             attrs = read_attrs(chains)
-        except OSError:
-            attrs = None           # an unreadable chain: `sample` says so when it is run
+        except (OSError, DamagedFileError) as err:
+            attrs = None           # the report's results do not come from it: said, not fatal
+            if problems is not None:
+                problems.append(str(err))
         if attrs is not None and user is not None:
             reason = identity.chain_stale_reason(attrs, user, sha, run_dir)
         elif attrs is not None:

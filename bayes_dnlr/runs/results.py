@@ -7,7 +7,6 @@ in ``problems``, so that a report can always say what it lacks.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,7 +15,9 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config import Config, load_config
+from bayes_dnlr.errors import DamagedFileError
 from bayes_dnlr.inference.layout import Layout, joint_name
+from bayes_dnlr.readback import read_json, within_deadline
 from bayes_dnlr.runs.folder import find_config
 from bayes_dnlr.runs.layout import FIT_FILE, POSTERIOR_FILE, SMOOTHING_CACHE, SUMMARY_FILE
 from bayes_dnlr.runs.netcdf import SAMPLE_DIMS
@@ -252,8 +253,8 @@ def _read_json(path: Path, problems: list[str]) -> dict | None:
     if not path.is_file():
         return None
     try:
-        return json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError) as err:
+        return read_json(path, path.name)
+    except (OSError, DamagedFileError) as err:
         problems.append(f"{path.name} could not be read: {err}")
         return None
 
@@ -263,7 +264,22 @@ def read_draws(path: Path, names: Sequence[str] | None = None) -> dict[str, np.n
 
     Read with h5py, by netCDF-4's conventions (xarray and pandas cost the report 0.3-0.6 s to
     import, h5netcdf 20 ms a file); a file it cannot read that way (no (chain, draw) variables, a
-    scale factor, another format) goes through xarray."""
+    scale factor, another format) goes through xarray. Read within a deadline (readback.py): a
+    damaged file raises DamagedFileError in seconds."""
+    path = Path(path)
+    got = within_deadline(lambda emit: emit("draws", _read_draws_any(path, names)), path)
+    if got.failure is not None:
+        raise DamagedFileError(f"{path}: damaged, its draws cannot be read ({got.failure}); "
+                               f"{REWRITE_POSTERIOR}")
+    return got["draws"]
+
+
+# what rebuilds a damaged posterior.nc or summary.json (runs/sample.py, ``_finished_result``)
+REWRITE_POSTERIOR = (f"remove it and run `sample` on the run's config: {POSTERIOR_FILE} and "
+                     f"{SUMMARY_FILE} are written again from chains.h5")
+
+
+def _read_draws_any(path: Path, names: Sequence[str] | None) -> dict[str, np.ndarray]:
     try:
         out = _read_draws_h5(path, names)
     except (OSError, KeyError, ValueError, TypeError, ImportError):
@@ -354,7 +370,7 @@ def load_run(run_dir: Path | str, load_data: bool = True, source: Path | str | N
     if provenance:
         from bayes_dnlr.runs.provenance import stale_results
 
-        run.stale = stale_results(run_dir, cfg, run.fit, run.summary, source)
+        run.stale = stale_results(run_dir, cfg, run.fit, run.summary, source, problems)
     run.cfg = held_config(cfg, run.fit)       # as the run fitted and sampled it
     return run
 

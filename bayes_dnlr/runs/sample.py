@@ -26,7 +26,7 @@ import numpy as np
 
 from bayes_dnlr.config import Config, ConfigError
 from bayes_dnlr.digests import digest
-from bayes_dnlr.errors import BayesDnlrError, StaleRunError
+from bayes_dnlr.errors import BayesDnlrError, DamagedFileError, StaleRunError
 from bayes_dnlr.inference.mcmc.ensemble import (
     COMPLEMENT,
     CONDITIONAL,
@@ -137,6 +137,15 @@ def sample(cfg: Config, *, restart: bool = False, progress: bool = True,
     return post
 
 
+def _results_kept(run_dir: Path) -> str:
+    """What a damaged chain leaves usable: the results written when it was finished."""
+    kept = [name for name in (POSTERIOR_FILE, SUMMARY_FILE) if (run_dir / name).is_file()]
+    if len(kept) < 2:
+        return ""
+    return (f". The results made from it are still there ({', '.join(kept)}): `report` and "
+            "`export` read them; copy them elsewhere before `sample --restart`, which removes them")
+
+
 def _run_lock(run_dir: Path):
     """One ``sample`` per run directory at a time (bayes_dnlr/runs/lock.py: released even on SIGKILL,
     removed when the command ends)."""
@@ -216,6 +225,8 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
         except OSError as err:
             raise StaleRunError(f"{chains}: cannot read the stored chain ({err}); `sample --restart` "
                                 "discards it and starts again") from None
+        except DamagedFileError as err:
+            raise DamagedFileError(f"{err}{_results_kept(run_dir)}") from None
         if reason is not None:
             raise StaleRunError(f"{chains} was sampled from another config or data: {reason}. The chain "
                                 "is kept, not mixed with new steps: set output.dir to sample these "
@@ -227,6 +238,8 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
         except OSError as err:
             raise StaleRunError(f"{chains}: no usable checkpoint ({err}); `sample --restart` discards "
                                 "it") from None
+        except DamagedFileError as err:
+            raise DamagedFileError(f"{err}{_results_kept(run_dir)}") from None
         done = _finished_result(cfg, test, stored, fp, record)
         if done is not None:
             return done

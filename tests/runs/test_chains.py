@@ -12,6 +12,7 @@ import pytest
 from support import REPO
 from support.chains import create_writer, make_blocks, phys
 
+from bayes_dnlr.errors import DamagedFileError
 from bayes_dnlr.runs.chains import ChainWriter, read_attrs, read_run
 
 
@@ -128,5 +129,5 @@ def test_not_a_chain_file(tmp_path: Path) -> None:
     path = tmp_path / "chains.h5"
     with h5py.File(path, "w", libver="latest") as f:
         f["x"] = 1
-    with pytest.raises(OSError, match="not a bayes_dnlr chain file"):
+    with pytest.raises(DamagedFileError, match="not a bayes_dnlr chain file"):
         read_run(path)
