@@ -31,7 +31,8 @@ PACKAGE = Path(bayes_dnlr.__file__).parent
 # reads data: two ranks.
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("leaves", ("errors", "numbers", "vocabulary", "units", "digests", "diskio", "fileset",
-                "interrupt", "standards", "crosscheck", "machine_load", "numba_cache")),
+                "interrupt", "standards", "crosscheck", "machine_load", "numba_cache", "readback",
+                "csvcells")),
     ("config", ("config",)),
     ("data", ("data",)),
     ("model", ("model",)),

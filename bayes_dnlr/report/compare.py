@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from bayes_dnlr.csvcells import safe_cell
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.fileset import publishing
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pm
@@ -120,10 +121,10 @@ class Comparison:
             keys += [k for k in r if k not in keys]
         keys = [k for k in keys if k not in NOT_IN_CSV and any(r.get(k) is not None for r in self.rows)]
         buf = io.StringIO()
-        w = csv.DictWriter(buf, fieldnames=keys, lineterminator="\n")
-        w.writeheader()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow([safe_cell(k) for k in keys])
         for r in self.rows:
-            w.writerow({k: ("" if r.get(k) is None else r.get(k)) for k in keys})
+            w.writerow([safe_cell("" if r.get(k) is None else r.get(k)) for k in keys])
         return buf.getvalue()
 
 

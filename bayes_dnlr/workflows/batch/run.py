@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from bayes_dnlr.csvcells import safe_cell
 from bayes_dnlr.errors import BayesDnlrError, StaleRunError
 from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
 from bayes_dnlr.runs.layout import FIT_FILE, REPORT_FILE, SUMMARY_FILE
@@ -438,7 +439,7 @@ def write_table(rows: list[dict[str, Any]], out: Path) -> list[Path]:
         elif not all(isinstance(v, bool) for v in values):
             df[c] = df[c].map(lambda v: None if v is None or v != v else str(v))  # one type per column
     csv_path, pq_path = out / TABLE_CSV, out / TABLE_PARQUET
-    write_atomic(csv_path, df.to_csv(index=False))
+    write_atomic(csv_path, df.map(safe_cell).rename(columns=safe_cell).to_csv(index=False))
     tmp = out / f".{TABLE_PARQUET}.{os.getpid()}.tmp"
     df.to_parquet(tmp, index=False)
     os.replace(tmp, pq_path)

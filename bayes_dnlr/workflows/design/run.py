@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config import ConfigError
+from bayes_dnlr.csvcells import safe_cell
 from bayes_dnlr.digests import digest, file_sha256
 from bayes_dnlr.errors import BayesDnlrError, RunError
 from bayes_dnlr.numbers import fmt, share
@@ -358,10 +359,11 @@ def _csv(rows: list[dict[str, Any]]) -> str:
             return ""
         if isinstance(v, float):
             return f"{v:.6g}"
-        s = str(v)
-        return f'"{s}"' if ("," in s or '"' in s) else s
+        s = safe_cell(str(v))
+        return '"' + s.replace('"', '""') + '"' if ("," in s or '"' in s or "\n" in s) else s
 
-    return "\n".join([",".join(keys)] + [",".join(cell(r.get(k)) for k in keys) for r in rows]) + "\n"
+    head = ",".join(cell(k) for k in keys)
+    return "\n".join([head] + [",".join(cell(r.get(k)) for k in keys) for r in rows]) + "\n"
 
 
 def markdown(res: DesignResult, figure: str | None = None) -> str:
