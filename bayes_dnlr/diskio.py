@@ -2,7 +2,8 @@
 directory, temporaries of killed writers, and the kill points of the crash tests.
 
 Used by rundir.write_atomic (every JSON/YAML/netCDF output), runs/chains.py (chains.h5) and the
-.npz caches of the run folder (smoothed strains, the report's curves).
+.npz caches of the run folder (smoothed strains, the report's curves); ``own_dir``, the folders the
+package makes inside an output folder, never a symbolic link out of it.
 """
 
 from __future__ import annotations
@@ -88,6 +89,21 @@ def fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
+def own_dir(path: Path, make: bool = True) -> Path:
+    """The folder ``path``, one the package makes inside an output folder (a run's figures/,
+    export/, .cache/, a batch's figures/): made when missing, and when a symbolic link stands in
+    its place, the link is removed (its target is left untouched) and a real folder made. So no
+    output is written through a link out of the folder the user named (docs/cli.md, "Symbolic
+    links"). A file in its place raises FileExistsError. ``make=False``: only the link is removed
+    (the caller makes the folder when it writes)."""
+    path = Path(path)
+    if path.is_symlink():
+        path.unlink()
+    if make:
+        path.mkdir(exist_ok=True)
+    return path
+
+
 def temp_path(path: Path) -> Path:
     """The temporary a writer of ``path`` in this process uses: ``.<name>.<pid>.tmp`` beside it."""
     return path.with_name(f".{path.name}.{os.getpid()}.tmp")
@@ -100,8 +116,10 @@ def keep_cache_arrays(path: Path, **arrays) -> bool:
     np.savez(buf, **arrays)
     tmp = temp_path(path)
     try:
-        path.parent.mkdir(exist_ok=True)
-        tmp.write_bytes(buf.getvalue())
+        own_dir(path.parent)
+        tmp.unlink(missing_ok=True)
+        with open(tmp, "xb") as f:          # "x": a link planted at the temporary is not followed
+            f.write(buf.getvalue())
         os.replace(tmp, path)
     except OSError:
         tmp.unlink(missing_ok=True)

@@ -31,7 +31,7 @@ from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from bayes_dnlr.diskio import fsync_dir, kill_point, process_alive
+from bayes_dnlr.diskio import fsync_dir, kill_point, own_dir, process_alive, storage_error
 
 _AT_FDCWD = -100
 _RENAME_EXCHANGE = 2
@@ -131,13 +131,27 @@ def folder_set(target: Path) -> Iterator[Path]:
 
 # ---------------------------------------------------------------- files among others
 
+def _through_link(folder: Path, p: Path) -> bool:
+    """True when a folder between ``folder`` and its file ``p`` is a symbolic link."""
+    return any((folder / q).is_symlink() for q in p.relative_to(folder).parents if q != Path("."))
+
+
 def _members(folder: Path, patterns: Iterable[str]) -> list[str]:
-    """The set's files in ``folder`` (relative paths; patterns as Path.glob, e.g. figures/*.png)."""
+    """The set's files in ``folder`` (relative paths; patterns as Path.glob, e.g. figures/*.png),
+    none through a symbolic link (a linked figures/ holds none of them: it is replaced)."""
     found: set[str] = set()
     for pattern in patterns:
         found.update(str(p.relative_to(folder)) for p in folder.glob(pattern)
-                     if p.is_file() and not p.name.startswith("."))
+                     if p.is_file() and not p.name.startswith(".") and not _through_link(folder, p))
     return sorted(found)
+
+
+def _own_subfolders(folder: Path, patterns: Iterable[str]) -> None:
+    """The subfolders of the set (figures/ of figures/*.png): real folders, not links (diskio.own_dir)."""
+    for pattern in patterns:
+        parent = Path(pattern).parent
+        if parent != Path(".") and not any(c in str(parent) for c in "*?["):
+            own_dir(folder / parent, make=False)
 
 
 def _sweep_temps(folder: Path, patterns: Iterable[str]) -> None:
@@ -199,6 +213,14 @@ def recover(folder: Path, name: str, patterns: Iterable[str] = ()) -> None:
     _sweep_temps(folder, patterns)
 
 
+def _discard_created(folder: Path, created: bool) -> None:
+    if created:
+        try:
+            folder.rmdir()                   # a folder this call made for a set that never came
+        except OSError:
+            pass
+
+
 @contextmanager
 def publishing(folder: Path, name: str, patterns: list[str]) -> Iterator[None]:
     """The files of ``folder`` matching ``patterns`` change as one set inside the block (see the
@@ -207,33 +229,36 @@ def publishing(folder: Path, name: str, patterns: list[str]) -> Iterator[None]:
     folder = Path(folder)
     created = not folder.exists()
     folder.mkdir(parents=True, exist_ok=True)
+    _own_subfolders(folder, patterns)
     recover(folder, name, patterns)
     pid = os.getpid()
     kept = folder / f".{name}.{pid}.before"
     journal = folder / f".{name}.{pid}.publishing"
+    tmp = folder / f".{name}.publishing.{pid}.tmp"
     _remove(kept)
     files = _members(folder, patterns)
-    for rel in files:
-        (kept / rel).parent.mkdir(parents=True, exist_ok=True)
-        try:
-            os.link(folder / rel, kept / rel)
-        except OSError:                      # a file system without hard links
-            shutil.copy2(folder / rel, kept / rel)
-    kill_point("fileset.kept")
-    tmp = folder / f".{name}.publishing.{pid}.tmp"
-    tmp.write_text(json.dumps({"kept": kept.name, "files": files, "patterns": list(patterns)}))
-    os.replace(tmp, journal)
-    fsync_dir(folder)
+    try:
+        for rel in files:
+            (kept / rel).parent.mkdir(parents=True, exist_ok=True)
+            try:
+                os.link(folder / rel, kept / rel)
+            except OSError:                  # a file system without hard links
+                shutil.copy2(folder / rel, kept / rel)
+        kill_point("fileset.kept")
+        tmp.write_text(json.dumps({"kept": kept.name, "files": files, "patterns": list(patterns)}))
+        os.replace(tmp, journal)
+        fsync_dir(folder)
+    except OSError as err:                   # e.g. a full disk: nothing of the set changed yet
+        _remove(kept)
+        tmp.unlink(missing_ok=True)
+        _discard_created(folder, created)
+        raise (storage_error(err, journal, "the previous files are unchanged") or err) from None
     try:
         yield
     except BaseException:
         _roll_back(folder, journal)
         _remove(kept)
-        if created:
-            try:
-                folder.rmdir()               # a folder this call made for a set that never came
-            except OSError:
-                pass
+        _discard_created(folder, created)
         raise
     kill_point("fileset.written")
     fsync_dir(folder)

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bayes_dnlr.diskio import storage_error
 from bayes_dnlr.report.figure_cache import png_metadata
 
 DPI = 110
@@ -81,12 +82,35 @@ def _write_png(pixels: np.ndarray, path: Path) -> None:
 
 def save_figure(fig, path: Path) -> Path:
     """Write the figure as PNG, cropped to its content plus PAD_INCHES like bbox_inches="tight",
-    from a single rendering (see the module's docstring)."""
-    from matplotlib.colors import to_rgba
-
+    from a single rendering (see the module's docstring). A failed write (a full disk) leaves no
+    temporary and raises StorageError naming the file."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")   # replaced in one step: never half a PNG
+    try:
+        tmp.unlink(missing_ok=True)
+        _save(fig, tmp)
+        os.replace(tmp, path)
+    except BaseException as err:      # a full disk: no temporary left, and the file named
+        try:
+            tmp.unlink(missing_ok=True)
+        except OSError:
+            pass
+        clean = storage_error(err, path, "the previous figures and page are kept")
+        if clean is not None:
+            raise clean from None
+        raise
+    if getattr(fig.canvas, "manager", None) is not None:     # a pyplot figure: drop it from pyplot
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    return path
+
+
+def _save(fig, tmp: Path) -> None:
+    """The PNG of ``fig`` into ``tmp`` (see ``save_figure``)."""
+    from matplotlib.colors import to_rgba
+
     background = tuple(int(round(c * 255)) for c in to_rgba(fig.get_facecolor()))
     rgba = _rendered(fig, MARGIN_INCHES) if background[3] == 255 else None
     box = _content(rgba, background) if rgba is not None else None
@@ -99,9 +123,3 @@ def save_figure(fig, path: Path) -> Path:
     else:                   # content past the margin, a transparent figure, or nothing drawn
         fig.savefig(tmp, dpi=DPI, bbox_inches="tight", pad_inches=PAD_INCHES, format="png",
                     metadata=png_metadata(), pil_kwargs={"compress_level": PNG_LEVEL})
-    os.replace(tmp, path)
-    if getattr(fig.canvas, "manager", None) is not None:     # a pyplot figure: drop it from pyplot
-        import matplotlib.pyplot as plt
-
-        plt.close(fig)
-    return path

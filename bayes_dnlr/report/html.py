@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bayes_dnlr import __version__
+from bayes_dnlr.diskio import own_dir
 from bayes_dnlr.numbers import fmt
 from bayes_dnlr.report import run_sections as rs
 from bayes_dnlr.report import test_sections as ts
@@ -263,8 +264,7 @@ def build_report(run_dir: Path | str, source: Path | str | None = None,
         run = load_run(run_dir, source=source, load_data=False)     # the data: page_html
         for note in run.stale if on_stale is not None else []:
             on_stale(note)
-        figdir = run_dir / FIGURES_DIR
-        figdir.mkdir(exist_ok=True)
+        figdir = own_dir(run_dir / FIGURES_DIR)
         page = page_html(run, figdir, t0)
     page = embed(page)
     for old in figdir.glob("*.png"):     # figures of an earlier report that do not apply any more

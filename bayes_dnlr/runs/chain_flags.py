@@ -80,7 +80,7 @@ def _clear_flags(path: Path, head: bytes) -> None:
     block = bytearray(head)
     block[_FLAGS_AT] = 0
     block[44:48] = _lookup3(bytes(block[:44])).to_bytes(4, "little")
-    fd = os.open(path, os.O_WRONLY)
+    fd = os.open(path, os.O_WRONLY | os.O_NOFOLLOW)
     try:
         os.pwrite(fd, bytes(block[_FLAGS_AT:]), _FLAGS_AT)
         os.fsync(fd)
@@ -96,6 +96,8 @@ def release_stale_writer(path: Path | str, *, lock_held: bool = False) -> bool:
     from bayes_dnlr.runs.lock import run_lock
 
     path = Path(path)
+    if path.is_symlink():
+        return False             # written only in the run folder: a linked chain is read, not changed
     head = _superblock(path)
     if head is None or head[_FLAGS_AT] == 0:
         return False

@@ -109,7 +109,8 @@ def write_atomic(path: Path, content: str | bytes | memoryview) -> None:
     """Replace ``path`` by ``content`` (text is written as UTF-8) in one step: a reader never sees
     half a file, and a failed write (disk full, ...) leaves the old file as it was.
 
-    The bytes go to ``.<name>.<pid>.tmp`` beside ``path``, are fsynced, then renamed onto it. On any
+    The bytes go to ``.<name>.<pid>.tmp`` beside ``path``, are fsynced, then renamed onto it (a
+    symbolic link at ``path`` is replaced, its target left untouched). On any
     failure the temporary is removed and a write error of the environment becomes a one-line
     StorageError (DiskFullError when the disk is full); temporaries of killed writers of the same
     file are swept first, so retries do not pile them up."""
@@ -118,7 +119,8 @@ def write_atomic(path: Path, content: str | bytes | memoryview) -> None:
     sweep_stale_temps(path)
     tmp = temp_path(path)
     try:
-        with open(tmp, "wb") as f:
+        tmp.unlink(missing_ok=True)
+        with open(tmp, "xb") as f:          # "x": a link planted at the temporary is not followed
             f.write(data)
             f.flush()
             os.fsync(f.fileno())

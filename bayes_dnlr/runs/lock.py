@@ -30,8 +30,13 @@ def _open_locked(path: Path, busy: str, error: type[BayesDnlrError]):
     """The open, locked lock file at ``path`` (None when the folder is read-only)."""
     while True:
         try:
-            f = open(path, "a+")  # noqa: SIM115 - held for the whole command
+            # O_NOFOLLOW: a link in the lock's place is replaced, never opened (nor its target made)
+            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_APPEND | os.O_NOFOLLOW, 0o644)
+            f = os.fdopen(fd, "a+")
         except OSError as err:
+            if err.errno == errno.ELOOP:
+                path.unlink(missing_ok=True)
+                continue
             if err.errno in READ_ONLY:
                 return None
             raise (storage_error(err, path) or err) from None

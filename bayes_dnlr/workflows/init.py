@@ -23,6 +23,7 @@ from bayes_dnlr.data.checks import LOADED_START
 from bayes_dnlr.data.cycles import turning_points
 from bayes_dnlr.data.guess import FRACTION_MAX, Guess, Pick, guess_columns
 from bayes_dnlr.data.hints import peak_window
+from bayes_dnlr.diskio import storage_error
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.numbers import fmt
 from bayes_dnlr.units import lookup
@@ -355,14 +356,25 @@ def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
     if any(p.startswith(LOADED_START) for p in problems):
         _loaded_start(raw, edits, comments)
     text = config_text(raw, comments, data, column_notes)
-    out.parent.mkdir(parents=True, exist_ok=True)
+    made = [q for q in (out.parent, *out.parent.parents) if not q.exists() and not q.is_symlink()]
     try:
+        out.parent.mkdir(parents=True, exist_ok=True)
         with open(out, "x", encoding="utf-8") as f:     # "x": never overwrite, even in a race
             f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
     except FileExistsError:
         raise RunError(f"{out}: exists; init never overwrites a config (give --out another path)") from None
-    except BaseException:
+    except BaseException as err:
         out.unlink(missing_ok=True)
+        for q in made:                   # the folders this call made, innermost first, when empty
+            try:
+                q.rmdir()
+            except OSError:
+                break
+        clean = storage_error(err, out, "nothing was written")
+        if clean is not None:
+            raise clean from None
         raise
     return InitResult(out, raw, edits, found, problems)
 

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr import __version__
+from bayes_dnlr.diskio import own_dir
 from bayes_dnlr.fileset import publishing
 from bayes_dnlr.numbers import fmt, pm
 from bayes_dnlr.report.page_parts import CSS
@@ -239,7 +240,7 @@ def write_page(result: BatchResult, step: PopulationStep | None = None) -> Path:
     return its path."""
     out = result.out
     rows = result.rows
-    fig = e_figure(rows, out / FIGURES_DIR / FIGURE)
+    fig = e_figure(rows, own_dir(out / FIGURES_DIR) / FIGURE)
     ok = [r for r in rows if r.get("status") == "ok"]
     failed = [r for r in rows if r.get("status") == "failed"]
     pending = [r for r in rows if r.get("status") == "pending"]

@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from bayes_dnlr.csvcells import safe_cell
+from bayes_dnlr.diskio import own_dir
 from bayes_dnlr.errors import BayesDnlrError, StaleRunError
 from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
 from bayes_dnlr.runs.layout import FIT_FILE, REPORT_FILE, SUMMARY_FILE
@@ -349,7 +350,7 @@ def run_batch(jobs: list[Job], out: Path, *, n_jobs: int = -1, scheduler: str | 
             client = _dask_client(scheduler)
             stack.callback(client.close)          # disconnects; the cluster keeps running
         stack.enter_context(_batch_lock(out))
-        (out / ROWS_DIR).mkdir(exist_ok=True)
+        own_dir(out / ROWS_DIR)
         rows: dict[str, dict[str, Any]] = {}
         for j in jobs:
             done = current_row(j, out, report is not None)

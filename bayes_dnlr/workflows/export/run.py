@@ -18,9 +18,11 @@ from pathlib import Path
 
 import numpy as np
 
+from bayes_dnlr.diskio import own_dir
 from bayes_dnlr.errors import BayesDnlrError, RunError
 from bayes_dnlr.fileset import folder_set, recover_folder
 from bayes_dnlr.numbers import fmt
+from bayes_dnlr.runs.layout import EXPORT_DIR
 from bayes_dnlr.runs.testset import plain_names
 from bayes_dnlr.vocabulary import UNIVERSAL_EXPONENT
 from bayes_dnlr.workflows.export import FORMAT_NAMES, abaqus, ansys, lsdyna, table
@@ -283,7 +285,8 @@ def export(run_dir: str | Path, fmt_name: str, *, terms: int | None = None, draw
                   t_range=(rng.t_lo, rng.t_hi), notes=_notes(cfg))
     files = {f"{mat}_{c.label}.{form.extension}": form.render(c, ctx) for c in cards.cards}
     files[INDEX_FILE] = index_csv(cards, ctx)
-    out_dir = Path(out) if out is not None else run_dir / "export" / fmt_name
+    # the default folder is the run's own: no link in it is followed (--out is the user's choice)
+    out_dir = Path(out) if out is not None else own_dir(run_dir / EXPORT_DIR, make=False) / fmt_name
     recover_folder(out_dir)
     status, stale = _targets(out_dir, files, force, form.extension)
     if status == "written":
