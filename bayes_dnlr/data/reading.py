@@ -305,6 +305,17 @@ def _column_index(layout: Layout, mapped: dict[str, str | int], group: tuple[int
     return index, names
 
 
+SHOWN_CELL = 80             # characters of a cell an error message quotes
+
+
+def shown_cell(text: str) -> str:
+    """A cell as an error message quotes it: whole when short, else its start and its length (a
+    cell of megabytes would bury the message)."""
+    if len(text) <= SHOWN_CELL:
+        return repr(text)
+    return f"{text[:SHOWN_CELL]!r}... ({len(text):,} characters)"
+
+
 # --------------------------------------------------------------------------- rows
 
 def _field_counts(src: Source, first: int, last: int, layout: Layout) -> np.ndarray:
@@ -332,8 +343,11 @@ def _field_counts(src: Source, first: int, last: int, layout: Layout) -> np.ndar
         for i, line in enumerate(text):
             out[i] = len(line.split())
         return out
-    reader = csv.reader(text, delimiter=d)
-    for i, row in enumerate(reader):
+    try:
+        rows = list(csv.reader(text, delimiter=d))
+    except csv.Error:       # a cell past the csv module's limit: each line as sniff.split reads it
+        rows = [split(line, d) for line in text]
+    for i, row in enumerate(rows):
         out[i] = len(row) if any(c.strip() for c in row) or len(row) > 1 else 0
     return out
 
@@ -508,13 +522,13 @@ def _checked(table: Table, role: str, values: np.ndarray, empty: np.ndarray) -> 
     value = parse_cell(text, decimal)
     where = f"{table.path}, line {line}, column '{table.names[role]}' ({role})"
     if value is None:
-        raise DataError(f"{where}: cell {text!r} is not a number{why_not_a_number(text, decimal)}")
+        raise DataError(f"{where}: cell {shown_cell(text)} is not a number{why_not_a_number(text, decimal)}")
     if text.strip() in MISSING and text.strip():
-        raise DataError(f"{where}: cell {text!r} is not a finite number (a missing value in the middle "
+        raise DataError(f"{where}: cell {shown_cell(text)} is not a finite number (a missing value in the middle "
                         f"of the data; only padding rows at the end are dropped)")
     if not text.strip():
         raise DataError(f"{where}: cell '' is not a number (empty cell)")
-    raise DataError(f"{where}: cell {text!r} is not a finite number")
+    raise DataError(f"{where}: cell {shown_cell(text)} is not a finite number")
 
 
 def _apply_units(table: Table, d: DataConfig) -> None:
@@ -564,6 +578,6 @@ def _apply_units(table: Table, d: DataConfig) -> None:
         if big.size:
             i = int(big[0])
             kind = ROLE_KIND[role]
-            raise DataError(f"{table.where(i, role)} ({role}): cell {table.cell(i, role)!r} is not a "
+            raise DataError(f"{table.where(i, role)} ({role}): cell {shown_cell(table.cell(i, role))} is not a "
                             f"plausible {kind} (|value| > {limit:g} {PACKAGE_UNIT[kind]}): a corrupt or "
                             f"misplaced value")

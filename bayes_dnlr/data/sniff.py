@@ -55,7 +55,10 @@ def split(line: str, delimiter: str) -> list[str]:
     """The cells of one line (quotes handled as in CSV)."""
     if delimiter == "whitespace":
         return line.split()
-    return next(csv.reader([line], delimiter=delimiter), [])
+    try:
+        return next(csv.reader([line], delimiter=delimiter), [])
+    except csv.Error:       # a cell past the csv module's limit (131 072 characters): no quotes then
+        return line.split(delimiter)
 
 
 def _kind(cells: list[str], decimal: str) -> str:
