@@ -524,8 +524,8 @@ def _checked(table: Table, role: str, values: np.ndarray, empty: np.ndarray) -> 
     if value is None:
         raise DataError(f"{where}: cell {shown_cell(text)} is not a number{why_not_a_number(text, decimal)}")
     if text.strip() in MISSING and text.strip():
-        raise DataError(f"{where}: cell {shown_cell(text)} is not a finite number (a missing value in the middle "
-                        f"of the data; only padding rows at the end are dropped)")
+        raise DataError(f"{where}: cell {shown_cell(text)} is not a finite number (a missing value in "
+                        f"the middle of the data; only padding rows at the end are dropped)")
     if not text.strip():
         raise DataError(f"{where}: cell '' is not a number (empty cell)")
     raise DataError(f"{where}: cell {shown_cell(text)} is not a finite number")
@@ -578,6 +578,6 @@ def _apply_units(table: Table, d: DataConfig) -> None:
         if big.size:
             i = int(big[0])
             kind = ROLE_KIND[role]
-            raise DataError(f"{table.where(i, role)} ({role}): cell {shown_cell(table.cell(i, role))} is not a "
-                            f"plausible {kind} (|value| > {limit:g} {PACKAGE_UNIT[kind]}): a corrupt or "
-                            f"misplaced value")
+            raise DataError(f"{table.where(i, role)} ({role}): cell {shown_cell(table.cell(i, role))} "
+                            f"is not a plausible {kind} (|value| > {limit:g} {PACKAGE_UNIT[kind]}): a "
+                            f"corrupt or misplaced value")
