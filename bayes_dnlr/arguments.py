@@ -14,7 +14,12 @@ import yaml
 
 from bayes_dnlr.config import ConfigError, load_config
 from bayes_dnlr.errors import RunError
-from bayes_dnlr.runs.layout import CHAINS_FILE, RESOLVED_CONFIG, RESOLVED_CONFIG_BESIDE_SOURCE
+from bayes_dnlr.runs.layout import (
+    CHAINS_FILE,
+    RESOLVED_CONFIG,
+    RESOLVED_CONFIG_BESIDE_SOURCE,
+    RESULT_FILES,
+)
 
 EXAMPLE_RUN = "runs/hdpe-a-5e-3"
 CONFIG_SUFFIXES = (".yaml", ".yml")
@@ -57,11 +62,35 @@ def _release(folder: Path) -> None:
     release_stale_writer(folder / CHAINS_FILE)
 
 
+def _named_run(folder: Path) -> Path | None:
+    """The run folder that the config the user wrote in ``folder`` names, when it is another folder
+    and ``folder`` itself holds no results (a config whose ``name:`` differs from its folder's
+    writes into ``folder/<name>``); None otherwise."""
+    if any((folder / name).exists() for name in (*RESULT_FILES, CHAINS_FILE)):
+        return None
+    own = folder / RESOLVED_CONFIG
+    if not own.is_file() or _is_written_copy(folder):
+        return None
+    try:
+        named = load_config(own).run_dir
+    except ConfigError:
+        return None              # the command itself says what is wrong with the folder
+    return named if named.resolve() != folder.resolve() else None
+
+
 def run_folder(arg: str | Path, command: str) -> Path:
     """The run folder for ``command`` (report, compare, export): ``arg`` itself, or the folder the
-    config file ``arg`` names."""
+    config file ``arg`` names. A folder holding no results but the config the user wrote is
+    taken as that config: both forms name the same run."""
     p = Path(arg)
     if p.is_dir():
+        named = _named_run(p)
+        if named is not None:
+            p = Path(named)
+            if not p.is_dir():
+                raise RunError(f"{arg}: holds no results, and its config.yaml writes them into {p}, "
+                               f"which does not exist yet: run `python -m bayes_dnlr sample "
+                               f"{Path(arg) / RESOLVED_CONFIG}` first")
         _release(p)
         return p
     expected = (f"{command} takes a run folder or its config file, e.g. {EXAMPLE_RUN} or "

@@ -141,8 +141,11 @@ def cmd_report(args: argparse.Namespace) -> None:
         # leave 77 MB of cycles: with several, or called from Python, the collector stays on.
         gc.disable()
     for arg in args.run_dirs:
-        source = arg if Path(arg).is_file() else None     # the user's config, when given
-        _report(_run(arg, "report"), source, force=args.force)
+        run_dir = _run(arg, "report")
+        # the user's config, when given, or when the folder given is the one that holds it
+        source = (arg if Path(arg).is_file() else
+                  Path(arg) / "config.yaml" if run_dir != Path(arg) else None)
+        _report(run_dir, source, force=args.force)
 
 
 def cmd_compare(args: argparse.Namespace) -> None:
