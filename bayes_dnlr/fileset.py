@@ -124,8 +124,11 @@ def folder_set(target: Path) -> Iterator[Path]:
             os.replace(tmp, target)
             _remove(old)
         fsync_dir(target.parent)
-    except BaseException:
+    except BaseException as err:
         _remove(tmp)
+        clean = storage_error(err, target, "the previous files, if any, are unchanged")
+        if clean is not None:
+            raise clean from None
         raise
 
 

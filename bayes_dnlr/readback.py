@@ -213,6 +213,20 @@ def _reap(pid: int) -> int | None:
     return os.waitstatus_to_exitcode(status)
 
 
+# ---------------------------------------------------------------- caches and JSON files
+
+def read_npz(path: Path) -> dict[str, Any] | None:
+    """Every array of the .npz cache ``path``, or None when it is missing or damaged (a cache that
+    cannot be read is computed again: zip's CRC-32 tells a changed byte, its directory a cut)."""
+    import numpy as np
+
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return {k: z[k] for k in z.files}
+    except Exception:  # noqa: BLE001 - BadZipFile, zlib.error, EOFError, OSError, ValueError...
+        return None
+
+
 # ---------------------------------------------------------------- JSON files of a run folder
 
 def read_json(path: Path, what: str = "") -> dict[str, Any]:

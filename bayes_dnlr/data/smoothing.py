@@ -26,6 +26,7 @@ import numpy as np
 
 from bayes_dnlr.data.brent import fminbound
 from bayes_dnlr.diskio import keep_cache_arrays
+from bayes_dnlr.readback import read_npz
 
 SMOOTH_MIN_POINTS = 5       # fewer samples: a least-squares line (2: the samples themselves)
 LOG_LAMBDA = (-3.0, 14.0)   # GCV search range of log10 λ, λ in (median step)³
@@ -238,10 +239,10 @@ def unkept_smoothing(cache: Path | None, time: np.ndarray, strain: np.ndarray, b
 
 
 def _cached(path: Path) -> tuple[np.ndarray, list[float]] | None:
+    z = read_npz(path)
     try:
-        with np.load(path) as z:
-            return z["strain"], [float(v) for v in z["lams"]]
-    except (OSError, ValueError, KeyError):
+        return z["strain"], [float(v) for v in z["lams"]]
+    except (TypeError, ValueError, KeyError):
         return None
 
 

@@ -25,6 +25,7 @@ import numpy as np
 from bayes_dnlr.digests import file_sha256
 from bayes_dnlr.diskio import keep_cache_arrays
 from bayes_dnlr.inference.discrepancy.axis import test_axis
+from bayes_dnlr.readback import read_npz
 from bayes_dnlr.runs.curves import N_DRAWS, Curves, Discrepancy, compute_curves
 from bayes_dnlr.runs.layout import FIT_FILE, POSTERIOR_FILE, SMOOTHING_CACHE, SUMMARY_FILE
 from bayes_dnlr.runs.results import RunResults
@@ -94,11 +95,16 @@ def _arrays(curves: Curves, disc: Discrepancy | None) -> dict[str, Any]:
 
 
 def _read(path: Path, view: RunResults) -> tuple[Curves, Discrepancy | None] | None:
-    try:
-        with np.load(path) as z:
-            a = {k: z[k] for k in z.files}
-    except (OSError, ValueError, KeyError):
+    a = read_npz(path)
+    if a is None:
         return None
+    try:
+        return _curves_of(a, view)
+    except (KeyError, IndexError, TypeError, ValueError):
+        return None              # another file in its place: computed again, as a missing one
+
+
+def _curves_of(a: dict, view: RunResults) -> tuple[Curves, Discrepancy | None]:
     curves = Curves(x=a["x"], xlabel=str(a["xlabel"]), data=a["data"], window=a["window"],
                     strain=a["strain"], **{k: a.get(k) for k in _OPTIONAL})
     for k in _PAIRS:
