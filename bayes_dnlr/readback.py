@@ -15,6 +15,7 @@ copy a lock another thread holds, so the read runs here, without the deadline.
 
 from __future__ import annotations
 
+import faulthandler
 import json
 import os
 import pickle
@@ -135,6 +136,7 @@ def _child(read: Callable[[Emit], None], w: int, seconds: float) -> None:  # pra
     """The forked reader: killed by its own alarm if the parent is gone or stuck; never returns."""
     status = 0
     try:
+        faulthandler.disable()        # a crash of HDF5 in it is the parent's one-line failure
         signal.signal(signal.SIGINT, signal.SIG_DFL)     # Ctrl-C ends it at once, even inside HDF5
         signal.signal(signal.SIGALRM, signal.SIG_DFL)
         signal.alarm(int(seconds) + 2)
