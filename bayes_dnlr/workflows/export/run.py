@@ -286,7 +286,8 @@ def export(run_dir: str | Path, fmt_name: str, *, terms: int | None = None, draw
     files = {f"{mat}_{c.label}.{form.extension}": form.render(c, ctx) for c in cards.cards}
     files[INDEX_FILE] = index_csv(cards, ctx)
     # the default folder is the run's own: no link in it is followed (--out is the user's choice)
-    out_dir = Path(out) if out is not None else own_dir(run_dir / EXPORT_DIR, make=False) / fmt_name
+    out_dir = (Path(out) if out is not None
+               else own_dir(own_dir(run_dir / EXPORT_DIR, make=False) / fmt_name, make=False))
     recover_folder(out_dir)
     status, stale = _targets(out_dir, files, force, form.extension)
     if status == "written":
