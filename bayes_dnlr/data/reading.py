@@ -285,7 +285,7 @@ def _column_index(layout: Layout, mapped: dict[str, str | int], group: tuple[int
                     "data.header: false)" if _looks_numeric(header) else "")
             raise DataError(
                 f"{path}, line {line}: column '{v}' (data.columns.{role}) is not in the header; "
-                f"the header has: {', '.join(repr(h) for h in group_names)}{hint}")
+                f"the header has: {', '.join(shown_cell(h) for h in group_names)}{hint}")
         if len(hits) > 1:
             cols = ", ".join(str(first + i + 1) for i in hits)
             width_hint = specimen_groups(header)

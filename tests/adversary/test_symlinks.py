@@ -204,7 +204,13 @@ def test_no_command_writes_through_any_linked_output(tmp_path, outside, case) ->
                          capture_output=True, text=True, timeout=600, cwd=REPO)
     assert out.returncode in (0, 2) and "Traceback" not in out.stderr, out.stderr
     assert snapshot(outside) == before
-    assert not (run / name).is_symlink()
+    if (command, name) not in NOT_REWRITTEN:       # written anew: the link is gone
+        assert not (run / name).is_symlink()
+
+
+# outputs a command may leave as they are (and so their link): a current fit.json that `sample
+# --restart` reads, a cache whose entry is there already
+NOT_REWRITTEN = {("sample", "fit.json"), ("sample", ".cache"), ("fit", ".cache"), ("report", ".cache")}
 
 
 @pytest.mark.slow

@@ -11,13 +11,12 @@ import errno
 import hashlib
 import os
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 from support.chains import create_writer, make_blocks, phys
+from support.disk import fill, small_tmpfs
 from support.sampling import write_case
 
 from bayes_dnlr import cli, diskio
@@ -223,19 +222,8 @@ COPIED = ("config.yaml", "data.csv", "fit.json")
 @pytest.fixture
 def small_disk(tmp_path: Path):
     """A 4 MB tmpfs (skipped where mounting is not permitted)."""
-    if sys.platform != "linux" or not hasattr(os, "geteuid") or os.geteuid() != 0:
-        pytest.skip("mounting a tmpfs needs root on Linux")
-    mnt = tmp_path / "disk"
-    mnt.mkdir()
-    out = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=4m", "tmpfs", str(mnt)],
-                         capture_output=True, text=True)
-    if out.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs: {out.stderr.strip()}")
-    try:
+    with small_tmpfs(tmp_path) as mnt:
         yield mnt
-    finally:
-        if subprocess.run(["umount", str(mnt)], capture_output=True).returncode != 0:
-            subprocess.run(["umount", "-l", str(mnt)], capture_output=True)
 
 
 @pytest.fixture(scope="module")
@@ -243,15 +231,6 @@ def big_reference(tmp_path_factory, zygote):
     path = write_case(tmp_path_factory.mktemp("full"), n=300, sampler=BIG)
     assert zygote.sample(path, log=path.parent / "log") == 0, (path.parent / "log").read_text()
     return path.parent, read_run(path.parent / "chains.h5")
-
-
-def _fill(disk: Path, leave: int) -> Path:
-    """Fill ``disk`` up to ``leave`` free bytes."""
-    filler = disk / "filler"
-    st = os.statvfs(disk)
-    with open(filler, "wb") as f:
-        f.write(b"\1" * max(st.f_bavail * st.f_frsize - leave, 0))
-    return filler
 
 
 @pytest.mark.parametrize("precheck", [True, False], ids=["free-space-check", "hdf5-write-fails"])
@@ -266,7 +245,7 @@ def test_sample_on_a_real_full_disk(tmp_path: Path, small_disk: Path, zygote, bi
         shutil.copy(folder / name, run / name)
     # chains.h5 is 75 kB after its start and grows by about 40 kB per commit: room for 2 commits
     block = BIG["checkpoint_every"] * BIG["walkers"] * (8 * 3 + 9)
-    filler = _fill(small_disk, (store._MARGIN + 2 * block if precheck else 0) + 155_000)
+    filler = fill(small_disk, (store._MARGIN + 2 * block if precheck else 0) + 155_000)
     log = tmp_path / "full.log"
     code = zygote.sample(run / "config.yaml", log=log, precheck=precheck)
     text = log.read_text()

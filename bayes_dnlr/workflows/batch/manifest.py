@@ -190,7 +190,10 @@ def read_manifest(path: Path) -> tuple[list[str], list[tuple[int, dict[str, str]
     except csv.Error:
         dialect = csv.excel
     reader = csv.reader(text.splitlines(), dialect)
-    rows = [(i + 1, r) for i, r in enumerate(reader) if any(c.strip() for c in r)]
+    try:
+        rows = [(i + 1, r) for i, r in enumerate(reader) if any(c.strip() for c in r)]
+    except csv.Error as err:      # e.g. a cell past the csv module's limit (131 072 characters)
+        raise BatchError(f"{path}: line {reader.line_num}: not a manifest row ({err})") from None
     if not rows:
         raise BatchError(f"{path}: the manifest is empty (expected a header row of config keys, "
                          "e.g. name,data.file,data.area0, and one row per test)")
