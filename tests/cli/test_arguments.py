@@ -31,6 +31,28 @@ def test_report_takes_the_config_and_the_run_folder(finished, capsys, monkeypatc
     assert capsys.readouterr().err == ""
 
 
+def test_a_folder_holding_a_config_of_another_name_is_that_run(finished, tmp_path, capsys,
+                                                              monkeypatch):
+    """``report X`` and ``report X/config.yaml`` agree when the config's name differs from X:
+    both are the run in X/<name> (``report X`` wrote a "No posterior yet" page into X)."""
+    import bayes_dnlr.report as report
+
+    holder = tmp_path / "X"
+    run = Path(shutil.copytree(finished, holder / "tiny"))
+    text = (run / "config.yaml").read_text().replace("file: tiny.csv", "file: tiny/tiny.csv")
+    (holder / "config.yaml").write_text(text)
+    seen = []
+    monkeypatch.setattr(report, "build_report",
+                        lambda d, **kw: seen.append(Path(d)) or Path(d) / "report.html")
+    for arg in (holder / "config.yaml", holder):
+        assert main(["report", "--force", str(arg)]) == 0
+    assert [p.resolve() for p in seen] == [run.resolve()] * 2
+    assert not (holder / "report.html").exists() and capsys.readouterr().err == ""
+    shutil.rmtree(run)
+    assert main(["report", str(holder)]) == 2
+    assert "writes them into" in capsys.readouterr().err
+
+
 def test_report_from_a_config_writes_the_report(finished, capsys):
     assert main(["report", str(finished / "config.yaml")]) == 0
     assert (finished / "report.html").is_file()

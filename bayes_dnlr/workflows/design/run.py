@@ -9,7 +9,6 @@ from the report layer, err_E.png. A design.json made from another design is neve
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from dataclasses import dataclass, field
@@ -21,8 +20,9 @@ import numpy as np
 from bayes_dnlr.config import ConfigError
 from bayes_dnlr.csvcells import safe_cell
 from bayes_dnlr.digests import digest, file_sha256
-from bayes_dnlr.errors import BayesDnlrError, RunError
+from bayes_dnlr.errors import BayesDnlrError, DamagedFileError, RunError
 from bayes_dnlr.numbers import fmt, share
+from bayes_dnlr.readback import read_json
 from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
 from bayes_dnlr.runs.layout import POSTERIOR_FILE
 from bayes_dnlr.runs.testset import plain_names
@@ -264,8 +264,8 @@ def _check_overwrite(out_dir: Path, new_digest: str, overwrite: bool) -> None:
     if overwrite or not path.is_file():
         return
     try:
-        old = json.loads(path.read_text()).get("digest")
-    except (OSError, json.JSONDecodeError, UnicodeDecodeError):
+        old = read_json(path, RESULT_FILE).get("digest")
+    except (OSError, DamagedFileError):
         old = None
     if old != new_digest:
         raise RunError(f"{path} exists and was made from another design (or another posterior); not "
