@@ -171,7 +171,18 @@ def test_a_cyclic_test_takes_e_t_from_its_first_loading(tmp_path):
     assert abs(row["mean"] - truth_e) < 3 * row["sd"]
     assert abs(row["whole_window"]["mean"] - truth_e) < 3 * row["whole_window"]["sd"]
     assert row["resolved"][1] == pytest.approx(6.67, abs=0.01)
-    assert s["modulus_curve"]["resolved"] == row["resolved"]
+    half = 1.6449 * row["sd"]
+    assert row["hdi_90"] == pytest.approx([row["mean"] - half, row["mean"] + half], rel=1e-4)
+    c = row["checks"]
+    # the model is the data's: its band holds the first loading, its start follows the data's
+    assert c["band"]["ok"] and c["band"]["share"] >= c["band"]["floor"] and c["band"]["n_eff"] > 5
+    assert c["band"]["information_times"][1] <= 6.67 + 1e-6
+    assert c["start"] is not None and c["start"]["ok"] and abs(c["start"]["z"]) < 2.576
+    assert c["converged"] and c["inside_window"] and row["trust"]
+    curve = s["modulus_curve"]
+    assert curve["resolved"] == row["resolved"]
+    assert all(a <= b <= d for a, b, d in zip(curve["q05"], curve["q50"], curve["q95"], strict=True))
+    assert curve["E_hdi_90"][0] < curve["E_median"] < curve["E_hdi_90"][1]
 
 
 def test_a_chain_that_samples_a_parameter_the_fit_now_holds_is_refused(tmp_path):
@@ -188,3 +199,50 @@ def test_a_chain_that_samples_a_parameter_the_fit_now_holds_is_refused(tmp_path)
     _check_holds(cfg, SimpleNamespace(names=["E", "G", "tau_max"]), {})
     with pytest.raises(StaleRunError, match="they differ on G"):
         _check_holds(cfg, SimpleNamespace(names=["E", "tau_max"]), {})
+
+
+def test_e_t_s_move_when_a_bound_is_widened_is_its_own_refit_s():
+    from types import SimpleNamespace
+
+    from bayes_dnlr.inference.layout import Layout
+    from bayes_dnlr.runs.modulus import _bound_shift
+
+    cfg = SimpleNamespace(for_test=lambda t: SimpleNamespace(fixed_values={"G": 0.0}),
+                          model=SimpleNamespace(modes=50, decades=6.0))
+    layout = Layout.build({"t": ["E", "tau_max"]}, [], plain=True)
+    before, after = {"E": 2000.0, "tau_max": 50.0}, {"E": 2100.0, "tau_max": 40.0}
+    entries = [{"parameter": "tau_max", "estimates": {"before": before, "after": after}},
+               {"parameter": "E", "note": "no refit"}]
+    expected = (relaxation_modulus([1.0], 2100.0, 0.0, 40.0)[0]
+                - relaxation_modulus([1.0], 2000.0, 0.0, 50.0)[0]) / 10.0
+    assert _bound_shift(entries, layout, "t", 1.0, 10.0, cfg) == {"tau_max": pytest.approx(expected)}
+    assert _bound_shift(entries, layout, "t", 1.0, 0.0, cfg) == {}
+
+
+def test_the_exponent_s_spread_is_the_slope_along_the_refit_times_alpha_s_sd():
+    import numpy as np
+
+    from bayes_dnlr.inference.modulus import gradient
+    from bayes_dnlr.runs.modulus import spectrum_spread, spread
+
+    point = {"E": 2854.0, "G": 2.32, "tau_max": 5.79, "alpha": 0.5}
+    block = {"sampled": False, "derivative": {"E": -2900.0, "G": 0.05, "tau_max": -1.7},
+             "score": {"sd": 0.05}}
+    fit = {"spectrum_exponent": block, "discrepancy": {"alpha_score": {"sd": 0.2}}}
+    s = spectrum_spread(fit, point, [1.0, 10.0], False, 50, 6.0)
+    g = gradient(point, ["E", "G", "tau_max", "alpha"], [1.0, 10.0])
+    slope = g[:, 3] + g[:, 0] * -2900.0 + g[:, 1] * 0.05 + g[:, 2] * -1.7
+    np.testing.assert_allclose(s["slope"], slope)
+    np.testing.assert_allclose(s["added_sd"], np.abs(slope) * 0.05)
+    # under the discrepancy, the score test on the whitened residuals gives alpha's sd
+    assert spectrum_spread(fit, point, [1.0], True, 50, 6.0)["alpha_sd"] == 0.2
+    sampled = {"spectrum_exponent": {**block, "sampled": True}}
+    assert spectrum_spread(sampled, point, [1.0], False, 50, 6.0) is None
+    assert spectrum_spread({}, point, [1.0], False, 50, 6.0) is None
+    # the spread keeps the median and adds about the sd asked, never a negative modulus
+    values = np.full((20000, 2), 1000.0)
+    out = spread(values, np.array([0.0, 10.0]))
+    np.testing.assert_array_equal(out[:, 0], 1000.0)
+    assert out[:, 1].std() == pytest.approx(10.0, rel=0.05)
+    assert np.median(out[:, 1]) == pytest.approx(1000.0, abs=0.5)
+    assert np.all(spread(values, np.array([5000.0, 5000.0])) > 0)
