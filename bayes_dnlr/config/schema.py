@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import BeforeValidator, Field, field_validator, model_validator
 
 from bayes_dnlr.config.base import Strict
 from bayes_dnlr.config.data_section import DataConfig
@@ -30,6 +30,18 @@ from bayes_dnlr.vocabulary import (
 )
 
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9._-]*$"
+MATERIAL_MAX = 60       # characters of ``material:``, a label for tables and figures
+
+
+def _material_text(v: Any) -> Any:
+    """``material: 19`` (a resin number) is the label "19"; another number or a boolean is refused (a
+    float would come back as another spelling: 1e3 as 1000.0)."""
+    if type(v) is int:
+        return str(v)
+    if isinstance(v, bool | float):
+        shown = str(v).lower() if isinstance(v, bool) else repr(v)
+        raise ValueError(f"expected a short label, got {shown} (quote it: material: '{shown}')")
+    return v
 
 
 class TestSpec(Strict):
@@ -45,6 +57,8 @@ class TestSpec(Strict):
 
 class Config(Strict):
     name: str = Field(pattern=NAME_PATTERN)
+    # which material the specimen is of: batch, population and compare give one result per material
+    material: Annotated[str | None, BeforeValidator(_material_text)] = None
     data: DataConfig | None = None
     tests: list[TestSpec] | None = None
     model: ModelConfig = Field(default_factory=ModelConfig)
@@ -57,6 +71,16 @@ class Config(Strict):
     output: OutputConfig = Field(default_factory=OutputConfig)
     # where the config was read from (not a YAML key)
     source: Path | None = Field(default=None, exclude=True)
+
+    @field_validator("material")
+    @classmethod
+    def _short_label(cls, v: str | None) -> str | None:
+        if v is None:
+            return v
+        if not v.strip() or v != v.strip() or len(v) > MATERIAL_MAX or not v.isprintable():
+            raise ValueError(f"expected a short label (1 to {MATERIAL_MAX} printable characters, no "
+                             f"leading or trailing space, e.g. HDPE-A or 'resin 19'), got {v!r}")
+        return v
 
     @field_validator("parameters", mode="before")
     @classmethod

@@ -41,6 +41,19 @@ def test_defaults_are_filled(tmp_path):
     assert cfg.noise.sigma0 == "residuals"
     assert cfg.sampler.walkers == 32
     assert cfg.data_path == tmp_path.resolve() / "t.csv"
+    assert cfg.material is None
+
+
+def test_material_is_a_label_outside_the_chains_identity(tmp_path):
+    """``material:`` names the specimen's material for batch, population and compare; it is no
+    part of what a chain depends on, so labelling finished runs keeps their results current."""
+    from bayes_dnlr.runs.identity import chain_parts
+
+    plain = load_config(write(tmp_path, BASE))
+    labelled = load_config(write(tmp_path, {**BASE, "material": "resin 19"}))
+    assert labelled.material == "resin 19" and "material: resin 19" in labelled.to_yaml()
+    assert load_config(write(tmp_path, {**BASE, "material": 19})).material == "19"
+    assert chain_parts(labelled, "sha") == chain_parts(plain, "sha")
 
 
 @pytest.mark.parametrize(("raw", "key", "words"), [
@@ -67,6 +80,9 @@ def test_defaults_are_filled(tmp_path):
     (with_("noise.sigma0", -1.0), "noise.sigma0", "must be a finite number > 0, got -1.0"),
     (with_("noise.sigma0", "resid"), "noise.sigma0", "unknown form"),
     (with_("name", "bad name/"), "name", "pattern"),
+    (with_("material", " HDPE"), "material", "expected a short label (1 to 60 printable characters"),
+    (with_("material", "x" * 61), "material", "expected a short label"),
+    (with_("material", True), "material", "expected a short label, got true"),
 ])
 def test_errors_name_file_and_key(tmp_path, raw, key, words):
     path = write(tmp_path, raw)
