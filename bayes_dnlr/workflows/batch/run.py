@@ -32,12 +32,20 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from bayes_dnlr.config import load_config
 from bayes_dnlr.csvcells import safe_cell
 from bayes_dnlr.diskio import own_dir
 from bayes_dnlr.errors import BayesDnlrError, StaleRunError
-from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
+from bayes_dnlr.runs.folder import (
+    jsonable,
+    resolved_config_path,
+    resolved_config_text,
+    write_atomic,
+    write_json,
+)
 from bayes_dnlr.runs.layout import FIT_FILE, REPORT_FILE, SUMMARY_FILE
 from bayes_dnlr.runs.lock import run_lock
+from bayes_dnlr.runs.trust import ET_FIELDS, run_trust
 from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS, PARAMETER_NAMES
 from bayes_dnlr.workflows.batch.manifest import BatchError, Job
 
@@ -177,6 +185,7 @@ def result_row(job: Job, cfg) -> dict[str, Any]:
     gn = summary.get("gauss_newton") or {}
     truth = cfg.truth.params if cfg.truth is not None else {}
     row: dict[str, Any] = {
+        "material": cfg.material,
         "data_file": ", ".join(str(c.data_path) for c in cfg.test_configs()),
         "n_points": summary.get("n_points"),
         "walkers": summary.get("walkers"), "steps": summary.get("steps"),
@@ -207,6 +216,7 @@ def result_row(job: Job, cfg) -> dict[str, Any]:
         if isinstance(values, dict):
             row.update({f"{key}[{test}]": values.get(key) for key in ("iso527_1", "astm_d638")})
     row["deborah_max"] = summary.get("deborah_max")
+    row.update(trust_columns(summary))
     rhats = [s.get("r_hat") for s in post.values() if s.get("r_hat") is not None]
     esss = [min(s.get("ess_bulk") or 0, s.get("ess_tail") or 0) for s in post.values()]
     row["r_hat_max"] = max(rhats) if rhats else None
@@ -218,6 +228,22 @@ def result_row(job: Job, cfg) -> dict[str, Any]:
     row["report"] = str(run_dir / REPORT_FILE) if (run_dir / REPORT_FILE).is_file() else None
     row["fingerprint"] = fingerprint(cfg, summary)
     return row
+
+
+def trust_columns(summary: dict[str, Any]) -> dict[str, Any]:
+    """A run's trust as table cells (runs/trust.py): ``trust_interval``, ``adequate``, ``verdict``
+    (its first sentence), ``checks_fired`` (names, comma-separated), and E(t) at its first time:
+    ``Et_t_s``, ``Et_mean``, ``Et_sd``, ``Et_hdi_lo``, ``Et_hdi_hi``, ``Et_trust`` (empty without
+    summary.json's ``modulus_at``; ``Et_mean[test]`` ... per test of a run with several)."""
+    trust = run_trust(summary)
+    fired = trust.pop("checks_fired")
+    cells: dict[str, Any] = {**{k: trust.pop(k) for k in ("trust_interval", "adequate", "verdict")},
+                             "checks_fired": None if fired is None else ", ".join(fired)}
+    cells.update({f"Et_{f}": None for f in ET_FIELDS})
+    for key, values in trust.items():          # Et, or Et[test]
+        test = key[len("Et"):]
+        cells.update({f"Et_{f}{test}": values[f] for f in ET_FIELDS})
+    return cells
 
 
 # ---------------------------------------------------------------- the batch (parent process)
@@ -246,7 +272,21 @@ def current_row(job: Job, out: Path, want_report: bool) -> dict[str, Any] | None
         return None
     if want_report and _stale_report(cfg.run_dir):
         return None
-    return {**row, "reused": True, "origin": job.origin}
+    _relabel(cfg)
+    return {**row, "reused": True, "origin": job.origin, "material": cfg.material}
+
+
+def _relabel(cfg) -> None:
+    """A finished run whose config now names another material (a label, no part of its chain):
+    its resolved config takes the new label, as ``sample`` would write it, so that ``population``
+    and ``compare`` of the run folder read the same material as this batch."""
+    path = resolved_config_path(cfg)
+    try:
+        written = load_config(path).material
+    except (OSError, ValueError, BayesDnlrError):
+        written = object()           # unreadable: written anew
+    if written != cfg.material:
+        write_atomic(path, resolved_config_text(cfg))
 
 
 def _batch_lock(out: Path):
@@ -419,7 +459,8 @@ def _cell(v: Any) -> Any:
     return json.dumps(v, sort_keys=True) if isinstance(v, dict | list) else v
 
 
-FIRST = ("name", "status", "error", "reused", "origin", "run_dir", "data_file", "worker", "elapsed_s")
+FIRST = ("name", "material", "status", "trust_interval", "verdict", "checks_fired", "error", "reused",
+         "origin", "run_dir", "data_file", "worker", "elapsed_s")
 
 
 def write_table(rows: list[dict[str, Any]], out: Path) -> list[Path]:

@@ -166,3 +166,15 @@ def test_scheduler_from_an_empty_dask_config_is_a_clear_error(tmp_path, capsys, 
         assert main(["batch", str(cfg), "--scheduler", "config", "--quiet"]) == 2
     assert "the Dask config has no scheduler-address" in capsys.readouterr().err
     assert not (tmp_path / "runs" / "batch").exists()
+
+
+def test_a_material_column_names_each_tests_material(tmp_path):
+    """The manifest column ``material`` is the config key ``material:``: a label, a resin number
+    read as a label, or the template's when empty; a value that is no label fails that row."""
+    template = _template(tmp_path)
+    raw = yaml.safe_load(template.read_text())
+    template.write_text(yaml.safe_dump({**raw, "material": "HDPE-A"}))
+    man = _manifest(tmp_path, "name,material\na,PA6 (dry)\nb,19\nc,\nd,1.5\n")
+    jobs = jobs_from_manifest(template, man, tmp_path / "out")
+    assert [j.config().material for j in jobs[:3]] == ["PA6 (dry)", "19", "HDPE-A"]
+    assert "line 5" in jobs[3].error and "material: expected a short label, got 1.5" in jobs[3].error
