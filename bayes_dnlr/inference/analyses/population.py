@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 from numba import njit, prange
 
+from bayes_dnlr.inference.analyses import heterogeneity
 from bayes_dnlr.model import threads
 
 MIN_EFFECTIVE = 50.0
@@ -53,6 +54,7 @@ class Population:
     parameter: str = "E"
     s_prior_scale: float = 0.0
     warnings: list[str] = field(default_factory=list)
+    heterogeneity: dict[str, Any] = field(default_factory=dict)   # analyses/heterogeneity.py
 
     @property
     def spread_resolved(self) -> bool:
@@ -79,7 +81,12 @@ class Population:
                 "s_prior": {"prior": "half-normal", "scale": self.s_prior_scale},
                 "mu_prior": "flat over the grid", "method": "two-stage reweighting of each "
                 "specimen's posterior draws (Hogg et al. 2010), grid over (mu, s)",
-                "warnings": self.warnings}
+                "heterogeneity": self.heterogeneity, "warnings": self.warnings}
+
+    @property
+    def one_material(self) -> bool:
+        """The heterogeneity check passed: the pooled value may be called the material's."""
+        return bool(self.heterogeneity.get("passed"))
 
 
 def _stats_from_grid(x: np.ndarray, p: np.ndarray, width: np.ndarray | None = None) -> dict[str, Any]:
@@ -182,20 +189,29 @@ def _zoom(mu_grid: np.ndarray, s_grid: np.ndarray, post: np.ndarray) -> tuple[np
 
 
 def population(draws: Mapping[str, np.ndarray], priors: Mapping[str, Any], parameter: str = "E",
-               s_prior_scale: float | None = None) -> Population:
+               s_prior_scale: float | None = None,
+               own: Mapping[str, Mapping[str, float]] | None = None, labelled: bool = False) -> Population:
     """The population of ``draws`` (name -> a specimen's posterior draws of the parameter) with
-    each specimen's prior (``inference.priors.Prior``, for the division by π_k)."""
+    each specimen's prior (``inference.priors.Prior``, for the division by π_k). ``own``: each
+    specimen's posterior mean and sd as its run reports them (summary.json), shown as its own
+    estimate and checked for heterogeneity first; else those of all its draws. ``labelled``: the
+    specimens are labelled as one material (the heterogeneity check's words)."""
     names = list(draws)
     if len(names) < 2:
         raise ValueError("a population needs at least two specimens")
     rng = np.random.default_rng(0)
-    x, logpi = {}, {}
+    x, logpi, own_of, full = {}, {}, {}, {}
     for k in names:
-        v = np.asarray(draws[k], dtype=float).ravel()
+        v = full[k] = np.asarray(draws[k], dtype=float).ravel()
+        given = (own or {}).get(k)
+        own_of[k] = ({"mean": float(given["mean"]), "sd": float(given["sd"])} if given else
+                     {"mean": float(v.mean()), "sd": float(v.std(ddof=1))})
         if v.size > MAX_DRAWS:
             v = v[rng.choice(v.size, MAX_DRAWS, replace=False)]
         x[k] = v
         logpi[k] = np.asarray(priors[k].logpdf(v), dtype=float)
+    check = heterogeneity.one_material(names, [own_of[k]["mean"] for k in names],
+                                       [own_of[k]["sd"] for k in names], labelled=labelled)
     means = np.array([x[k].mean() for k in names])
     sds = np.array([x[k].std(ddof=1) for k in names])
     spread = float(means.std(ddof=1))
@@ -236,15 +252,19 @@ def population(draws: Mapping[str, np.ndarray], priors: Mapping[str, Any], param
                         "draws under the population (the population is narrower than their own "
                         "posterior): sample them longer (sampler.target_ess) for a stable answer")
     # shrunk estimates: reweight each specimen's draws by E_{mu,s}[N(x | mu, s)] / pi(x), the
-    # expectation over (mu, s) drawn from the grid posterior
+    # expectation over (mu, s) drawn from the grid posterior. All its draws, not the grid's thinned
+    # ones: the same draws as its own estimate, so that the two differ by the shrinkage only
     flat = rng.choice(mass.size, N_HYPER_DRAWS, p=mass.ravel())
     mus, ss = mu_grid[flat // N_S], s_grid[flat % N_S]
     specimens = {}
     for k in names:
-        z = (x[k][None, :] - mus[:, None]) / ss[:, None]
-        acc = np.mean(np.exp(-0.5 * z * z) / ss[:, None], axis=0)
-        w = acc * np.exp(-(logpi[k] - logpi[k].max()))
-        specimens[k] = {"own": {"mean": float(x[k].mean()), "sd": float(x[k].std(ddof=1))},
-                        "shrunk": _weighted_stats(x[k], w)}
+        v = full[k]
+        acc = np.zeros(v.size)
+        for m_j, s_j in zip(mus, ss, strict=True):      # one hyper draw at a time: no (400, N) array
+            acc += np.exp(-0.5 * ((v - m_j) / s_j) ** 2) / s_j
+        log_prior = np.asarray(priors[k].logpdf(v), dtype=float)
+        w = acc / N_HYPER_DRAWS * np.exp(-(log_prior - log_prior.max()))
+        specimens[k] = {"own": own_of[k], "shrunk": _weighted_stats(v, w)}
     return Population(names, mu_stats, s_stats, specimens, ess_at, var_log_l,
-                      {"mu": mu_grid, "s": s_grid, "posterior": post}, parameter, scale, warnings)
+                      {"mu": mu_grid, "s": s_grid, "posterior": post}, parameter, scale, warnings,
+                      check)

@@ -3,7 +3,10 @@
     python -m bayes_dnlr population runs/population/spec-*
 
 Stage 1 is each specimen's own run (``fit`` and ``sample``, or ``batch``); stage 2 reweights their
-posterior draws of E under E_k ~ Normal(μ_E, s_E) (inference/analyses/population.py). The result,
+posterior draws of E under E_k ~ Normal(μ_E, s_E) (inference/analyses/population.py), one population
+per material (the configs' ``material:``), each after the check that its tests look like one
+material (inference/analyses/heterogeneity.py); each specimen's own verdict (runs/trust.py) travels
+into the population's warnings. The result,
 population.json, goes into the folder that holds the runs (or ``out``); it records which runs (and
 which of their posteriors, by fingerprint) it was made from, so a population.json made from other
 runs is never replaced silently (``force``).
@@ -20,20 +23,23 @@ from typing import Any
 
 from bayes_dnlr.config import ConfigError, load_config
 from bayes_dnlr.errors import RunError
+from bayes_dnlr.inference.analyses import heterogeneity
 from bayes_dnlr.inference.analyses.population import Population, population
 from bayes_dnlr.inference.posterior.priors import Prior
 from bayes_dnlr.runs.draws import load_run_draws
 from bayes_dnlr.runs.folder import find_config, write_json
 from bayes_dnlr.runs.layout import SUMMARY_FILE
+from bayes_dnlr.runs.trust import run_trust, trusted_count
 
 POPULATION_FILE = "population.json"
+UNLABELLED = "(no material given)"      # the group of the runs whose config has no material:
 
 
 @dataclass
 class PopulationRun:
-    """The population of a set of finished runs, and where it was written."""
+    """The populations of a set of finished runs (one per material), and where they were written."""
 
-    result: Population
+    results: dict[str, Population]        # material (or UNLABELLED) -> its population
     runs: dict[str, str]                  # specimen name -> run directory, relative to out_dir
     fingerprints: dict[str, str]          # specimen name -> its posterior's fingerprint
     truth: dict[str, float] = field(default_factory=dict)    # synthetic specimens: the true values
@@ -41,13 +47,54 @@ class PopulationRun:
     wall_time_s: float = 0.0
     written: list[Path] = field(default_factory=list)
     made_by: str = "population"           # or "batch": a batch may replace its own population.json
+    materials: dict[str, str | None] = field(default_factory=dict)   # specimen -> its material
+    members: dict[str, dict[str, Any]] = field(default_factory=dict)  # specimen -> runs/trust.py
+    skipped: dict[str, str] = field(default_factory=dict)   # material -> why it has no population
+    between: dict[str, Any] | None = None  # several materials: analyses/heterogeneity.between_groups
+
+    @property
+    def grouped(self) -> bool:
+        """Runs of more than one material: population.json has one entry per material."""
+        return len(set(self.materials.values())) > 1
+
+    @property
+    def result(self) -> Population:
+        """The population of a set of runs of one material."""
+        if len(self.results) != 1:
+            raise ValueError(f"{len(self.results)} populations (one per material): read .results")
+        return next(iter(self.results.values()))
+
+    def trusted(self, names: list[str]) -> dict[str, Any]:
+        """How many of ``names`` their own checks trust: ``k`` of ``n`` (those with a verdict), the
+        names of the others, and the same for E(t) at its first time (where the runs have it)."""
+        flags = {k: (self.members.get(k) or {}).get("trust_interval") for k in names}
+        et = {k: ((self.members.get(k) or {}).get("Et") or {}).get("trust") for k in names}
+        k, n = trusted_count(list(flags.values()))
+        ke, ne = trusted_count(list(et.values()))
+        return {"k": k, "n": n, "untrusted": [a for a, f in flags.items() if f is False],
+                "Et": {"k": ke, "n": ne} if ne else None}
+
+    def group_dict(self, label: str) -> dict[str, Any]:
+        pop = self.results[label]
+        return {**pop.to_dict(), "material": None if label == UNLABELLED else label,
+                "trusted": self.trusted(pop.names)}
 
     def to_dict(self) -> dict[str, Any]:
         from bayes_dnlr import __version__
 
-        return {**self.result.to_dict(), "runs": self.runs, "fingerprints": self.fingerprints,
-                "truth": self.truth or None, "wall_time_s": self.wall_time_s, "made_by": self.made_by,
-                "version": __version__}
+        common = {"runs": self.runs, "fingerprints": self.fingerprints, "materials": self.materials,
+                  "members": self.members, "truth": self.truth or None,
+                  "wall_time_s": self.wall_time_s, "made_by": self.made_by, "version": __version__}
+        if not self.grouped:
+            return {**self.group_dict(next(iter(self.results))), **common}
+        names = [k for label in self.results for k in self.results[label].names]
+        parameter = next(iter(self.results.values())).parameter
+        return {"parameter": parameter, "specimens": names,
+                "groups": {label: self.group_dict(label) for label in self.results},
+                "skipped_groups": self.skipped, "heterogeneity": self.between,
+                "warnings": [f"{label}: {w}" for label, p in self.results.items() for w in p.warnings]
+                + [f"{label}: not pooled: {why}" for label, why in self.skipped.items()],
+                **common}
 
 
 def default_out_dir(run_dirs: list[Path]) -> Path:
@@ -56,8 +103,23 @@ def default_out_dir(run_dirs: list[Path]) -> Path:
     return parents.pop() if len(parents) == 1 else Path(os.path.commonpath([str(p) for p in parents]))
 
 
-def _specimen(run_dir: Path, parameter: str) -> tuple[str, Any, Prior, str, float | None]:
-    """(name, draws, prior, fingerprint, true value) of one finished run."""
+@dataclass
+class Specimen:
+    """One finished run as a specimen: its draws of the parameter, the prior they were drawn
+    under, what its run reports (summary.json), its material and true value."""
+
+    name: str
+    draws: Any
+    prior: Prior
+    fingerprint: str
+    truth: float | None
+    material: str | None
+    own: dict[str, float] | None       # summary.json's posterior mean and sd of the parameter
+    trust: dict[str, Any]              # runs/trust.py run_trust
+
+
+def _specimen(run_dir: Path, parameter: str) -> Specimen:
+    """One finished run as a specimen of the population."""
     draws = load_run_draws(run_dir, key="population")
     if parameter not in draws.values:
         joint = " (a run with tests: shares E across its tests; run each specimen alone)" \
@@ -72,8 +134,12 @@ def _specimen(run_dir: Path, parameter: str) -> tuple[str, Any, Prior, str, floa
         raise RunError(f"population: {run_dir}: {parameter} is fixed in its config: nothing to pool")
     truth = cfg.truth.params.get(parameter) if cfg.truth is not None else None
     name = str(draws.summary.get("name") or cfg.name)
-    return (name, draws.values[parameter], Prior.from_spec(parameter, spec), str(
-        draws.summary.get("fingerprint") or ""), truth)
+    post = (draws.summary.get("posterior") or {}).get(parameter) or {}
+    own = ({"mean": float(post["mean"]), "sd": float(post["sd"])}
+           if post.get("mean") is not None and post.get("sd") else None)
+    return Specimen(name, draws.values[parameter], Prior.from_spec(parameter, spec),
+                    str(draws.summary.get("fingerprint") or ""), truth, cfg.material, own,
+                    run_trust(draws.summary))
 
 
 def _check_dirs(dirs: list[Path]) -> None:
@@ -87,25 +153,72 @@ def _check_dirs(dirs: list[Path]) -> None:
         seen[r] = d
 
 
+def member_warnings(specimens: list[Specimen]) -> list[str]:
+    """The population's warnings from its members' own verdicts: one per specimen whose checks do
+    not trust E's interval (or whose E(t) at its first time is not trusted)."""
+    out = []
+    for sp in specimens:
+        t = sp.trust
+        if t.get("trust_interval") is False:
+            fired = ", ".join(t.get("checks_fired") or []) or "see its report"
+            out.append(f"{sp.name}: its own checks do not trust E's interval: {t.get('verdict')} "
+                       f"(checks: {fired})")
+        et = t.get("Et") or {}
+        if et.get("trust") is False:
+            out.append(f"{sp.name}: its E(t) at t = {et.get('t_s')} s is not trusted by its own checks")
+    return out
+
+
 def run_population(run_dirs: list[Path | str], *, parameter: str = "E", out: Path | str | None = None,
-                   force: bool = False, write: bool = True, made_by: str = "population") -> PopulationRun:
-    """Pool the finished runs ``run_dirs`` (≥ 2 specimens); write ``out/population.json``."""
+                   force: bool = False, write: bool = True, made_by: str = "population",
+                   min_group: int = 2) -> PopulationRun:
+    """Pool the finished runs ``run_dirs`` (≥ 2 specimens), one population per material (the
+    configs' ``material:``; a material with fewer than ``min_group`` runs is left out with its
+    reason); write ``out/population.json``."""
     dirs = [Path(d) for d in run_dirs]
     _check_dirs(dirs)
     t0 = time.perf_counter()
     out_dir = Path(out) if out is not None else default_out_dir(dirs)
-    draws, priors, runs, fps, truth = {}, {}, {}, {}, {}
+    specimens: dict[str, Specimen] = {}
+    runs, fps, truth = {}, {}, {}
     for d in dirs:
-        name, x, prior, fp, true = _specimen(d, parameter)
-        if name in draws:
-            raise RunError(f"population: {d} and {runs[name]} are both named {name!r}; every specimen "
-                           "needs its own run name")
-        draws[name], priors[name], fps[name] = x, prior, fp
-        runs[name] = os.path.relpath(d.resolve(), out_dir.resolve())
-        if true is not None:
-            truth[name] = float(true)
-    result = population(draws, priors, parameter=parameter)
-    pr = PopulationRun(result, runs, fps, truth, out_dir, time.perf_counter() - t0, made_by=made_by)
+        sp = _specimen(d, parameter)
+        if sp.name in specimens:
+            raise RunError(f"population: {d} and {runs[sp.name]} are both named {sp.name!r}; every "
+                           "specimen needs its own run name")
+        specimens[sp.name] = sp
+        fps[sp.name] = sp.fingerprint
+        runs[sp.name] = os.path.relpath(d.resolve(), out_dir.resolve())
+        if sp.truth is not None:
+            truth[sp.name] = float(sp.truth)
+    groups: dict[str, list[Specimen]] = {}
+    for sp in specimens.values():
+        groups.setdefault(sp.material or UNLABELLED, []).append(sp)
+    results, skipped = {}, {}
+    for label, members in groups.items():
+        if len(members) < min_group:
+            skipped[label] = (f"{len(members)} test{'s' if len(members) != 1 else ''} "
+                              f"({', '.join(m.name for m in members)}); a population needs at least "
+                              f"{min_group}")
+            continue
+        pop = population({m.name: m.draws for m in members}, {m.name: m.prior for m in members},
+                         parameter=parameter, own={m.name: m.own for m in members if m.own},
+                         labelled=label != UNLABELLED)
+        if pop.heterogeneity.get("passed") is False:
+            pop.warnings.insert(0, f"not one material: {pop.heterogeneity['words']}")
+        pop.warnings += member_warnings(members)
+        results[label] = pop
+    if not results:
+        raise RunError(f"population: no material has {min_group} runs to pool ("
+                       + "; ".join(f"{k}: {v}" for k, v in skipped.items()) + ")")
+    between = None
+    if len(groups) > 1:
+        between = heterogeneity.between_groups({label: (p.mu["mean"], p.mu["sd"])
+                                                for label, p in results.items()})
+    pr = PopulationRun(results, runs, fps, truth, out_dir, time.perf_counter() - t0, made_by=made_by,
+                       materials={k: sp.material for k, sp in specimens.items()},
+                       members={k: {"material": sp.material, **sp.trust} for k, sp in specimens.items()},
+                       skipped=skipped, between=between)
     if write:
         path = out_dir / POPULATION_FILE
         _check_replace(path, pr, force)
@@ -125,11 +238,11 @@ def read_existing(path: Path) -> dict[str, Any]:
 
 
 def same_inputs(old: dict[str, Any], runs: dict[str, str], fingerprints: dict[str, str],
-                parameter: str) -> bool:
+                parameter: str, materials: dict[str, str | None]) -> bool:
     """Was ``old`` (a population.json) made from these runs, these posteriors of them, this
-    parameter? Then a new one would be the same."""
+    parameter, these materials? Then a new one would be the same."""
     return (bool(old) and old.get("fingerprints") == fingerprints and old.get("parameter") == parameter
-            and old.get("runs") == runs)
+            and old.get("runs") == runs and old.get("materials") == materials)
 
 
 def current_population(run_dirs: list[Path | str], *, parameter: str = "E",
@@ -141,16 +254,18 @@ def current_population(run_dirs: list[Path | str], *, parameter: str = "E",
     old = read_existing(out_dir / POPULATION_FILE)
     if not old:
         return None
-    runs, fps = {}, {}
+    runs, fps, materials = {}, {}, {}
     for d in dirs:
         try:
             summary = json.loads((d / SUMMARY_FILE).read_text())
-            name = str(summary.get("name") or load_config(find_config(d)).name)
+            cfg = load_config(find_config(d))
         except (OSError, ValueError, FileNotFoundError, ConfigError):
             return None
+        name = str(summary.get("name") or cfg.name)
         runs[name] = os.path.relpath(d.resolve(), out_dir.resolve())
         fps[name] = str(summary.get("fingerprint") or "")
-    return old if same_inputs(old, runs, fps, parameter) else None
+        materials[name] = cfg.material
+    return old if same_inputs(old, runs, fps, parameter, materials) else None
 
 
 def _check_replace(path: Path, pr: PopulationRun, force: bool) -> None:
@@ -158,6 +273,7 @@ def _check_replace(path: Path, pr: PopulationRun, force: bool) -> None:
     ``force``."""
     if force or not path.exists():
         return
-    if not same_inputs(read_existing(path), pr.runs, pr.fingerprints, pr.result.parameter):
+    parameter = next(iter(pr.results.values())).parameter
+    if not same_inputs(read_existing(path), pr.runs, pr.fingerprints, parameter, pr.materials):
         raise RunError(f"{path} exists and was made from other runs or other posteriors of them; pass "
                        "--force to replace it, or --out to write elsewhere")

@@ -34,22 +34,21 @@ def test_two_stage_recovers_a_known_population_and_shrinks():
 def test_specimens_that_agree_leave_the_spread_unresolved_and_the_page_says_so():
     """Three specimens 1 sd apart: the HDI of s starts at 0 and the page says s is only bounded;
     eight specimens 100 MPa apart with 25-60 MPa posteriors resolve it, and the page is silent."""
-    from types import SimpleNamespace
-
     from bayes_dnlr.inference.analyses.population import population
     from bayes_dnlr.workflows.population.page import markdown
+    from bayes_dnlr.workflows.population.run import UNLABELLED, PopulationRun
 
     rng = np.random.default_rng(7)
     agree = {f"s{k}": rng.normal(1600.0 + 50.0 * k, 260.0, 4000) for k in range(3)}
     pop = population(agree, dict.fromkeys(agree, PRIOR))
     assert not pop.spread_resolved and pop.to_dict()["s_resolved"] is False
-    page = markdown(SimpleNamespace(result=pop, truth=None, wall_time_s=0.1))
+    page = markdown(PopulationRun({UNLABELLED: pop}, {}, {}, wall_time_s=0.1))
     assert "s is consistent with no spread at all, and 3 specimens only bound it" in page
     draws = draw_population(np.random.default_rng(3), 8)
     apart = population(draws, dict.fromkeys(draws, PRIOR))
     assert apart.spread_resolved
-    assert "consistent with no spread" not in markdown(SimpleNamespace(result=apart, truth=None,
-                                                                       wall_time_s=0.1))
+    assert "consistent with no spread" not in markdown(PopulationRun({UNLABELLED: apart}, {}, {},
+                                                                     wall_time_s=0.1))
 
 
 def test_monte_carlo_check_fails_with_too_few_draws():
@@ -129,9 +128,10 @@ def test_many_specimens_get_a_grid_fine_enough_for_their_narrow_posterior(tmp_pa
     from PIL import Image
 
     from bayes_dnlr.workflows.population.page import figure
-    from bayes_dnlr.workflows.population.run import PopulationRun
+    from bayes_dnlr.workflows.population.run import UNLABELLED, PopulationRun
 
-    png = figure(PopulationRun(pop, {k: k for k in draws}, dict.fromkeys(draws, "")), tmp_path / "p.png")
+    png = figure(PopulationRun({UNLABELLED: pop}, {k: k for k in draws}, dict.fromkeys(draws, "")),
+                 tmp_path / "p.png")
     assert Image.open(png).size[1] < 3000                  # 70 inches (7700 px) with 8 specimens' rows
 
 
