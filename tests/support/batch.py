@@ -24,16 +24,19 @@ FEW = {"walkers": 8, "max_steps": 20, "checkpoint_every": 10}
 
 
 def tiny_campaign(folder: Path, n: int, *, long: set[int] = frozenset(),
-                  points: int = 250, sampler: dict | None = None) -> tuple[Path, Path]:
+                  points: int = 250, sampler: dict | None = None,
+                  params: dict[int, dict] | None = None) -> tuple[Path, Path]:
     """``n`` data files (different noise seeds) in folder/data, a template config and a manifest
     (name, data.file, sampler.seed); tests in ``long`` never converge and run to LONG_STEPS steps.
-    ``sampler``: keys over TINY's in the template (FEW: a shorter chain)."""
+    ``sampler``: keys over TINY's in the template (FEW: a shorter chain); ``params``: test index ->
+    the true parameters of its data (the default synthetic specimen's else)."""
     data = folder / "data"
     data.mkdir(parents=True, exist_ok=True)
     rows = []
     sampler = {**TINY, **(sampler or {})}
     for i in range(n):
-        cfg = write_case(folder / "cases", f"t{i}", n=points, seed=100 + i, sampler=sampler)
+        cfg = write_case(folder / "cases", f"t{i}", n=points, seed=100 + i, sampler=sampler,
+                         params=(params or {}).get(i))
         (cfg.parent / "data.csv").replace(data / f"t{i}.csv")
         row = {"name": f"t{i}", "data.file": f"data/t{i}.csv", "sampler.seed": str(i + 1),
                "sampler.max_steps": "", "sampler.target_ess": ""}

@@ -14,9 +14,9 @@ from __future__ import annotations
 import base64
 import dataclasses
 import html
-import math
 import os
 import threading
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +29,8 @@ from bayes_dnlr.numbers import fmt, pm
 from bayes_dnlr.report.page_parts import CSS
 from bayes_dnlr.runs.layout import FIGURES_DIR
 from bayes_dnlr.vocabulary import PARAMETER_NAMES
+from bayes_dnlr.workflows.batch.figure import e_caption, e_figure, with_e
+from bayes_dnlr.workflows.batch.groups import by_material, labelled, modulus_at, spread, trust_counts
 from bayes_dnlr.workflows.batch.manifest import (
     BatchError,
     default_out,
@@ -37,13 +39,12 @@ from bayes_dnlr.workflows.batch.manifest import (
     jobs_from_manifest,
 )
 from bayes_dnlr.workflows.batch.pooling import PopulationStep
-from bayes_dnlr.workflows.batch.population_step import population_step, section
+from bayes_dnlr.workflows.batch.population_step import groups_of, population_step, section
 from bayes_dnlr.workflows.batch.run import BATCH_SET, BatchResult, run_batch, write_table
+from bayes_dnlr.workflows.population.page import listed
 
 PAGE = "batch.html"
 FIGURE = "batch_E.png"
-FOREST_MAX = 80          # tests shown one by one in the forest plot
-HISTOGRAM_MIN = 10       # fewer tests get no histogram (three means made bars of height 1 and 0)
 
 
 def _warm_up_the_end() -> None:
@@ -104,97 +105,6 @@ def run_campaign(inputs: list[str], *, manifest: Path | None = None, out: Path |
                      report=build_report if report else None, progress=progress, publish=publish)
 
 
-# ---------------------------------------------------------------- numbers
-
-def population(rows: list[dict[str, Any]], p: str = "E") -> dict[str, float] | None:
-    """E across the tests: mean and sd of the posterior means (between tests), the median posterior
-    sd (within a test) and their ratio; None with fewer than one test."""
-    pts = [(r[f"{p}_mean"], r[f"{p}_sd"]) for r in rows
-           if r.get("status") == "ok" and r.get(f"{p}_mean") is not None]
-    if not pts:
-        return None
-    m = np.array([a for a, _ in pts], float)
-    s = np.array([b for _, b in pts], float)
-    between = float(m.std(ddof=1)) if m.size > 1 else float("nan")
-    within = float(np.median(s))
-    return {"n": int(m.size), "mean": float(m.mean()), "between_sd": between, "within_sd": within,
-            "ratio": between / within if within > 0 else float("nan"), "min": float(m.min()),
-            "max": float(m.max()), "median": float(np.median(m))}
-
-
-# ---------------------------------------------------------------- figure
-
-def _with_e(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The ok tests with a posterior mean of E: those ``e_figure`` draws."""
-    return [r for r in rows if r.get("status") == "ok" and r.get("E_mean") is not None]
-
-
-def e_figure(rows: list[dict[str, Any]], path: Path) -> Path | None:
-    """The PNG of ``e_plot`` at ``path`` (None: no ok test with E)."""
-    from bayes_dnlr.report.canvas import save_figure
-
-    ok = _with_e(rows)
-    return save_figure(e_plot(ok), path) if ok else None
-
-
-def e_plot(ok: list[dict[str, Any]]):
-    """Histogram of the posterior mean of E (from ``HISTOGRAM_MIN`` tests) and a forest plot (mean,
-    90 % HDI) of every test (up to ``FOREST_MAX``): the matplotlib Figure."""
-    from bayes_dnlr.report.figures import pyplot
-
-    plt = pyplot()
-    forest = len(ok) <= FOREST_MAX
-    histogram = len(ok) >= HISTOGRAM_MIN or not forest
-    panels = int(histogram) + int(forest)
-    fig, axes = plt.subplots(1, panels, figsize=(11 if panels == 2 else 6,
-                                                  max(3.6, 0.18 * len(ok)) if forest else 3.6),
-                             squeeze=False)
-    axes = list(axes[0])
-    if histogram:
-        ax = axes.pop(0)
-        means = np.array([r["E_mean"] for r in ok], float)
-        bins = max(5, min(40, int(math.sqrt(len(ok)) * 2)))
-        ax.hist(means, bins=bins, color="#1f5fa8", alpha=0.75)
-        ax.plot(means, np.zeros_like(means), "|", color="k", ms=12)
-        ax.set_xlabel("posterior mean of E (MPa)")
-        ax.set_ylabel("tests")
-        from matplotlib.ticker import MaxNLocator
-
-        ax.yaxis.set_major_locator(MaxNLocator(integer=True))
-        ax.set_title(f"E across {len(ok)} tests")
-    if forest:
-        ax2 = axes.pop(0)
-        order = sorted(ok, key=lambda r: r["E_mean"])
-        y = np.arange(len(order))
-        lo = np.array([r["E_hdi90_lo"] for r in order], float)
-        hi = np.array([r["E_hdi90_hi"] for r in order], float)
-        mu = np.array([r["E_mean"] for r in order], float)
-        ax2.hlines(y, lo, hi, color="#1f5fa8", lw=2)
-        ax2.plot(mu, y, "o", color="#c0392b", ms=4)
-        truth = [(i, r["E_true"]) for i, r in enumerate(order) if r.get("E_true") is not None]
-        if truth:
-            ax2.plot([t for _, t in truth], [i for i, _ in truth], "x", color="#2e8b57", ms=5,
-                     label="true E")
-            ax2.legend(loc="lower right", fontsize=8)
-        ax2.set_yticks(y, [r["name"] for r in order], fontsize=7)
-        ax2.set_xlabel("E (MPa): posterior mean and 90 % HDI")
-        ax2.set_title("each test" if histogram else f"E of each of {len(ok)} tests")
-    fig.tight_layout()
-    return fig
-
-
-def e_caption(n: int) -> str:
-    """The caption of ``e_figure`` for ``n`` tests."""
-    forest = ("each test's posterior mean (dot) and 90 % HDI (bar), sorted; crosses mark the true E "
-              "of synthetic tests.")
-    if n < HISTOGRAM_MIN:
-        return forest[0].upper() + forest[1:]
-    hist = "histogram of the posterior means of E (one tick per test)"
-    if n > FOREST_MAX:
-        return hist[0].upper() + hist[1:] + "."
-    return f"Left: {hist}. Right: {forest}"
-
-
 # ---------------------------------------------------------------- page
 
 def _img(path: Path, alt: str, caption: str) -> str:
@@ -220,19 +130,105 @@ def _e(text: Any) -> str:
     return html.escape("" if text is None else str(text))
 
 
-def _population_text(pop: dict[str, float] | None) -> str:
+def _trust_mark(r: dict[str, Any]) -> str:
+    """A test's trust as a cell: its own checks' decision on E's interval."""
+    flag = r.get("trust_interval")
+    if flag is None:
+        return "<td>–</td>"
+    return "<td class='text'>yes</td>" if flag else "<td class='flag'>no ⚑</td>"
+
+
+def _spread_text(pop: dict[str, float] | None, what: str = "tests") -> str:
     if pop is None:
-        return "<p>No test gave a posterior of E.</p>"
+        return "No test gave a posterior of E."
     if pop["n"] < 2:
-        return (f"<p>One test: E = {fmt(pop['mean'])} MPa (posterior sd {fmt(pop['within_sd'], 3)} MPa)."
-                "</p>")
-    return (f"<p>E over {pop['n']} tests: mean of the posterior means {fmt(pop['mean'])} MPa, median "
+        return f"One test: E = {fmt(pop['mean'])} MPa (posterior sd {fmt(pop['within_sd'], 3)} MPa)."
+    return (f"E over {pop['n']} {what}: mean of the posterior means {fmt(pop['mean'])} MPa, median "
             f"{fmt(pop['median'])}, range {fmt(pop['min'])}–{fmt(pop['max'])} MPa. Spread between tests "
             f"(sd of the means) {fmt(pop['between_sd'], 3)} MPa against a typical uncertainty within a "
             f"test (median posterior sd) of {fmt(pop['within_sd'], 3)} MPa: ratio "
-            f"{fmt(pop['ratio'], 3)}. A ratio near 1 means the tests agree within their own "
-            "uncertainty; well above 1, the specimens (or the conditions) really differ, or the "
-            "within-test uncertainty is too small (model error: see docs/model-error.md).</p>")
+            f"{fmt(pop['ratio'], 3)}.")
+
+
+RATIO_WORDS = ("A ratio near 1 means the tests agree within their own uncertainty; well above 1, the "
+               "specimens (or the conditions, or the materials) really differ, or the within-test "
+               "uncertainty is too small (model error: see docs/model-error.md).")
+
+
+def _not_one_material(step: PopulationStep | None) -> str:
+    """A sentence for the first box when a population's tests do not look like one material."""
+    if step is None or step.data is None:
+        return ""
+    try:
+        bad = [(m, g["heterogeneity"]) for m, g in groups_of(step.data)
+               if (g.get("heterogeneity") or {}).get("passed") is False]
+    except (AttributeError, KeyError, TypeError):      # a population.json the section reports on
+        return ""
+    return "".join(f" <b>The tests{f' labelled {_e(m)}' if m else ''} do not look like one "
+                   f"material</b> (standing out: {_e(', '.join(h.get('stand_out') or []))}; the "
+                   "population below)." for m, h in bad)
+
+
+def _trust_text(t: dict[str, Any]) -> str:
+    if not t["n"]:
+        return "no verdict (runs of an earlier version)"
+    text = f"<b>{t['k']} of {t['n']} trusted</b>"
+    if t["untrusted"]:
+        text += f" (not: {_e(listed(t['untrusted']))})"
+    if t["et_n"]:
+        text += f"; E(t): {t['et_k']} of {t['et_n']} trusted"
+    return text
+
+
+def _materials_table(rows: list[dict[str, Any]], with_et: bool) -> str:
+    """One row per material: its tests, how many its checks trust, E across them and E(t); a cell
+    drawn from tests that are not all trusted is amber, never plain."""
+    body = ""
+    for label, rs in by_material(rows).items():
+        t = trust_counts(rs)
+        pop = spread(rs)
+        et = modulus_at(rs)
+        all_trusted = t["n"] > 0 and t["k"] == t["n"]
+        cls = "" if all_trusted else " class='flag'"
+        e_cell = ("–" if pop is None else
+                  f"{fmt(pop['mean'])} ({fmt(pop['min'])}–{fmt(pop['max'])})")
+        ratio = "–" if pop is None or pop["n"] < 2 else fmt(pop["ratio"], 3)
+        et_cell = "–" if et is None else (f"{fmt(et['mean'])} ({fmt(et['min'])}–{fmt(et['max'])}) "
+                                          f"at t = {fmt(et['t_s'], 3)} s")
+        et_cls = "" if et is None or (t["et_n"] and t["et_k"] == t["et_n"]) else " class='flag'"
+        body += (f"<tr><th>{_e(label)}</th><td>{t['ok']}</td><td class='text'>{_trust_text(t)}</td>"
+                 f"<td{cls}>{e_cell}</td><td>{ratio}</td>"
+                 + (f"<td{et_cls}>{et_cell}</td>" if with_et else "") + "</tr>")
+    head = ("<tr><th>material</th><th>ok tests</th><th>trusted (own checks)</th><th>E (MPa): mean of "
+            "the means (range)</th><th>between / within</th>"
+            + ("<th>E(t) (MPa): mean (range)</th>" if with_et else "") + "</tr>")
+    return f"<table class='num'><thead>{head}</thead><tbody>{body}</tbody></table>"
+
+
+def _warnings_html(warned: list[dict[str, Any]], n_ok: int) -> str:
+    """The tests' warnings: one line for each warning that several tests share word for word (the
+    fit's note on G held at 0 for every window that ends at yield, docs/batch.md), then each test's
+    own."""
+    if not warned:
+        return "<p>None.</p>"
+    own = {r["name"]: [w for w in str(r.get("warnings") or "").split(" | ") if w] for r in warned}
+    counts = Counter(w for ws in own.values() for w in set(ws))
+    shared = [w for w, c in counts.most_common() if c > 1]
+    parts = []
+    if shared:
+        items = "".join(f"<li><b>{counts[w]} of {n_ok} tests</b>: {_e(w)}</li>" for w in shared)
+        parts.append(f"<p>Shared by several tests (each listed once):</p><ul class='flags'>{items}</ul>")
+    body = ""
+    for r in warned:
+        mine = [w for w in own[r["name"]] if counts[w] == 1]
+        if mine or r.get("converged") is False:
+            body += (f"<tr><th>{_e(r['name'])}</th><td>{'no' if r.get('converged') is False else 'yes'}"
+                     f"</td><td class='text'>{_e(' | '.join(mine))}</td></tr>")
+    if body:
+        parts.append("<table class='num'><thead><tr><th>test</th><th>converged</th><th>"
+                     + ("its other warnings" if shared else "warnings")
+                     + f"</th></tr></thead><tbody>{body}</tbody></table>")
+    return "".join(parts)
 
 
 def write_page(result: BatchResult, step: PopulationStep | None = None) -> Path:
@@ -246,18 +242,33 @@ def write_page(result: BatchResult, step: PopulationStep | None = None) -> Path:
     pending = [r for r in rows if r.get("status") == "pending"]
     warned = [r for r in ok if r.get("n_warnings") or r.get("converged") is False]
     params = [p for p in PARAMETER_NAMES if any(r.get(f"{p}_mean") is not None for r in ok)]
+    trust = trust_counts(rows)
+    grouped = labelled(rows)
+    with_et = any(r.get("Et_mean") is not None for r in ok)
     sec = [f"<h1>Batch: {len(rows)} tests</h1>",
            f"<div class='meta'>{_e(out)} · {_e(result.backend)} · {result.elapsed_s:.0f} s this run · "
            f"bayes_dnlr {__version__}</div>"]
-    cls = "ok" if not failed and not pending else "warn"
+    all_trusted = trust["n"] == len(ok) and trust["k"] == trust["n"]
+    cls = "ok" if not failed and not pending and all_trusted else "warn"
     sec.append(f"<div class='box {cls}'><b>{len(ok)} ok</b> ({result.reused} reused from an earlier "
                f"run), <b>{len(failed)} failed</b>, {len(pending)} not run, {len(warned)} with "
-               "warnings. The numbers of every test are in <code>results.csv</code> and "
-               "<code>results.parquet</code> beside this page.</div>")
-    sec.append("<h2>E across the tests</h2>")
-    sec.append(_population_text(population(rows)))
+               f"warnings. E's interval: {_trust_text(trust)} by their own checks"
+               + ("" if all_trusted else " (amber rows below: read that test's verdict before using "
+                  "its interval)")
+               + f".{_not_one_material(step)} The numbers of every test, with its verdict, are in "
+               "<code>results.csv</code> and <code>results.parquet</code> beside this page.</div>")
+    if grouped:
+        sec.append("<h2>E by material</h2>")
+        sec.append(_materials_table(rows, with_et))
+        sec.append(f"<p class='note'>Between / within: the sd of the posterior means of a material's "
+                   f"tests over their median posterior sd. {RATIO_WORDS}</p>")
+    else:
+        sec.append("<h2>E across the tests</h2>")
+        sec.append(f"<p>{_spread_text(spread(rows))} {RATIO_WORDS}</p>")
+        if with_et:
+            sec.append(_materials_table(rows, with_et))
     if fig is not None:
-        sec.append(_img(fig, "E across tests", e_caption(len(_with_e(rows)))))
+        sec.append(_img(fig, "E across tests", e_caption(len(with_e(rows)), grouped)))
     sec.append(section(step, _img))
     sec.append("<h2>Failing tests</h2>")
     if failed or pending:
@@ -269,24 +280,39 @@ def write_page(result: BatchResult, step: PopulationStep | None = None) -> Path:
                    "tests are skipped, failed and unfinished ones run again.</p>")
     else:
         sec.append("<p>None.</p>")
-    sec.append("<h2>Tests with warnings</h2>")
-    if warned:
-        body = "".join(f"<tr><th>{_e(r['name'])}</th><td>{'no' if r.get('converged') is False else 'yes'}"
-                       f"</td><td class='text'>{_e(r.get('warnings'))}</td></tr>" for r in warned)
-        sec.append("<table class='num'><thead><tr><th>test</th><th>converged</th><th>warnings</th></tr>"
-                   f"</thead><tbody>{body}</tbody></table>")
+    sec.append("<h2>Verdicts</h2>")
+    untrusted = [r for r in ok if r.get("trust_interval") is False]
+    if untrusted:
+        body = "".join(f"<tr class='warn'><th>{_e(r['name'])}</th><td class='text'>{_e(r.get('verdict'))}"
+                       f"</td><td class='text'>{_e(r.get('checks_fired'))}</td></tr>" for r in untrusted)
+        sec.append("<p>The tests whose own checks do not trust E's interval (each test's report says "
+                   "why and what to do):</p><table class='num'><thead><tr><th>test</th><th>verdict</th>"
+                   f"<th>checks that fired</th></tr></thead><tbody>{body}</tbody></table>")
     else:
-        sec.append("<p>None.</p>")
+        sec.append("<p>Every test's own checks trust its E interval.</p>" if trust["n"] else
+                   "<p>No verdicts (runs of an earlier version).</p>")
+    sec.append("<h2>Tests with warnings</h2>")
+    sec.append(_warnings_html(warned, len(ok)))
     sec.append("<h2>All tests</h2>")
     head = "".join(f"<th>{p} (mean ± sd)</th>" for p in params)
+    t_s = modulus_at(rows)
+    et_head = f"<th>E(t = {fmt(t_s['t_s'], 3)} s) (MPa)</th>" if with_et and t_s else ""
     body = ""
     for r in rows:
         vals = "".join(f"<td>{_pm(r, p)}</td>" for p in params)
-        body += (f"<tr><th>{_e(r['name'])}</th><td class='text'>{_e(r.get('status'))}</td>{vals}"
+        et = ""
+        if et_head:
+            flag = " class='flag'" if r.get("Et_trust") is False else ""
+            et = f"<td{flag}>{'–' if r.get('Et_mean') is None else pm(r['Et_mean'], r.get('Et_sd'))}</td>"
+        row_cls = " class='warn'" if r.get("trust_interval") is False else ""
+        body += (f"<tr{row_cls}><th>{_e(r['name'])}</th>"
+                 + (f"<td class='text'>{_e(r.get('material'))}</td>" if grouped else "")
+                 + f"<td class='text'>{_e(r.get('status'))}</td>{_trust_mark(r)}{vals}{et}"
                  f"<td>{fmt(r.get('r_hat_max'), 4)}</td><td>{fmt(r.get('ess_min'), 3)}</td>"
                  f"<td>{fmt(r.get('iso527_1'))}</td><td>{fmt(r.get('n_warnings'))}</td>"
                  f"<td class='text'>{_link(r, out)}</td></tr>")
-    sec.append(f"<table class='num'><thead><tr><th>test</th><th>status</th>{head}<th>max R-hat</th>"
+    sec.append("<table class='num'><thead><tr><th>test</th>" + ("<th>material</th>" if grouped else "")
+               + f"<th>status</th><th>trusted</th>{head}{et_head}<th>max R-hat</th>"
                "<th>min ESS</th><th>ISO 527-1 (MPa)</th><th>warnings</th><th></th></tr></thead>"
                f"<tbody>{body}</tbody></table>")
     page = ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"

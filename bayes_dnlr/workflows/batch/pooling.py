@@ -2,8 +2,9 @@
 
 After a batch, the tests that are ok, each one specimen (a single-test run, not a run with
 ``tests:``) with E sampled, are pooled by the two-stage population method (workflows/population/run.py,
-docs/population.md) into ``<out>/population.json`` (and .md, .png by the report layer). The others
-are excluded, each with its reason. Fewer than ``MIN_TESTS`` such tests: the step is skipped.
+docs/population.md), one population per material, into ``<out>/population.json`` (and .md, .png by
+the report layer). The others are excluded, each with its reason. A material with fewer than
+``MIN_TESTS`` such tests is not pooled; with none that has them, the step is skipped.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from typing import Any
 from bayes_dnlr.config import ConfigError, load_config
 from bayes_dnlr.runs.folder import find_config
 from bayes_dnlr.runs.testset import plain_names
+from bayes_dnlr.workflows.population.run import UNLABELLED
 
 MIN_TESTS = 3
 PARAMETER = "E"
@@ -80,3 +82,13 @@ def select(rows: list[dict[str, Any]]) -> tuple[dict[str, str], dict[str, str]]:
         else:
             excluded[r["name"]] = why
     return used, excluded
+
+
+def group_sizes(rows: list[dict[str, Any]], used: dict[str, str]) -> dict[str, int]:
+    """The usable tests per material (the rows' ``material``; UNLABELLED without one)."""
+    sizes: dict[str, int] = {}
+    for r in rows:
+        if r["name"] in used:
+            label = r.get("material") or UNLABELLED
+            sizes[label] = sizes.get(label, 0) + 1
+    return sizes

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bayes_dnlr.workflows.batch import page
+from bayes_dnlr.workflows.batch import figure as page
 
 
 def _rows(n: int) -> list[dict]:
@@ -24,7 +24,7 @@ def _rows(n: int) -> list[dict]:
     (page.FOREST_MAX + 1, [f"E across {page.FOREST_MAX + 1} tests"]),
 ])
 def test_the_panels_follow_the_number_of_tests(n: int, titles: list[str]):
-    ok = page._with_e(_rows(n))
+    ok = page.with_e(_rows(n))
     assert len(ok) == n                               # the failed test and the one without E left out
     fig = page.e_plot(ok)
     assert [ax.get_title() for ax in fig.axes] == titles
@@ -33,3 +33,92 @@ def test_the_panels_follow_the_number_of_tests(n: int, titles: list[str]):
     assert ("90 % HDI" in caption) == (n <= page.FOREST_MAX)
     assert caption[0].isupper() and caption.endswith(".")
     assert ("Left:" in caption) == (len(titles) == 2)
+
+
+# ---------------------------------------------------------------- trust and materials on the page
+
+def _row(run_dir, material: str | None) -> dict:
+    """A batch row of a drawn run, its trust read the way the batch reads it."""
+    import json
+
+    from bayes_dnlr.workflows.batch.run import trust_columns
+
+    summary = json.loads((run_dir / "summary.json").read_text())
+    e = summary["posterior"]["E"]
+    return {"name": run_dir.name, "status": "ok", "material": material, "run_dir": str(run_dir),
+            "E_mean": e["mean"], "E_sd": e["sd"], "E_hdi90_lo": e["hdi_90"][0],
+            "E_hdi90_hi": e["hdi_90"][1], "n_warnings": 1,
+            "warnings": "G = 0 (its lower bound) | one of its own", **trust_columns(summary)}
+
+
+def _batch_page(tmp_path, materials: bool):
+    """Two materials, 3 tests each (a2 not trusted by its own checks, E(t) on the A tests), one
+    failed test; the batch page with its population step."""
+    from support.drawn_runs import drawn_run, modulus_entry
+
+    from bayes_dnlr.workflows.batch.page import write_page
+    from bayes_dnlr.workflows.batch.pooling import PopulationStep
+    from bayes_dnlr.workflows.batch.run import BatchResult
+    from bayes_dnlr.workflows.population.run import run_population
+
+    root = tmp_path / "runs"
+    root.mkdir()
+    rows = []
+    for mat, e0, n in (("A", 1500.0, 3), ("B", 2500.0, 3)):
+        for i in range(n):
+            name = f"{mat.lower()}{i}"
+            d = drawn_run(root, name, e0 + 7 * i, 25.0, material=mat if materials else None,
+                          trust=name != "a2", seed=len(rows),
+                          modulus=[modulus_entry(10.0, 0.8 * e0, 20.0, name != "a2")] if mat == "A" else None)
+            rows.append(_row(d, mat if materials else None))
+    rows.append({"name": "bad", "status": "failed", "error": "DataError: bad.csv line 3"})
+    pr = run_population([r["run_dir"] for r in rows if r["status"] == "ok"], write=False)
+    step = PopulationStep("done", "6 tests pooled.", {}, {"bad": "failed"}, data=pr.to_dict())
+    result = BatchResult(rows, tmp_path, "1 local process", 1.0)
+    return write_page(result, step).read_text(), rows
+
+
+def test_the_page_marks_every_test_and_counts_the_trusted(tmp_path):
+    html, rows = _batch_page(tmp_path, materials=True)
+    first = html.split("<div class='box ", 1)[1].split("</div>", 1)[0]
+    assert first.startswith("warn'>") and "<b>5 of 6 trusted</b> (not: a2)" in first
+    assert "E(t): 2 of 3 trusted" in first
+    # every test green or amber in the table of all tests, with its own decision
+    assert html.count("<tr class='warn'><th>a2</th>") == 2          # Verdicts and All tests
+    assert "<td class='flag'>no ⚑</td>" in html and html.count("<td class='text'>yes</td>") >= 5
+    assert "do not use E&#x27;s interval as it is." in html and "model_form" in html
+    # one result per material; a number drawn from an untrusted test is never plain
+    assert "<h2>E by material</h2>" in html and "<th>A</th>" in html and "<th>B</th>" in html
+    assert "E of the material A: μ =" in html and "E of the material B: μ =" in html
+    assert "E of the material:" not in html                  # no E of a material across both
+    box_a = html.split("E of the material A: μ =")[0].rsplit("<div class='box ", 1)[1]
+    box_b = html.split("E of the material B: μ =")[0].rsplit("<div class='box ", 1)[1]
+    assert box_a.startswith("warn") and box_b.startswith("ok")
+    assert "The groups&#x27; E differ beyond their uncertainty" in html
+    # E(t) beside E, the untrusted one flagged
+    assert "<th>E(t = 10.0 s) (MPa)</th>" in html and "E(t) (MPa): mean (range)" in html
+    # a warning every test shares is listed once
+    assert "<b>6 of 6 tests</b>: G = 0 (its lower bound)" in html
+    assert html.count("G = 0 (its lower bound)") == 1
+
+
+def test_the_forest_plot_is_grouped_and_flags_the_untrusted(tmp_path):
+    _, rows = _batch_page(tmp_path, materials=True)
+    ok = page.with_e(rows)
+    fig = page.e_plot(ok)
+    ax = fig.axes[0]
+    labels = [t.get_text() for t in ax.get_yticklabels()]
+    ys = [t.get_position()[1] for t in ax.get_yticklabels()]
+    top_down = [lab for _, lab in sorted(zip(ys, labels, strict=True), reverse=True)]
+    assert top_down == ["a0", "a1", "a2 ⚑", "b0", "b1", "b2"]      # by material, then by E
+    assert {t.get_text() for t in ax.texts} == {"A", "B"}                  # the groups labelled
+    assert "grouped by material" in page.e_caption(6, grouped=True)
+
+
+def test_without_the_material_column_the_page_says_not_one_material(tmp_path):
+    html, _ = _batch_page(tmp_path, materials=False)
+    first = html.split("<div class='box ", 1)[1].split("</div>", 1)[0]
+    assert "<b>The tests do not look like one material</b> (standing out:" in first
+    assert "<b>Not one material</b>: The tests do not look like one material" in html
+    assert "Pooled E of these 6 tests (not a material&#x27;s" in html
+    assert "E of the material" not in html

@@ -151,3 +151,46 @@ def test_an_unreadable_population_json_is_a_note_not_a_broken_page():
     page = section(step, lambda *a: "")
     assert "Population failed" in page and "population.json could not be shown (KeyError" in page
     assert "<b>b</b>: failed (x)" in page
+
+
+def test_materials_get_a_population_each_and_the_table_carries_each_verdict(tmp_path, capsys):
+    """Two materials (E 1500 and 2854 MPa, 3 tests each) named by a manifest column: one population
+    per material, the table's trust columns; the same tests without the column (their runs reused):
+    the heterogeneity check fires and the page says the tests do not look like one material."""
+    import pandas as pd
+    from support.sampling import TRUTH
+
+    template, manifest = tiny_campaign(tmp_path, 6, sampler=FEW,
+                                       params={i: {**TRUTH, "E": 1500.0} for i in range(3)})
+    _set_column(manifest, "material", {f"t{i}": "A" if i < 3 else "B" for i in range(6)})
+    out = tmp_path / "out"
+    assert _batch(template, manifest, out) == 0
+    pq = pd.read_parquet(out / "results.parquet")
+    assert list(pq["material"]) == ["A"] * 3 + ["B"] * 3 and list(pq["in:material"]) == list(pq["material"])
+    assert {"trust_interval", "adequate", "verdict", "checks_fired", "Et_t_s", "Et_mean", "Et_sd",
+            "Et_hdi_lo", "Et_hdi_hi", "Et_trust"} <= set(pq.columns)
+    assert pq["verdict"].notna().all() and pq["trust_interval"].notna().all()
+    # a short chain: its own checks withdraw trust, and say so
+    assert all("not_converged" in f for f in pq.loc[~pq["trust_interval"], "checks_fired"])
+    data = json.loads((out / "population.json").read_text())
+    assert set(data["groups"]) == {"A", "B"} and data["heterogeneity"]["passed"] is False
+    assert data["groups"]["A"]["specimens"] == ["t0", "t1", "t2"]
+    page = (out / "batch.html").read_text()
+    assert "<h2>E by material</h2>" in page and "E of the material A" in page
+    assert "E of the material B" in page and "do not look like one material" not in page
+
+    with open(manifest) as f:                      # the same tests, the column left out
+        text = f.read().splitlines()
+    cols = text[0].split(",")
+    at = cols.index("material")
+    manifest.write_text("\n".join(",".join(c for j, c in enumerate(line.split(",")) if j != at)
+                                  for line in text) + "\n")
+    capsys.readouterr()
+    assert _batch(template, manifest, out) == 0
+    assert "6 ok (6 already done, skipped)" in capsys.readouterr().out     # labels are no results
+    data = json.loads((out / "population.json").read_text())
+    assert "groups" not in data and data["heterogeneity"]["passed"] is False
+    assert set(data["heterogeneity"]["stand_out"]) in ({"t0", "t1", "t2"}, {"t3", "t4", "t5"})
+    page = (out / "batch.html").read_text()
+    assert "<b>The tests do not look like one material</b>" in page
+    assert "E of the material" not in page and "Pooled E of these 6 tests" in page
