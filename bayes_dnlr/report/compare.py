@@ -5,6 +5,10 @@
 never the current directory)
 and returns a ``Comparison`` whose ``markdown()`` is what the CLI prints.
 
+Runs of several materials (their configs' ``material:``) get one answer each: E is compared within a
+material, never across two. Each run's trust (runs/trust.py) and E(t) at its first time are rows
+of the table and columns of compare.csv.
+
 Consistency of E across runs (the paper's central claim: E is instantaneous, so it must not depend on
 the strain rate): with E_i ± s_i per run (posterior mean and sd, else the Gauss-Newton values),
 the weighted mean Ē = Σ E_i/s_i² / Σ 1/s_i², χ² = Σ ((E_i - Ē)/s_i)² on n - 1 degrees of freedom
@@ -25,6 +29,7 @@ from typing import Any
 from bayes_dnlr.csvcells import safe_cell
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.fileset import publishing
+from bayes_dnlr.inference.analyses.heterogeneity import P_SPREAD, weighted_spread
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pm
 from bayes_dnlr.report.tables import Table, deborah
 from bayes_dnlr.runs.folder import write_atomic
@@ -32,9 +37,10 @@ from bayes_dnlr.runs.layout import SUMMARY_FILE
 from bayes_dnlr.runs.modulus_view import entries
 from bayes_dnlr.runs.results import RunResults, load_run, verdict_lines
 from bayes_dnlr.runs.testset import plain_names
+from bayes_dnlr.runs.trust import run_trust, trusted_count
 from bayes_dnlr.vocabulary import PARAMETER_NAMES, UNITS
 
-P_CONSISTENT = 0.05
+P_CONSISTENT = P_SPREAD      # one E at this level: the same test as between materials
 # row keys kept out of compare.csv: the verdict's sentences one by one (its `verdict` column has them)
 NOT_IN_CSV = ("verdict_points",)
 
@@ -55,8 +61,19 @@ class Consistency:
 
 
 @dataclass
+class MaterialComparison:
+    """The answer for the runs of one material: the consistency of E and the rate question."""
+
+    consistency: Consistency
+    rate: Any = None            # inference.rate.RateAnalysis of the posteriors, when there are draws
+    rate_note: str = ""         # why there is none, when the runs' rates cannot answer the question
+
+
+@dataclass
 class Comparison:
-    """Rows (one per run, sorted by strain rate) and the consistency of E."""
+    """Rows (one per run, by material then strain rate) and, per material, the consistency of E
+    and the rate question; one material (or none named) keeps ``consistency``, ``rate`` and
+    ``rate_note`` at the top."""
 
     rows: list[dict[str, Any]]
     consistency: Consistency
@@ -64,11 +81,15 @@ class Comparison:
     written: list[Path] = field(default_factory=list)
     rate: Any = None            # inference.rate.RateAnalysis of the posteriors, when there are draws
     rate_note: str = ""         # why there is none, when the runs' rates cannot answer the question
+    materials: dict[str, MaterialComparison] = field(default_factory=dict)   # several materials
 
     def table(self) -> Table:
         """Table 3/5 layout: one column per run, one row per quantity."""
         header = ["", *[r["run"] for r in self.rows]]
-        lines: list[list[str]] = [["strain rate (1/s)", *[fmt(r["strain_rate"], 3) for r in self.rows]]]
+        lines: list[list[str]] = []
+        if any(r.get("material") for r in self.rows):
+            lines.append(["material", *[r.get("material") or "–" for r in self.rows]])
+        lines.append(["strain rate (1/s)", *[fmt(r["strain_rate"], 3) for r in self.rows]])
         for p in PARAMETER_NAMES:
             if not any(r.get(f"{p}_post") is not None or r.get(f"{p}_gn") is not None for r in self.rows):
                 continue
@@ -98,22 +119,25 @@ class Comparison:
                 notes += [f"{r['run']}: {head}", *(f"  - {p}" for p in points)]
         return Table(header, lines, "Runs compared (paper Tables 3 and 5)", css="num", notes=notes)
 
-    def consistency_text(self) -> str:
-        c = self.consistency
-        return c.verdict
-
     def markdown(self) -> str:
-        parts = [self.table().markdown(), "", "**Is E the same at every strain rate?**", ""]
-        if self.rate is not None:
-            parts += [rate_table(self.rate).markdown(), "", f"Posterior: {self.rate.words}",
-                      *[f"- {n}" for n in self.rate.notes], "",
-                      "The paper's way (each run's sd, a χ² test):", ""]
-        elif self.rate_note:
-            parts += [f"No rate question: {self.rate_note}", ""]
-        parts.append(self.consistency_text())
+        parts = [self.table().markdown(), ""]
+        answers = self.materials or {"": MaterialComparison(self.consistency, self.rate, self.rate_note)}
+        for material, m in answers.items():
+            of = f" ({material})" if material else ""
+            parts += [f"**Is E the same at every strain rate{of}?**", ""]
+            if m.rate is not None:
+                parts += [rate_table(m.rate).markdown(), "", f"Posterior: {m.rate.words}",
+                          *[f"- {n}" for n in m.rate.notes], "",
+                          "The paper's way (each run's sd, a χ² test):", ""]
+            elif m.rate_note:
+                parts += [f"No rate question: {m.rate_note}", ""]
+            parts += [m.consistency.verdict, ""]
+        if self.materials:
+            parts.append(f"One answer per material (the configs' material:): {len(self.materials)} "
+                         "materials, none compared with another.")
         if self.notes:
             parts += ["", *[f"- {n}" for n in self.notes]]
-        return "\n".join(parts) + "\n"
+        return "\n".join(parts).rstrip("\n") + "\n"
 
     def csv(self) -> str:
         keys: list[str] = []
@@ -145,7 +169,8 @@ def _pm(v: float | None, sd: float | None) -> str:
 
 def run_row(run: RunResults) -> dict[str, Any]:
     """One run's numbers for the comparison (None where a result is missing)."""
-    row: dict[str, Any] = {"run": run.name, "strain_rate": run.strain_rate()}
+    row: dict[str, Any] = {"run": run.name, "material": run.cfg.material,
+                           "strain_rate": run.strain_rate()}
     post = (run.summary or {}).get("posterior") or {}
     gn = run.gn()
     truth = run.truth or {}
@@ -178,6 +203,8 @@ def run_row(run: RunResults) -> dict[str, Any]:
     row["Et_mean"] = None if first is None else first["mean"]
     row["Et_sd"] = None if first is None else first["sd"]
     row["Et_trust"] = None if first is None else bool(first.get("trust"))
+    fired = run_trust(run.summary)["checks_fired"]
+    row["checks_fired"] = None if fired is None else ", ".join(fired)
     return row
 
 
@@ -195,14 +222,9 @@ def consistency_of_e(rows: Sequence[dict[str, Any]]) -> Consistency:
     if len(pts) < 2:
         c.verdict = "Fewer than two runs with E and its sd: nothing to compare."
         return c
-    from scipy.stats import chi2 as chi2_dist
-
-    w = [1.0 / s**2 for _, _, s in pts]
-    mean = sum(wi * e for wi, (_, e, _) in zip(w, pts, strict=True)) / sum(w)
-    c.weighted_mean = mean
-    c.chi2 = sum(((e - mean) / s) ** 2 for _, e, s in pts)
-    c.dof = len(pts) - 1
-    c.p_value = float(chi2_dist.sf(c.chi2, c.dof))
+    spread = weighted_spread([e for _, e, _ in pts], [s for _, _, s in pts])
+    mean = c.weighted_mean = spread["weighted_mean"]
+    c.chi2, c.dof, c.p_value = spread["Q"], spread["dof"], spread["p_value"]
     best = (0.0, None)
     for i in range(len(pts)):
         for j in range(i + 1, len(pts)):
@@ -222,6 +244,13 @@ def consistency_of_e(rows: Sequence[dict[str, Any]]) -> Consistency:
         f"Spread (max - min)/E = {100 * c.spread:.2f} % (the paper: 2700-2950 MPa, ±4 %, across its "
         "tests). The test uses each run's statistical sd only: a model bias common to a run (signed "
         "residuals) is not in it.")
+    flags = [r.get("trust_interval") for r in rows if r["run"] in {n for n, _, _ in pts}]
+    k, n = trusted_count(flags)
+    if k < n:
+        untrusted = [r["run"] for r in rows if r.get("trust_interval") is False]
+        c.verdict += (f" Only {k} of these {n} runs' own checks trust E's interval (not: "
+                      f"{', '.join(untrusted)}): read their verdicts under the table before using "
+                      "this answer.")
     truths = [r["E_true"] for r in rows if r.get("E_true") is not None]
     if len(truths) >= 2:
         lo, hi = min(truths), max(truths)
@@ -298,10 +327,21 @@ def compare_runs(run_dirs: Sequence[Path | str], out_dir: Path | str | None = No
         elif run.summary is None:
             notes.append(f"{run.name}: no posterior yet; Gauss-Newton values only.")
         runs.append(run)
+    order = list(dict.fromkeys(r.cfg.material for r in runs))       # materials as first given
     rows = sorted((run_row(r) for r in runs),
-                  key=lambda r: (r["strain_rate"] is None, r["strain_rate"] or 0.0, r["run"]))
-    rate, rate_note = _rate_of_runs(runs)
-    comp = Comparison(rows, consistency_of_e(rows), notes, rate=rate, rate_note=rate_note)
+                  key=lambda r: (order.index(r["material"]), r["strain_rate"] is None,
+                                 r["strain_rate"] or 0.0, r["run"]))
+    if len(order) == 1:
+        rate, rate_note = _rate_of_runs(runs)
+        comp = Comparison(rows, consistency_of_e(rows), notes, rate=rate, rate_note=rate_note)
+    else:                       # one answer per material: no E is computed across two
+        comp = Comparison(rows, Consistency(n=0, verdict=f"Runs of {len(order)} materials: one answer "
+                                            "per material."), notes)
+        for material in order:
+            mine = [r for r in runs if r.cfg.material == material]
+            m_rate, m_note = _rate_of_runs(mine)
+            comp.materials[material or "no material given"] = MaterialComparison(
+                consistency_of_e([r for r in rows if r["material"] == material]), m_rate, m_note)
     out = Path(out_dir) if out_dir is not None else default_out_dir(run_dirs)
     md, cs = out / "compare.md", out / "compare.csv"
     with publishing(out, "compare", [md.name, cs.name]):        # the two tables as one set

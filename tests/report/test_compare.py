@@ -178,3 +178,37 @@ def test_each_runs_verdict_gives_one_finding_per_line(tmp_path):
     rows = list(csv.DictReader(open(tmp_path / "out" / "compare.csv")))
     assert rows[0]["verdict"] == " ".join([head, *points])
     assert "verdict_points" not in rows[0]
+
+
+def test_runs_of_two_materials_get_one_answer_each(tmp_path):
+    """E is compared within a material, never across two; each run's material, trust and E(t)
+    are in the table and in compare.csv; an answer drawn from an untrusted run says so."""
+    from support.drawn_runs import drawn_run, modulus_entry
+
+    root = tmp_path / "runs"
+    root.mkdir()
+    runs = [drawn_run(root, "a-slow", 1500.0, 20.0, material="A", rate=2.5e-3, seed=1,
+                      modulus=[modulus_entry(10.0, 1200.0, 15.0)]),
+            drawn_run(root, "b-fast", 2500.0, 20.0, material="B", rate=1e-2, seed=2,
+                      modulus=[modulus_entry(10.0, 2000.0, 25.0, trust=False)]),
+            drawn_run(root, "a-fast", 1510.0, 20.0, material="A", rate=1e-2, seed=3, trust=False,
+                      modulus=[modulus_entry(10.0, 1210.0, 15.0)]),
+            drawn_run(root, "b-slow", 2490.0, 20.0, material="B", rate=2.5e-3, seed=4,
+                      modulus=[modulus_entry(10.0, 1990.0, 25.0)])]
+    comp = compare_runs(runs, tmp_path / "out")
+    assert [r["run"] for r in comp.rows] == ["a-slow", "a-fast", "b-slow", "b-fast"]   # material, rate
+    assert set(comp.materials) == {"A", "B"}
+    a, b = comp.materials["A"].consistency, comp.materials["B"].consistency
+    assert a.n == b.n == 2 and abs(a.weighted_mean - 1505) < 20 and abs(b.weighted_mean - 2495) < 20
+    assert comp.consistency.weighted_mean is None               # no E across the two materials
+    assert "Only 1 of these 2 runs' own checks trust E's interval (not: a-fast)" in a.verdict
+    assert "Only" not in b.verdict
+    md = (tmp_path / "out" / "compare.md").read_text()
+    assert "**Is E the same at every strain rate (A)?**" in md and "(B)?**" in md
+    assert "| material | A | A | B | B |" in md
+    assert "| E(t) posterior (MPa) | 1200 ± 15 | 1210 ± 15 | 1990 ± 25 | 2000 ± 25 |" in md
+    assert "| E(t) trusted | yes | yes | yes | no |" in md
+    rows = list(csv.DictReader(open(tmp_path / "out" / "compare.csv")))
+    assert [r["material"] for r in rows] == ["A", "A", "B", "B"]
+    assert rows[1]["checks_fired"] == "model_form" and rows[1]["trust_interval"] == "False"
+    assert rows[3]["Et_trust"] == "False" and float(rows[0]["Et_mean"]) == 1200.0
