@@ -140,13 +140,15 @@ def first_sample_warning(stress: np.ndarray, strain: np.ndarray, line: int,
 
 
 def spike_warning(stress: np.ndarray, lines: np.ndarray, start: int = 0,
-                  strain: np.ndarray | None = None) -> str | None:
+                  strain: np.ndarray | None = None, window: np.ndarray | None = None) -> str | None:
     """A note on the largest isolated spike of the stress: a sample far from both neighbours (more
     than 50 noise sd and 5 % of the stress range away from their mean), such as one force cell
     written ×1000; it would dominate a least-squares fit. A sample where the strain turns as well
     (the peak or the valley of a loading-unloading cycle, the start of an unloading or of a hold,
     sparsely sampled) is the test's history, not a spike: the strain's own excursion from its
-    neighbours' mean, relative to its range, is at least a quarter of the stress's, on the same side."""
+    neighbours' mean, relative to its range, is at least a quarter of the stress's, on the same side.
+    A fall that the stress never climbs back from is the specimen breaking, not a spike: a note, a
+    warning only when it lies inside the fit's ``window`` (a mask of the samples)."""
     s = stress[start:]
     if s.size < 5:
         return None
@@ -165,6 +167,15 @@ def spike_warning(stress: np.ndarray, lines: np.ndarray, start: int = 0,
         return None
     i = int(np.argmax(np.where(big, np.abs(dev), -np.inf)))
     k = start + i + 1
+    before, after = stress[k - 1], stress[k + 1:]
+    fall = before - after[0]        # a spike's neighbours agree; a break falls across the sample
+    if fall > abs(dev[i]) and np.max(after) < before - 0.5 * fall:
+        inside = window is not None and bool(np.any(window[k + 1:]))
+        where = ("inside the window: the model has no break; end data.window before it" if inside else
+                 "after the window: the fit does not use it")
+        return (f"{'warning: ' if inside else ''}the specimen breaks at line {lines[k + 1]}: the stress "
+                f"falls from {stress[k]:.6g} to {stress[k + 1]:.6g} MPa and does not climb back, "
+                f"{where}")
     return (f"warning: a spike at line {lines[k]}: the stress there is {stress[k]:.6g} MPa, its neighbours "
             f"{stress[k - 1]:.6g} and {stress[k + 1]:.6g} MPa (stress noise sd about {sd:.2g} MPa), while "
             f"the strain does not turn there: a corrupt cell? It would dominate the fit")

@@ -300,7 +300,7 @@ def load_test(cfg: Config, cache: Path | None = None) -> TestData:
     check_load(stress, window, lines, path, _load_source(d))
     notes += _hints(cfg, table, raw_nominal, time, strain, stress, values.get("force"), nom_stress,
                     window, rs, virtual)
-    spike = spike_warning(stress, lines, virtual, strain)
+    spike = spike_warning(stress, lines, virtual, strain, window)
     if spike:
         notes.append(spike)
     if d.strain_unit is None and strain_role != "extension" and not notes_have_units(table, strain_role, d):

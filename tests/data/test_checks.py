@@ -176,3 +176,23 @@ def test_a_spike_is_named_by_its_line(write_csv, make_config):
     F[150] /= 1000
     write_csv(csv_text({"t_s": t, "F_N": F, "e": e}))
     assert not any("spike" in n for n in load_test(make_config(**cfg)).notes)
+
+
+def test_a_break_is_named_as_a_break(write_csv, make_config):
+    """A specimen that breaks (the force falls and stays down, as the real rHDPE exports end) was
+    reported as 'a spike ... a corrupt cell?'. After the window it is a note; inside, a warning."""
+    rng = np.random.default_rng(6)
+    t = np.arange(0, 40.0, 0.1)
+    e, s = elastic_plastic(t)
+    F = 24 * (s + rng.normal(0, 0.05, t.size))
+    F[380:] = 24 * rng.normal(0.5, 0.05, t.size - 380)          # broken at row 380 (line 382)
+    write_csv(csv_text({"t_s": t, "F_N": F, "e": e}))
+    cfg = dict(columns={"time": "t_s", "force": "F_N", "strain": "e"}, strain_measure="nominal")
+    after = [n for n in load_test(make_config(window={"strain_max": 0.1}, **cfg)).notes
+             if "spike" in n or "breaks" in n]
+    assert len(after) == 1 and re.fullmatch(r"the specimen breaks at line 382: the stress falls from "
+                                            r"3\d\.\d+ to 0\.\d+ MPa and does not climb back, after the "
+                                            r"window: the fit does not use it", after[0]), after
+    inside = [n for n in load_test(make_config(**cfg)).notes if "breaks" in n]
+    assert inside[0].startswith("warning: the specimen breaks at line 382")
+    assert "inside the window: the model has no break; end data.window before it" in inside[0]
