@@ -205,3 +205,28 @@ def test_a_batch_says_when_its_workers_compile_the_model(tmp_path, capsys, monke
     assert compiled.FIRST_COMPILE_NOTE in capsys.readouterr().err
     assert main([*args, "--out", str(tmp_path / "b"), "--quiet"]) == 1
     assert compiled.FIRST_COMPILE_NOTE not in capsys.readouterr().err
+
+
+def test_a_replaced_worker_is_not_a_warning(recwarn):
+    """loky replaces a worker whose memory grew by 300 MB (its leak guard) and warns from its
+    manager thread when tests are queued: every test still finished, so the batch's local pool
+    keeps that warning off stderr, and only that one."""
+    import threading
+    import warnings
+    from contextlib import ExitStack
+
+    from bayes_dnlr.workflows.batch.run import WORKER_REPLACED, _results
+
+    def warn(text: str) -> None:          # from another thread, as loky's manager thread does
+        th = threading.Thread(target=warnings.warn, args=(text, UserWarning))
+        th.start()
+        th.join()
+
+    full = WORKER_REPLACED + ". This can be caused by a too short worker timeout or by a memory leak."
+    with ExitStack() as stack:
+        _results(stack, [], 1, None, None)
+        warn(full)
+        warn("another warning")
+    assert [str(w.message) for w in recwarn] == ["another warning"]
+    warn(full)                            # outside the batch's pool: not hidden
+    assert [str(w.message) for w in recwarn][-1] == full
