@@ -1,9 +1,11 @@
 """The batch page: ``<out>/batch.html`` (self-contained) and ``<out>/figures/batch_E.png``.
 
-What it shows: how many tests ran, failed or were reused; E across the tests (a histogram of the
-posterior means and a forest plot of each test's mean and 90 % HDI); the spread of E between tests
-beside the typical uncertainty within a test; the failing tests with their error; the tests with
-warnings; and a table of every test linking to its own report.
+What it shows: how many tests ran, failed or were reused, and how many of them their own checks
+trust ("k of N trusted"); E (and E(t)) by material, with the spread between tests beside the
+typical uncertainty within one (workflows/batch/groups.py); the figure of E across the tests
+(workflows/batch/figure.py); the population of each material (workflows/batch/population_step.py);
+the failing tests with their error; the untrusted tests with their verdict; the tests' warnings;
+and a table of every test, green or amber, linking to its own report.
 
 ``run_campaign`` is what ``python -m bayes_dnlr batch`` calls: the batch runner of the run layer
 (``pipeline.batch``) with this layer's per-test report, then this page.

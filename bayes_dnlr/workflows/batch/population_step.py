@@ -32,6 +32,7 @@ from bayes_dnlr.workflows.population.page import (
     trust_words,
 )
 from bayes_dnlr.workflows.population.run import (
+    NOT_ONE,
     POPULATION_FILE,
     UNLABELLED,
     current_population,
@@ -164,7 +165,7 @@ def _group_box(material: str | None, g: dict[str, Any], step: PopulationStep | N
     all_trusted = bool(trusted.get("n")) and trusted.get("k") == trusted.get("n")
     green = bool(mc.get("passed")) and one and all_trusted
     label = _e(pooled_label(g["parameter"], material, one, len(g["specimens"])))
-    status = f" ({_e(step.status)}: {_e(step.note)})" if step is not None else ""
+    status = f" ({_e(step.status)}: {_e(step.note.rstrip('.'))})" if step is not None else ""
     return (f"<div class='box {'ok' if green else 'warn'}'><b>{label}: μ = {pm(mu['mean'], mu['sd'])} "
             f"MPa</b> (90 % HDI {_hdi(mu.get('hdi_90'), mu['sd'])}); specimen-to-specimen sd <b>s = "
             f"{pm(s['mean'], s['sd'])} MPa</b> (90 % HDI {_hdi(s.get('hdi_90'), s['sd'])}); from "
@@ -192,8 +193,9 @@ def _group_html(material: str | None, g: dict[str, Any], data: dict[str, Any],
                  f"{_g(lim.get('effective_draws_min'), '.0f')} wanted); the Monte Carlo variance of ln L "
                  f"there is {_g(mc.get('log_likelihood_variance'), '.2g')} (at most "
                  f"{_g(lim.get('log_likelihood_variance_max'), 'g')}).</p>")
-    if g.get("warnings"):
-        parts.append("<div class='box warn'>" + "<br>".join(_e(w) for w in g["warnings"]) + "</div>")
+    shown = [w for w in g.get("warnings") or [] if not w.startswith(NOT_ONE)]   # in its own box
+    if shown:
+        parts.append("<div class='box warn'>" + "<br>".join(_e(w) for w in shown) + "</div>")
     truth = data.get("truth") or {}
     members = data.get("members") or {}
     with_et = any((members.get(k) or {}).get("Et") for k in g["specimens"])
@@ -239,7 +241,8 @@ def _section(step: PopulationStep, img) -> str:
     groups = groups_of(d)
     if len(groups) > 1 or d.get("skipped_groups"):
         between = d.get("heterogeneity") or {}
-        parts.append(f"<p>One population per material ({_e(step.status)}: {_e(step.note)}); none spans "
+        note = _e(step.note.rstrip("."))
+        parts.append(f"<p>One population per material ({_e(step.status)}: {note}); none spans "
                      f"two materials. {_e(between.get('words', ''))}</p>")
         parts += [f"<p class='note'>{_e(k)}: not pooled: {_e(v)}</p>"
                   for k, v in (d.get("skipped_groups") or {}).items()]

@@ -58,7 +58,7 @@ THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NU
                "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")
 # loky replaces a worker whose memory grew by 300 MB since its first test (its leak guard: a long
 # real curve and its report's figures do) and warns when tests are queued; they run in the new
-# worker and nothing is lost, so the warning only alarmed (docs/batch.md, "Faults")
+# worker and nothing is lost, so the warning only alarmed (docs/batch.md, "Reading the batch page")
 WORKER_REPLACED = "A worker stopped while some jobs were given to the executor"
 STATS = ("mean", "sd", "median", "hdi90_lo", "hdi90_hi", "ess_bulk", "ess_tail", "r_hat", "tau")
 ORDER = (*PARAMETER_NAMES, "sigma0", *DISCREPANCY_PARAMETERS)

@@ -33,6 +33,7 @@ from bayes_dnlr.runs.trust import run_trust, trusted_count
 
 POPULATION_FILE = "population.json"
 UNLABELLED = "(no material given)"      # the group of the runs whose config has no material:
+NOT_ONE = "not one material: "          # the warning of a failed heterogeneity check
 
 
 @dataclass
@@ -205,7 +206,7 @@ def run_population(run_dirs: list[Path | str], *, parameter: str = "E", out: Pat
                          parameter=parameter, own={m.name: m.own for m in members if m.own},
                          labelled=label != UNLABELLED)
         if pop.heterogeneity.get("passed") is False:
-            pop.warnings.insert(0, f"not one material: {pop.heterogeneity['words']}")
+            pop.warnings.insert(0, NOT_ONE + pop.heterogeneity["words"])
         pop.warnings += member_warnings(members)
         results[label] = pop
     if not results:

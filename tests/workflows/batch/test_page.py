@@ -120,5 +120,6 @@ def test_without_the_material_column_the_page_says_not_one_material(tmp_path):
     first = html.split("<div class='box ", 1)[1].split("</div>", 1)[0]
     assert "<b>The tests do not look like one material</b> (standing out:" in first
     assert "<b>Not one material</b>: The tests do not look like one material" in html
+    assert html.count("look like one material: a spread between tests") == 1     # said once
     assert "Pooled E of these 6 tests (not a material&#x27;s" in html
     assert "E of the material" not in html

@@ -88,7 +88,7 @@ def test_batch_population_uses_the_ok_tests_only_and_is_reused(tmp_path, capsys)
     data = json.loads((out / "population.json").read_text())
     assert data["specimens"] == ["t0", "t1", "t2", "t3"]
     page = (out / "batch.html").read_text()
-    assert "replaces the batch&#x27;s earlier population.json, made from 3 tests: t0, t1, t2." in page
+    assert "replaces the batch&#x27;s earlier population.json, made from 3 tests: t0, t1, t2)" in page
 
 
 def test_fewer_than_three_tests_opt_out_and_failures_are_notes(tmp_path, capsys, monkeypatch):
