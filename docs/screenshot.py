@@ -1,6 +1,8 @@
-"""Render a run's report.html in headless Chromium and save a PNG screenshot.
+"""Render a run's report.html (or any page: a batch's batch.html) in headless Chromium and save a
+PNG screenshot.
 
     python docs/screenshot.py runs/hdpe-a-5e-3 [out.png] [--height 9000]
+    python docs/screenshot.py runs/batch/batch.html [out.png]
 
 Builds the report first when report.html is missing. Skips (exit 0, with a message) when no Chromium
 is installed (Debian: ``apt-get install chromium``).
@@ -43,20 +45,25 @@ def screenshot(html_file: Path, out: Path, width: int = 1280, height: int = 9000
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("run_dir", type=Path)
-    ap.add_argument("out", type=Path, nargs="?", default=None, help="PNG (default: run_dir/report.png)")
+    ap.add_argument("run_dir", type=Path, help="a run folder, or an HTML page (batch.html)")
+    ap.add_argument("out", type=Path, nargs="?", default=None,
+                    help="PNG (default: run_dir/report.png, or the page's name with .png)")
     ap.add_argument("--width", type=int, default=1280)
     ap.add_argument("--height", type=int, default=9000)
     args = ap.parse_args(argv)
     if find_chromium() is None:
         print("skipped: no chromium found (apt-get install chromium)")
         return 0
-    html_file = args.run_dir / "report.html"
-    if not html_file.is_file():
-        from bayes_dnlr.report import build_report
+    if args.run_dir.is_file():
+        html_file = args.run_dir
+        out = args.out or html_file.with_suffix(".png")
+    else:
+        html_file = args.run_dir / "report.html"
+        if not html_file.is_file():
+            from bayes_dnlr.report import build_report
 
-        build_report(args.run_dir)
-    out = args.out or args.run_dir / "report.png"
+            build_report(args.run_dir)
+        out = args.out or args.run_dir / "report.png"
     screenshot(html_file, out, args.width, args.height)
     print(out)
     return 0
