@@ -259,9 +259,12 @@ def build_report(run_dir: Path | str, source: Path | str | None = None,
     # drawing at once, and neither process imports them again
     if aside:
         import_figure_modules()
+    # The run is read before the figure worker is forked: with the worker's threads running, a
+    # read of chains.h5 or posterior.nc can no longer be made in a child with a deadline
+    # (readback.within_deadline), and a damaged file read here could hang the report.
+    run = load_run(run_dir, source=source, load_data=False)     # the data: page_html
     # a figure drawn from the same inputs as before is kept
     with figure_session(aside=aside) as used:
-        run = load_run(run_dir, source=source, load_data=False)     # the data: page_html
         for note in run.stale if on_stale is not None else []:
             on_stale(note)
         figdir = own_dir(run_dir / FIGURES_DIR)
