@@ -46,7 +46,9 @@ def headline_words(run: RunResults) -> str:
             mark = ('<span class="good">trusted</span>' if r.get("trust") else
                     '<span class="bad">not trusted (below)</span>')
             lo, hi = r["hdi_90"]
-            parts.append(f"{who}<b>E({fmt(r['t'], 3)} s) = {pm(r['mean'], r['sd'])} MPa</b> "
+            # a cyclic test's E(t) comes from its first loading, not from the posterior beside it
+            where = " from the first loading" if str(r.get("source", "")).startswith("first loading") else ""
+            parts.append(f"{who}<b>E({fmt(r['t'], 3)} s) = {pm(r['mean'], r['sd'])} MPa</b>{where} "
                          f"(90 % HDI {interval(lo, hi, r['sd'])}), {mark}")
     return ("The modulus the data determine, the relaxation modulus at the shortest time the "
             "test resolves: " + "; ".join(parts) + ". " + html.escape(WHAT_E_IS))
