@@ -246,3 +246,19 @@ def test_the_exponent_s_spread_is_the_slope_along_the_refit_times_alpha_s_sd():
     assert out[:, 1].std() == pytest.approx(10.0, rel=0.05)
     assert np.median(out[:, 1]) == pytest.approx(1000.0, abs=0.5)
     assert np.all(spread(values, np.array([5000.0, 5000.0])) > 0)
+
+
+def test_a_toe_on_a_cyclic_test_withdraws_the_trust_of_its_first_loading_e_t(tmp_path):
+    """Cycles whose first loading starts with a slack: E(t) still comes from the first loading,
+    and that fit's own start check sees the slope rise and withdraws its trust."""
+    truth = {"params": {"E": 2000.0, "G": 5.0, "tau_max": 60.0}, "strain_rate": 1e-3,
+             "strain_max": 0.02, "cycles": {"count": 3}, "sample_rate": 5,
+             "model_form": {"kind": "strain-toe", "strength": 1e-3},
+             "noise": {"strain_sd": 0.0, "stress_sd": 0.02}, "seed": 5}
+    path = make_run(tmp_path, "cycles-toe", truth, sigma0=0.02, data={"strain_input": "measured"},
+                    sampler={"max_steps": 300, "target_ess": 100})
+    [row] = sample(load_config(path), progress=False).summary["modulus_at"]
+    assert row["source"].startswith("first loading")
+    start = row["checks"]["start"]
+    assert start is not None and start["toe"] and not start["ok"]
+    assert not row["trust"] and any("a toe" in r for r in row["trust_reasons"])
