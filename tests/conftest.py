@@ -110,6 +110,11 @@ def pytest_runtest_logreport(report) -> None:
         _REAL_REPORTS["skipped"].append(report)
 
 
+class _Counted:
+    """An entry of pytest's last line that is counted there and nowhere else: the tests' own
+    reports, listed under a second key, would be counted twice by ``--durations``."""
+
+
 def pytest_terminal_summary(terminalreporter) -> None:
     """Say whether the real-data tests ran, on a line of its own (where the curves are, or how to
     give them) and in pytest's last summary line ('11 real-data tests ran'), so that a clone without
@@ -121,10 +126,10 @@ def pytest_terminal_summary(terminalreporter) -> None:
         return
     if PRESENT:
         text = f"real data: {len(ran)} tests ran ({REAL})" + (f", {len(skipped)} skipped" if skipped else "")
-        terminalreporter.stats["real-data tests ran"] = list(ran)
+        terminalreporter.stats["real-data tests ran"] = [_Counted() for _ in ran]
     else:
         text = f"real data: absent, {len(skipped)} tests skipped (set {ENV} to the folder of the real curves)"
-        terminalreporter.stats["real-data tests skipped (curves absent)"] = list(skipped)
+        terminalreporter.stats["real-data tests skipped (curves absent)"] = [_Counted() for _ in skipped]
     terminalreporter.write_line(text, yellow=not PRESENT, bold=True)
 
 
