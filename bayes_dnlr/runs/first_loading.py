@@ -29,6 +29,7 @@ from bayes_dnlr.inference.modulus import (
     linearized,
     times_for,
 )
+from bayes_dnlr.runs.modulus_view import FIRST_LOADING
 from bayes_dnlr.vocabulary import Z90
 
 FIRST_LOADING_STARTS = 2
@@ -83,7 +84,7 @@ def first_loading_rows(cfg: Config, data, fit_test, spread) -> dict[str, Any] | 
             "resolved": [w.shortest, w.longest],
             "why": (f"{why}; from the first loading (to its peak at t = {peak:.6g} s), where the "
                     "model holds: it does not follow unloading"),
-            "source": "first loading, " + ("generalized least squares (model error)" if model_error
+            "source": f"{FIRST_LOADING}, " + ("generalized least squares (model error)" if model_error
                                            else "white least squares") + ", linearized",
             "checks": {"inside_window": w.contains(row["t"]), "band": band[i], "start": start,
                        "bounds": {}, "prior": None, "noise_model": True,

@@ -8,6 +8,14 @@ from typing import Any
 
 from bayes_dnlr.numbers import fmt
 
+# how an entry's ``source`` begins when a cyclic test's first loading gave it
+FIRST_LOADING = "first loading"
+
+
+def from_first_loading(row: Mapping[str, Any]) -> bool:
+    """Whether an E(t) entry comes from a cyclic test's first loading (runs/first_loading.py)."""
+    return str(row.get("source", "")).startswith(FIRST_LOADING)
+
 
 def entries(summary: Mapping[str, Any]) -> dict[str, list[dict]]:
     """The ``modulus_at`` of summary.json per test (a run with one test under its own name, '')."""
