@@ -38,12 +38,12 @@ def measure(config: Path) -> dict[str, float]:
     from bayes_dnlr.config import load_config
     from bayes_dnlr.inference.modulus import fit_block
     from bayes_dnlr.runs import bands as band_module
+    from bayes_dnlr.runs.chain_outputs import chain_layout
     from bayes_dnlr.runs.chains import read_run
     from bayes_dnlr.runs.fit import load_fit
     from bayes_dnlr.runs.layout import CHAINS_FILE
     from bayes_dnlr.runs.modulus import modulus_block
     from bayes_dnlr.runs.records import held_config
-    from bayes_dnlr.runs.result import chain_layout
     from bayes_dnlr.runs.sample import sample
     from bayes_dnlr.runs.testset import load_tests
 

@@ -4,7 +4,7 @@ The only package that imports matplotlib, corner and ArviZ's plotting (inside th
 imports ``runs`` and below, computes no model, and reads fit.json through ``runs.records``.
 
 - ``html``: the page of a run with any number of tests (its numbered sections);
-- ``run_sections``, ``across_tests``, ``test_sections``, ``headline``: the run's sections, those
+- ``run_sections``, ``across_tests``, ``per_test_sections``, ``headline``: the run's sections, those
   across tests, each test's, and the top of the page;
 - ``tables``, ``model_error``, ``views``: tables, the model-error words, what each figure shows;
 - ``figures``, ``rank``, ``figure_cache``: the figures, the rank plot's statistics, drawing only

@@ -24,8 +24,8 @@ from pathlib import Path
 from bayes_dnlr import __version__
 from bayes_dnlr.diskio import own_dir
 from bayes_dnlr.numbers import fmt
+from bayes_dnlr.report import per_test_sections as ts
 from bayes_dnlr.report import run_sections as rs
-from bayes_dnlr.report import test_sections as ts
 from bayes_dnlr.report.across_tests import rate_question, rate_section, tables_3_5
 from bayes_dnlr.report.figure_cache import figure_session, keep_long_lived
 from bayes_dnlr.report.figures import import_figure_modules

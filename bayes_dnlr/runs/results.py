@@ -231,15 +231,6 @@ def _layout(a: Analysis, cov_from_sd: bool) -> dict[str, Any]:
             "err": dict(a.err)}
 
 
-def per_name(obj: Any, names: Sequence[str]) -> dict[str, float] | None:
-    """{name: value} from a mapping or from a list in the order ``names``."""
-    if obj is None:
-        return None
-    if isinstance(obj, dict):
-        return {n: float(obj[n]) for n in names if n in obj}
-    return {n: float(v) for n, v in zip(names, obj, strict=False)}
-
-
 def matrix(obj: Any, p: int) -> np.ndarray | None:
     if obj is None:
         return None

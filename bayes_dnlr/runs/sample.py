@@ -49,6 +49,7 @@ from bayes_dnlr.inference.mcmc.stopping import (
 from bayes_dnlr.inference.posterior.priors import build_priors
 from bayes_dnlr.interrupt import Interrupted
 from bayes_dnlr.runs import identity
+from bayes_dnlr.runs.chain_outputs import json_attr, package_version, stopping_settings, write_result
 from bayes_dnlr.runs.chains import ChainWriter, StoredRun, read_attrs, read_run, release_stale_writer
 from bayes_dnlr.runs.folder import (
     check_output_dir,
@@ -65,7 +66,6 @@ from bayes_dnlr.runs.outputs import (
     read_summary,
 )
 from bayes_dnlr.runs.records import FitRecord, held_config, held_parameters
-from bayes_dnlr.runs.result import json_attr, package_version, stopping_settings, write_result
 from bayes_dnlr.runs.target import Target, build_target
 from bayes_dnlr.runs.testset import TestSet, load_tests
 from bayes_dnlr.vocabulary import base_name

@@ -170,7 +170,7 @@ def fingerprint(cfg, summary: dict[str, Any] | None = None) -> dict[str, Any]:
     walkers/seed/moves, data file content: runs/identity.py) and the settings that decide its length
     and burn-in. ``summary``: the run's summary.json, whose record spares hashing unchanged data."""
     from bayes_dnlr.runs import identity
-    from bayes_dnlr.runs.result import stopping_settings
+    from bayes_dnlr.runs.chain_outputs import stopping_settings
 
     sha = identity.data_sha(cfg, summary)     # the data's sha256 (a digest of them with tests:)
     if sha is None:

@@ -13,7 +13,6 @@ squares on the test's time range).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -159,8 +158,3 @@ def refit(full: Prony, terms: int, t_lo: float, t_hi: float,
     err = np.abs(short.modulus(t) - e_full) / e_full
     return Refit(short, (float(t_lo), float(t_hi)), float(err.max()), int(terms))
 
-
-def relative_difference(a: Sequence[float], b: Sequence[float]) -> np.ndarray:
-    """|a - b| / |b| elementwise (b the reference)."""
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    return np.abs(a - b) / np.abs(b)
