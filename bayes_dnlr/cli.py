@@ -91,12 +91,12 @@ def _first_compile_note(quiet: bool) -> None:
 
 def cmd_fit(args: argparse.Namespace) -> None:
     cfg = _config(args.config, "fit")
-    from bayes_dnlr.runs.fit import fit
+    from bayes_dnlr.runs.fit import fit, fit_table
 
     _first_compile_note(args.quiet)
     result = fit(cfg, overwrite=args.force)
     if not args.quiet:
-        print(result.table())
+        print(fit_table(result))
 
 
 def cmd_sample(args: argparse.Namespace) -> None:

@@ -1,7 +1,7 @@
 """The report's E(t): the relaxation modulus the data determine, in the headline beside E and in a
 section of its own (its figure, its times, its trust), for every test.
 
-E(t) is read from summary.json's ``modulus_at`` and its curve from ``modulus_curve`` (runs/modulus.py
+E(t) is read from summary.json's ``modulus_at`` and its curve from ``modulus_curve`` (runs/modulus_block.py
 makes both; the report imports no model code): the band over the times the test resolves, its
 dashed continuation to t → 0 the extrapolation that E is (eq. 11-14).
 """
@@ -17,7 +17,7 @@ import numpy as np
 from bayes_dnlr.numbers import fmt, interval, pm
 from bayes_dnlr.report.figure_cache import drawn
 from bayes_dnlr.report.page_parts import bullets, img, para
-from bayes_dnlr.runs.modulus_view import curves, entries, from_first_loading
+from bayes_dnlr.runs.modulus_view import curves, entries
 from bayes_dnlr.runs.results import RunResults
 
 WHAT_E_IS = ("E is E(t) extrapolated to t → 0 through the fast end of Cunat's spectrum (eq. 12), "
@@ -46,9 +46,7 @@ def headline_words(run: RunResults) -> str:
             mark = ('<span class="good">trusted</span>' if r.get("trust") else
                     '<span class="bad">not trusted (below)</span>')
             lo, hi = r["hdi_90"]
-            # a cyclic test's E(t) comes from its first loading, not from the posterior beside it
-            where = " from the first loading" if from_first_loading(r) else ""
-            parts.append(f"{who}<b>E({fmt(r['t'], 3)} s) = {pm(r['mean'], r['sd'])} MPa</b>{where} "
+            parts.append(f"{who}<b>E({fmt(r['t'], 3)} s) = {pm(r['mean'], r['sd'])} MPa</b> "
                          f"(90 % HDI {interval(lo, hi, r['sd'])}), {mark}")
     return ("The modulus the data determine, the relaxation modulus at the shortest time the "
             "test resolves: " + "; ".join(parts) + ". " + html.escape(WHAT_E_IS))

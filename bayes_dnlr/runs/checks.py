@@ -280,8 +280,8 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
                priors, fit: dict[str, Any], summary: dict[str, Any],
                sigma0: dict[str, float]) -> tuple[dict[str, Any], list | dict, dict | None]:
     """The ``checks`` block of summary.json for a sampled run (``draws`` (steps, walkers, ndim) kept),
-    its ``modulus_at`` (E(t) with its own trust, runs/modulus.py) and ``modulus_curve``."""
-    from bayes_dnlr.runs.modulus import modulus_block
+    its ``modulus_at`` (E(t) with its own trust, runs/modulus_block.py) and ``modulus_curve``."""
+    from bayes_dnlr.runs.modulus_block import posterior_block
 
     noise = layout.expand(summary.get("noise")) if layout.plain else (summary.get("noise") or {}).get(
         "tests") or {}
@@ -301,7 +301,7 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
     checks["prior_sources"] = prior_sources(draws, names, priors,
                                             list(prior_shaped_e(checks["prior_sensitivity"])))
     adequate, trust, head, points = verdict(checks, bool(summary.get("converged")), not layout.plain)
-    modulus, curve = modulus_block(cfg, tests, layout, draws, names, bands, checks,
+    modulus, curve = posterior_block(cfg, tests, layout, draws, names, bands, checks,
                                    _log_prior(draws, priors), bool(summary.get("converged")), fit)
     if layout.plain:
         for k in ("predictive_coverage", "plausibility", "noise_model"):
@@ -317,7 +317,7 @@ def _log_prior(draws: np.ndarray, priors) -> np.ndarray:
     constant), in the order of ``draws.reshape(-1, ndim)``, for E(t)'s own prior check: there a
     uniform or log-uniform prior is flat and says nothing, an informative one (a normal prior on
     alpha or E) is what power-scaling asks about. Non-finite where a draw sits a rounding error
-    outside a bound (runs/modulus.py leaves those out)."""
+    outside a bound (E(t)'s prior check leaves those out)."""
     flat = draws.reshape(-1, draws.shape[-1])
     z = priors.from_physical(flat)
     with np.errstate(all="ignore"):

@@ -2,10 +2,11 @@
 the E(t) and the E the others give? (inference/analyses/consistency.py: Cochran's Q over the
 tests' own estimates, the pair furthest apart in combined sd.)
 
-Each test's own estimate is its fit's (fit.json ``single_fits``): the generalized one when that
-test shows model error, else the white one, with its linearized sd; E(t) at times every test
-resolves (``output.modulus_at``, else the longest of the tests' default times) when the tests share
-the spectrum (tau_max and alpha not ``per: test``); E always.
+Each test's own E(t) is the one estimator's on its fit (fit.json ``single_fits``, runs/modulus_block.py
+``fit_rows``: the generalized analysis when that test shows model error, else the white one, with
+the spectrum exponent's spread), at times every test resolves (``output.modulus_at``, else the
+longest of the tests' default times) when the tests share the spectrum (tau_max and alpha not
+``per: test``); E always, with its linearized sd.
 """
 
 from __future__ import annotations
@@ -17,20 +18,24 @@ import numpy as np
 
 from bayes_dnlr.config import Config
 from bayes_dnlr.inference.analyses.consistency import Agreement, agreement
-from bayes_dnlr.inference.modulus import default_times, linearized, test_window
+from bayes_dnlr.inference.modulus_window import default_times, test_window
 from bayes_dnlr.numbers import fmt, pm
+from bayes_dnlr.runs.modulus_block import fit_rows, under_model_error
 from bayes_dnlr.runs.testset import TestSet
 
 
-def _own(single: Mapping[str, Any]) -> tuple[dict[str, float], np.ndarray | None, list[str], str]:
-    """A test's own estimate, covariance and names: generalized under model error, else white."""
+def _own_e(single: Mapping[str, Any]) -> tuple[float, float, str] | None:
+    """A test's own E and its linearized sd: generalized under model error, else white."""
+    under = under_model_error(single)
     d = single.get("discrepancy") or {}
     names = list(single.get("parameters") or single.get("sd") or [])
-    if d.get("evidence") and d.get("estimate") and d.get("covariance") is not None:
-        return ({**single["estimate"], **d["estimate"]}, np.asarray(d["covariance"], dtype=float),
-                names, "generalized")
-    cov = single.get("covariance")
-    return dict(single["estimate"]), None if cov is None else np.asarray(cov, dtype=float), names, "white"
+    est = {**single["estimate"], **d["estimate"]} if under else single["estimate"]
+    cov = d.get("covariance") if under else single.get("covariance")
+    if "E" not in names or cov is None or "E" not in est:
+        return None
+    j = names.index("E")
+    return float(est["E"]), float(np.sqrt(np.asarray(cov, dtype=float)[j, j])), (
+        "generalized" if under else "white")
 
 
 def common_times(cfg: Config, tests: TestSet) -> list[float]:
@@ -54,18 +59,16 @@ def consistency(cfg: Config, tests: TestSet, fit: Mapping[str, Any]) -> dict[str
     sds: dict[str, dict[str, float]] = {}
     how = {}
     for t, single in singles.items():
-        est, cov, names, how[t] = _own(single)
-        if "E" not in est or "tau_max" not in est:
+        if t not in tests.tests or not single.get("estimate"):
             continue
-        for row in (linearized(est, cov, names, times, cfg.model.modes, cfg.model.decades)
-                    if times else []):
+        own = _own_e(single)
+        if own is not None:
+            values.setdefault("E", {})[t], sds.setdefault("E", {})[t], how[t] = own
+        found = fit_rows(cfg.for_test(t), tests.tests[t], single, f"{t}: ", times) if times else None
+        for row in found.rows if found is not None else []:
             key = f"E({fmt(row['t'], 3)} s)"
             values.setdefault(key, {})[t] = row["mean"]
             sds.setdefault(key, {})[t] = row["sd"]
-        if "E" in names and cov is not None:
-            j = names.index("E")
-            values.setdefault("E", {})[t] = float(est["E"])
-            sds.setdefault("E", {})[t] = float(np.sqrt(cov[j, j]))
     found = [a for k in values if (a := agreement(k, values[k], sds[k])) is not None]
     if not found:
         return None

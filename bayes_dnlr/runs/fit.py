@@ -25,11 +25,13 @@ from bayes_dnlr.runs.folder import (
 )
 from bayes_dnlr.runs.identity import fit_is_current
 from bayes_dnlr.runs.layout import FIT_FILE
+from bayes_dnlr.runs.modulus_block import fit_rows
+from bayes_dnlr.runs.modulus_view import console_lines
 from bayes_dnlr.runs.testset import load_tests, sections
 
 # fit_is_current lives with the other staleness checks (runs/identity.py), where the report reads it
 # without importing the fitting code; it stays part of this module's API (docs/fit.md)
-__all__ = ["RunFit", "fit", "fit_is_current", "load_fit"]
+__all__ = ["RunFit", "fit", "fit_is_current", "fit_table", "load_fit"]
 
 
 def _fit_path(run_dir: Path) -> Path:
@@ -76,6 +78,10 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
     # threads on a busy machine, 0.1 ms with one)
     with threadpool_limits(limits=1, user_api="blas"):
         result = fit_run(cfg, test.tests, plain=test.plain)
+        for name, single in result.singles.items():
+            found = fit_rows(cfg.for_test(name), test.tests[name], single.to_dict(),
+                             "" if test.plain else f"{name}: ")
+            single.modulus_at = None if found is None else found.rows
     secs = sections(cfg)
     result.config_digest = identity.config_digest(cfg, secs)
     result.config_sections = identity.section_digests(cfg, secs)
@@ -93,3 +99,10 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
             raise
         test.keep_smoothings()       # the run folder exists now: sample and report read it
     return result
+
+
+def fit_table(result: RunFit) -> str:
+    """The console's table of a fit, with each test's E(t) and its trust."""
+    block = ({"modulus_at": result.only.modulus_at or []} if result.plain else
+             {"single_fits": {t: {"modulus_at": r.modulus_at} for t, r in result.singles.items()}})
+    return "\n".join([result.table(), *console_lines(block)])

@@ -1,5 +1,6 @@
-"""E(t) of summary.json as read back (``modulus_at``, its curve for the report): light, so that
-the report and compare read it without the model's compiled code (runs/modulus.py makes it)."""
+"""E(t) of summary.json and fit.json as read back (``modulus_at``, its curve for the report): light,
+so that the report and compare read it without the model's compiled code (runs/modulus_block.py
+makes it)."""
 
 from __future__ import annotations
 
@@ -8,24 +9,17 @@ from typing import Any
 
 from bayes_dnlr.numbers import fmt
 
-# how an entry's ``source`` begins when a cyclic test's first loading gave it
-FIRST_LOADING = "first loading"
-
-
-def from_first_loading(row: Mapping[str, Any]) -> bool:
-    """Whether an E(t) entry comes from a cyclic test's first loading (runs/first_loading.py)."""
-    return str(row.get("source", "")).startswith(FIRST_LOADING)
-
 
 def entries(summary: Mapping[str, Any]) -> dict[str, list[dict]]:
-    """The ``modulus_at`` of summary.json per test (a run with one test under its own name, '')."""
+    """The ``modulus_at`` of summary.json per test (a run with one test under its own name, '');
+    of fit.json too: a run with one test has its list, a joint fit each test's in its single fit."""
     block = summary.get("modulus_at")
-    if not block:
-        return {}
     if isinstance(block, list):
-        return {"": block}
-    return dict(block.get("tests") or {})
-
+        return {"": block} if block else {}
+    if block:
+        return dict(block.get("tests") or {})
+    singles = summary.get("single_fits") or {}
+    return {t: s["modulus_at"] for t, s in singles.items() if s.get("modulus_at")}
 
 
 def curves(summary: Mapping[str, Any]) -> dict[str, dict]:
@@ -48,10 +42,12 @@ def console_lines(summary: Mapping[str, Any]) -> list[str]:
         for r in rows:
             lo, hi = r["hdi_90"]
             mark = "trusted" if r.get("trust") else "NOT trusted"
+            source = " (fit, linearized)" if r.get("source") == "fit" else ""
             out.append(f"E(t): {who}E({fmt(r['t'], 3)} s) = {pm(r['mean'], r['sd'])} MPa, 90 % HDI "
-                       f"{interval(lo, hi, r['sd'])}: {mark} (the modulus the data determine; E is its "
-                       "extrapolation to t → 0)")
+                       f"{interval(lo, hi, r['sd'])}{source}: {mark} (the modulus the data determine; "
+                       "E is its extrapolation to t → 0)")
             out += [f"  - {x}" for x in r.get("trust_reasons") or []]
+            out += [f"  - not checked: {k} ({why})" for k, why in (r.get("lacks") or {}).items()]
     block = summary.get("consistency")
     if block:
         out.append(f"tests: {block.get('words')}")

@@ -177,6 +177,74 @@ def _widened_words(b: dict) -> str:
             f"[{fmt(lo, 4)}, {fmt(hi, 4)}])")
 
 
+# ---------------------------------------------------------------- E(t)'s trust
+
+def modulus_reasons(row: dict[str, Any], who: str = "") -> list[str]:
+    """The sentences of the checks that withdraw an E(t)'s trust (inference/modulus_estimate.py
+    computes them), each with what to do; empty when it is trusted."""
+    t = f"E({fmt(row['t'], 3)} s)"
+    c = row["checks"]
+    out = []
+    if not c["inside_window"]:
+        lo, hi = row["resolved"]
+        out.append(f"{who}{t} lies outside the times the test resolves ({fmt(lo, 3)}-{fmt(hi, 4)} s): "
+                   "an extrapolation through the model's spectrum, not a measurement")
+    band = c.get("band")
+    if band and not band["ok"]:
+        lo, hi = band["information_times"]
+        out.append(f"{who}the 90 % band holds {100 * band['share']:.0f} % of the samples that carry "
+                   f"{t}'s information (t = {fmt(lo, 3)}-{fmt(hi, 3)} s; at least "
+                   f"{100 * max(band['floor'], 0):.0f} % expected of a calibrated band): the model "
+                   f"misses the data where this modulus is measured; {band_remedy(band)}")
+    start = c.get("start")
+    if start and start.get("toe"):
+        out.append(f"{who}the curve's slope rises over its start ({start['convexity_z']:+.1f} sd): "
+                   "a toe (slack, seating), which no relaxing material gives and the model fits as a "
+                   f"softer start, so {t} comes out low; " + (
+                       "it remains after the toe's compensation (data.toe: compensate): fix the start "
+                       "of the test (docs/data-input.md)" if start.get("compensated") else
+                       "compensate it (data.toe: compensate) or fix the start (docs/data-input.md)"))
+    elif start and not start["ok"]:
+        out.append(f"{who}the data's {start.get('standard', 'ISO 527-1')} chord "
+                   f"({fmt(start['data_chord'])} MPa, measured "
+                   f"{fmt(start['times'][0], 2)}-{fmt(start['times'][1], 2)} s into the loading) is "
+                   f"{abs(start['z']):.1f} sd from the model's ({fmt(start['model_chord'])} MPa): the "
+                   "model does not follow the start of this curve (a preload, a loading it misses)")
+    big = {k: v for k, v in (c.get("bounds") or {}).items() if abs(v) > SHIFT_SD}
+    if big:
+        moves = ", ".join(f"{k} moves it by {v:+.1f} sd" for k, v in big.items())
+        out.append(f"{who}the prior box decides {t}: widening the bound of {moves}")
+    prior = c.get("prior")
+    if prior is not None and prior > power_scaling.SENSITIVE:
+        out.append(f"{who}the prior shapes {t} (power-scaling sensitivity {prior:.2f})")
+    if c.get("noise_model") is False:
+        out.append(f"{who}a white likelihood on residuals that are not white: {t}'s interval ignores "
+                   "the model error")
+    if not c["converged"]:
+        out.append(f"{who}the " + ("fit" if row.get("source") == "fit" else "chain")
+                   + " has not converged")
+    return out
+
+
+def band_remedy(band: dict[str, Any]) -> str:
+    """What to do when the model misses the data where E(t) is measured: where the test has parts
+    the model does not describe (unloading, a long hold), identify on the part it does."""
+    if band.get("first_turn") is not None:
+        return (f"the model does not follow unloading: identify on the first loading, "
+                f"data.window: {{time_max: {band['first_turn']:.6g}}} (its peak), where E(t) is "
+                "measured")
+    start, window = band.get("relaxation_start"), band.get("window")
+    if start is not None and window:
+        ramp = float(start - window[0])
+        end = float(start + 10.0 * ramp)
+        if end < float(window[1]):
+            return (f"one spectrum does not describe the whole hold: identify on the loading and the "
+                    f"start of the hold, e.g. data.window: {{time_max: {end:.4g}}} (ten times "
+                    "the loading's length), and compare")
+    return ("the model's form does not describe the curve where E(t) is measured (docs/model-form.md): "
+            "read the residuals there")
+
+
 def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[bool, bool, str, list[str]]:
     """(adequate, trust_interval, the verdict's first sentence, one sentence per check) from the
     checks; summary.json's ``verdict`` is the sentences joined."""

@@ -55,7 +55,6 @@ from bayes_dnlr.inference.lsq.start import (
     spread_starts,
 )
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
-from bayes_dnlr.inference.modulus import fit_block, fit_lines
 from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd
 from bayes_dnlr.vocabulary import UNITS, UNIVERSAL_EXPONENT
 
@@ -107,7 +106,7 @@ class FitResult:
     data_notes: list[str] = field(default_factory=list)   # from the data layer (e.g. a detected hold)
     discrepancy: dict[str, Any] | None = None   # the model-discrepancy (GLS) analysis, or None (white)
     spectrum_exponent: dict[str, Any] | None = None   # how the estimate depends on alpha (eq. 12)
-    modulus_at: dict[str, Any] | None = None   # E(t), the relaxation modulus (inference/modulus.py)
+    modulus_at: Any = None   # E(t) of this fit (runs/modulus_block.py fills it in: fit.json)
     identifiability: dict[str, Any] | None = None   # parameters held where the window cannot identify them
 
     def to_dict(self) -> dict[str, Any]:
@@ -205,7 +204,6 @@ class FitResult:
             lines.append(f"De_max = tau_max · rate = {self.deborah_max:.4g} (eq. 45, white least squares)")
         if self.spectrum_exponent is not None:
             lines.append(spectrum_line(self.spectrum_exponent, self.estimate))
-        lines += fit_lines(self.modulus_at)
         if self.warnings:
             lines.append("warnings:")
             lines.extend(f"  - {m}" for m in self.warnings)
@@ -387,7 +385,6 @@ def fit_test(cfg: Config, test) -> FitResult:
     rate = float(test.strain_rate)
     tau = params.get("tau_max")
     spectrum = _spectrum_dependence(problem, params, names, X, values, residuals, sigma0)
-    modulus = fit_block(cfg, test, params, names, sa.covariance, disc) if "E" in params else None
     return FitResult(
         name=cfg.name, names=names, estimate=params,
         sd=dict(zip(names, (float(x) for x in sa.sd), strict=True)),
@@ -404,7 +401,7 @@ def fit_test(cfg: Config, test) -> FitResult:
         strain_rate=rate, relaxation_start=test.relaxation_start, window=_window_info(cfg, test, problem),
         start=start, start_notes=notes, fixed=dict(cfg.fixed_values),
         wall_time_s=_time.perf_counter() - t_start, data_notes=list(test.notes), discrepancy=disc,
-        spectrum_exponent=spectrum, modulus_at=modulus)
+        spectrum_exponent=spectrum)
 
 
 def _top_of_prior(spec, estimate: float, sd: float) -> float:

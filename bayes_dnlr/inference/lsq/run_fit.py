@@ -108,7 +108,7 @@ class RunFit:
                                 if k in ("estimate", "sd", "err", "sigma0", "sigma0_source", "residuals",
                                          "warnings", "discrepancy", "strain_rate", "deborah_max",
                                          "n_points", "relaxation_start", "data_notes", "spectrum_exponent",
-                                         "modulus_at", "identifiability", "parameters",
+                                         "modulus_at", "identifiability", "parameters", "converged",
                                          "covariance")}
                             for t, r in self.singles.items()},
             "criterion": self.criterion, "converged": self.converged, "message": self.message,

@@ -1,0 +1,318 @@
+"""E(t), the relaxation modulus of the identified model (model/modulus.py), as a result: the one
+estimator that fit.json, summary.json, a joint run's ``consistency``, batch and compare read.
+
+Two sources of parameter draws, then one path:
+
+- ``posterior_source``: the kept draws of the chain;
+- ``fit_source``: the linearized fit's Laplace draws, normal about its estimate with its
+  covariance (eq. 32; the generalized ones under model error), the time constants in log space as
+  the sampler draws them (no negative time constant however wide the sd).
+
+For both, E(t) of every draw at the run's times; the spread that freeing the spectrum's exponent
+would add (``exponent_spread``: with alpha held at ½, the data still leave it an sd, and E(t) moves
+by dE(t)/dα along the least-squares path); the mean, sd, median and 90 % HDI; the curve the report
+draws; and the numbers its trust rests on (docs/model-form.md, "E(t), the modulus the data
+determine"): ``inside_window``, ``band`` (inference/checks/band.py), ``start`` (the start check of
+the same draws' curves), ``bounds`` (how far widening a piled-up bound moves E(t)), ``prior``
+(E(t)'s power-scaling sensitivity; a least-squares fit has no prior and says so), ``noise_model``,
+``converged``. The words of a failed check are the verdict's (runs/verdict.py).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from bayes_dnlr.inference.checks import power_scaling
+from bayes_dnlr.inference.checks.band import Band, band_check
+from bayes_dnlr.inference.mcmc import ess
+from bayes_dnlr.inference.modulus_window import ResolvedWindow
+from bayes_dnlr.model.modulus import SMALL_STRAIN_SLOPE, relaxation_modulus, spectrum_weights
+from bayes_dnlr.model.spectrum import tau_scale
+from bayes_dnlr.vocabulary import SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT
+
+MODULUS_PARAMETERS = ("E", "G", "tau_max", SPECTRUM_EXPONENT)   # what E(t) depends on
+LOG_PARAMETERS = ("tau_max", "tau_max_R")   # drawn in log space, as the sampler draws them
+HDI_PROB = 0.9
+ALPHA_STEP = 1.0e-4      # finite-difference step of d E(t)/d alpha
+FIT_DRAWS = 400          # Laplace draws of a fit: the sd of E(t) to 3.5 %, its HDI to a few %
+LAPLACE_SEED = 7907      # seeded draws: the same outputs every time
+SPREAD_SEED = 7919
+CURVE_TIMES = 80         # the report's E(t) curve: times and draws
+CURVE_DRAWS = 400
+NO_PRIOR = "a least-squares fit has no prior"
+
+
+@dataclass(frozen=True)
+class Source:
+    """Parameter draws of one test that E(t) is computed from."""
+
+    kind: str                                  # "posterior" or "fit"
+    draws: dict[str, np.ndarray]               # each free parameter, (n,)
+    fixed: dict[str, float]                    # the others at their values
+    converged: bool                            # the chain's stopping rule, the fit's optimiser
+    log_prior: np.ndarray | None = None        # per draw; None: no prior (least squares)
+    under_model_error: bool = False            # the analysis behind the draws used the discrepancy
+    lacks: dict[str, str] = field(default_factory=dict)   # checks the source cannot have, and why
+
+    @property
+    def size(self) -> int:
+        return int(next(iter(self.draws.values())).size) if self.draws else 1
+
+    def value(self, name: str) -> np.ndarray | float | None:
+        if name in self.draws:
+            return self.draws[name]
+        return self.fixed.get(name)
+
+    def columns(self) -> dict[str, np.ndarray | float]:
+        """E, G, tau_max and alpha (G 0 and alpha ½ when the test has neither)."""
+        out = {}
+        for k in MODULUS_PARAMETERS:
+            v = self.value(k)
+            out[k] = v if v is not None else (UNIVERSAL_EXPONENT if k == SPECTRUM_EXPONENT else 0.0)
+        return out
+
+    def point(self) -> dict[str, float]:
+        """Every parameter at its draws' median (the fixed ones at their values)."""
+        return {**{k: float(v) for k, v in self.fixed.items()},
+                **{k: float(np.median(v)) for k, v in self.draws.items()}}
+
+
+def posterior_source(draws: Mapping[str, np.ndarray], fixed: Mapping[str, float], converged: bool,
+                     log_prior: np.ndarray | None, under_model_error: bool) -> Source:
+    """The chain's kept draws of one test's parameters."""
+    return Source("posterior", {k: np.asarray(v, dtype=float).ravel() for k, v in draws.items()},
+                  dict(fixed), bool(converged), log_prior, bool(under_model_error))
+
+
+def fit_source(estimate: Mapping[str, float], covariance: np.ndarray | None, names: Sequence[str],
+               fixed: Mapping[str, float], converged: bool, under_model_error: bool,
+               n: int = FIT_DRAWS, seed: int = LAPLACE_SEED) -> Source:
+    """A fit's Laplace draws: ``n`` normal draws about ``estimate`` with ``covariance`` over
+    ``names``, ln τ for the time constants (the delta method: sd(ln τ) = sd(τ)/τ). A covariance
+    entry that is not finite counts as 0, as the delta method of earlier versions took it."""
+    names = list(names)
+    mean = np.array([float(estimate[k]) for k in names])
+    logs = np.array([k in LOG_PARAMETERS and mean[i] > 0 for i, k in enumerate(names)])
+    cov = np.zeros((len(names),) * 2) if covariance is None else np.nan_to_num(
+        np.asarray(covariance, dtype=float), nan=0.0, posinf=0.0, neginf=0.0)
+    scale = np.where(logs, 1.0 / np.where(logs, mean, 1.0), 1.0)
+    cov = cov * np.outer(scale, scale)
+    vals, vecs = np.linalg.eigh((cov + cov.T) / 2)
+    root = vecs * np.sqrt(np.clip(vals, 0.0, None))
+    z = np.random.default_rng(seed).standard_normal((n, len(names))) @ root.T
+    centre = np.where(logs, np.log(np.where(logs, mean, 1.0)), mean)
+    x = centre + z
+    x[:, logs] = np.exp(x[:, logs])
+    return Source("fit", {k: x[:, i] for i, k in enumerate(names)},
+                  {k: float(v) for k, v in fixed.items() if k not in names}, bool(converged), None,
+                  bool(under_model_error), {"prior": NO_PRIOR})
+
+
+# ---------------------------------------------------------------- E(t) and its derivatives
+
+def modulus_draws(columns: Mapping[str, np.ndarray | float], times: Sequence[float],
+                  modes: int = 50, decades: float = 6.0) -> np.ndarray:
+    """E(t) of every draw: (draws, times)."""
+    out = relaxation_modulus(np.asarray(times, dtype=float), columns["E"], columns.get("G", 0.0),
+                             columns["tau_max"], columns.get(SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT),
+                             modes, decades)
+    return np.atleast_2d(out)
+
+
+def gradient(params: Mapping[str, float], names: Sequence[str], times: Sequence[float],
+             modes: int = 50, decades: float = 6.0) -> np.ndarray:
+    """∂E(t)/∂β for the parameters ``names`` (β as the fit reports them: tau_max in s), one row per
+    time; parameters E(t) does not depend on have a zero column."""
+    t = np.asarray(times, dtype=float)
+    E, G, tau = float(params["E"]), float(params.get("G", 0.0)), float(params["tau_max"])
+    alpha = float(params.get(SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT))
+    shape = tau_scale(modes, decades)
+    p = spectrum_weights(np.array([alpha]), modes, decades)[0]
+    decay = np.exp(-t[:, None] / (tau * shape[None, :]))          # (times, modes)
+    fast = decay @ p
+    out = np.zeros((t.size, len(names)))
+    for j, k in enumerate(names):
+        if k == "E":
+            out[:, j] = fast
+        elif k == "G":
+            out[:, j] = SMALL_STRAIN_SLOPE * (1.0 - fast)
+        elif k == "tau_max":
+            # d/dτ exp(−t/(τ s_j)) = exp(·) t/(τ² s_j)
+            out[:, j] = (E - SMALL_STRAIN_SLOPE * G) * (decay * (t[:, None] / (tau**2 * shape))) @ p
+        elif k == SPECTRUM_EXPONENT:
+            up = relaxation_modulus(t, E, G, tau, alpha + ALPHA_STEP, modes, decades)
+            down = relaxation_modulus(t, E, G, tau, alpha - ALPHA_STEP, modes, decades)
+            out[:, j] = (up - down) / (2 * ALPHA_STEP)
+    return out
+
+
+def draw_stats(values: np.ndarray) -> dict[str, float | list[float]]:
+    """Mean, sd, median and 90 % HDI of one time's E(t) draws."""
+    x = np.asarray(values, dtype=float).ravel()
+    lo, hi = ess.hdi(x, HDI_PROB)
+    return {"mean": float(x.mean()), "sd": float(x.std(ddof=1)) if x.size > 1 else 0.0,
+            "median": float(np.median(x)), "hdi_90": [float(lo), float(hi)]}
+
+
+# ---------------------------------------------------------------- the spectrum exponent's spread
+
+@dataclass(frozen=True)
+class ExponentSpread:
+    """What freeing the spectrum's exponent adds to E(t): alpha's sd and the refit path's slope."""
+
+    alpha_sd: float
+    derivative: dict[str, float]     # d β*/dα of the other parameters along the least-squares path
+
+    def slope(self, point: Mapping[str, float], times: Sequence[float], modes: int,
+              decades: float) -> np.ndarray:
+        """dE(t)/dα along the path at ``point``, at each time."""
+        names = list(MODULUS_PARAMETERS)
+        g = gradient(point, names, times, modes, decades)
+        return g[:, names.index(SPECTRUM_EXPONENT)] + sum(
+            g[:, names.index(k)] * float(d) for k, d in self.derivative.items() if k in names)
+
+    def added_sd(self, point: Mapping[str, float], times: Sequence[float], modes: int,
+                 decades: float) -> np.ndarray:
+        return np.abs(self.slope(point, times, modes, decades)) * self.alpha_sd
+
+
+def exponent_spread(fit: Mapping[str, Any], under_model_error: bool) -> ExponentSpread | None:
+    """The spread of a test's fit (fit.json ``spectrum_exponent``): with alpha held at ½ (eq. 12),
+    the data still leave it an sd σ_α (the score test's, under the discrepancy when the analysis
+    used it) and E(t) moves by dE(t)/dα along the least-squares path (the other parameters
+    re-optimised). E(t) gets |dE(t)/dα| σ_α added, as a posterior with alpha free and a flat prior
+    would give it: small inside the resolved times, where the data pin E(t), large at E = E(0).
+    None when alpha is sampled (its draws carry it) or the fit has no derivative."""
+    block = fit.get("spectrum_exponent") or {}
+    if block.get("sampled") or not block.get("derivative"):
+        return None
+    score = ((fit.get("discrepancy") or {}).get("alpha_score") if under_model_error else None) \
+        or block.get("score")
+    if not score or not (score.get("sd") and np.isfinite(score["sd"])):
+        return None
+    return ExponentSpread(float(score["sd"]), {k: float(v) for k, v in block["derivative"].items()})
+
+
+def apply_spread(values: np.ndarray, added_sd: np.ndarray) -> np.ndarray:
+    """E(t) draws (draws, times) with the exponent's spread: each multiplied by exp(σ z), z standard
+    normal (seeded), σ the log-normal's whose sd is the added sd over the median, r:
+    e^{σ²}(e^{σ²} − 1) = r², so σ ≈ r where r is small and grows as sqrt(2 ln r) where it is not
+    (no overflow, no negative modulus)."""
+    rel = np.asarray(added_sd, dtype=float) / np.maximum(np.median(values, axis=0), 1e-300)
+    sigma = np.sqrt(np.log1p((np.sqrt(1.0 + 4.0 * rel**2) - 1.0) / 2.0))
+    z = np.random.default_rng(SPREAD_SEED).standard_normal(values.shape)
+    return values * np.exp(z * sigma[None, :])
+
+
+# ---------------------------------------------------------------- the estimate
+
+@dataclass(frozen=True)
+class BoundRefit:
+    """A parameter piled against a bound, with the estimates before and after it is widened."""
+
+    parameter: str
+    before: dict[str, float]
+    after: dict[str, float]
+
+
+def bound_moves(refits: Sequence[BoundRefit], t: float, sd: float, modes: int,
+                decades: float) -> dict[str, float]:
+    """E(t)'s move, in its sd, when each piled-up bound is widened (the bound check's refits)."""
+    if not sd > 0:
+        return {}
+    out = {}
+    for r in refits:
+        v = [float(modulus_draws(_with_defaults(p), [t], modes, decades)[0, 0])
+             for p in (r.before, r.after)]
+        out[r.parameter] = (v[1] - v[0]) / sd
+    return out
+
+
+def _with_defaults(params: Mapping[str, float]) -> dict[str, float]:
+    return {"E": params["E"], "tau_max": params["tau_max"], "G": params.get("G", 0.0),
+            SPECTRUM_EXPONENT: params.get(SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT)}
+
+
+def _prior_sensitivity(values: np.ndarray, log_prior: np.ndarray | None) -> float | None:
+    """E(t)'s power-scaling sensitivity to the prior; None where the prior is flat at the draws
+    (a uniform box says nothing) or there is none."""
+    if log_prior is None:
+        return None
+    ok = np.isfinite(log_prior)
+    if ok.sum() < 2 or not np.ptp(log_prior[ok]) > 0:
+        return None
+    if not np.ptp(values[ok]) > 0:
+        return 0.0          # a constant (E(t) = 3G long after every mode relaxed) has nothing to scale
+    return float(power_scaling.sensitivity({"E(t)": values[ok]}, log_prior[ok])["E(t)"])
+
+
+@dataclass(frozen=True)
+class ModulusEstimate:
+    """E(t) of one test: its rows (summary.json ``modulus_at`` entries, before their trust) and the
+    curve the report draws (``modulus_curve``)."""
+
+    rows: list[dict[str, Any]]
+    curve: dict[str, Any]
+
+
+def estimate(source: Source, times: Sequence[float], why: str, window: ResolvedWindow,
+             band: Band | None, spread: ExponentSpread | None, refits: Sequence[BoundRefit],
+             noise_ok: bool, modes: int = 50, decades: float = 6.0) -> ModulusEstimate:
+    """E(t) of one test at ``times`` from ``source``, with the numbers of its checks."""
+    columns = source.columns()
+    point = source.point()
+    values = modulus_draws(columns, times, modes, decades)
+    added = spread.added_sd(point, times, modes, decades) if spread is not None else None
+    if added is not None:
+        values = apply_spread(values, added)
+    start = band.start.to_dict() if band is not None and band.start is not None else None
+    rows = []
+    for i, t in enumerate(times):
+        stats = draw_stats(values[:, i])
+        g = gradient(band.point, band.free, [t], modes, decades)[0] if band is not None else None
+        checks = {
+            "inside_window": window.contains(t),
+            "band": band_check(band, g, window.origin) if g is not None else None,
+            "start": start,
+            "bounds": bound_moves(refits, t, float(stats["sd"]), modes, decades),
+            "prior": _prior_sensitivity(values[:, i], source.log_prior),
+            "noise_model": bool(noise_ok),
+            "converged": source.converged,
+        }
+        row = {"t": float(t), **stats, "source": source.kind,
+               "resolved": [window.shortest, window.longest], "why": why, "checks": checks}
+        if source.lacks:
+            row["lacks"] = dict(source.lacks)
+        if added is not None:
+            row["spectrum_exponent"] = {
+                "dE_dalpha": float(spread.slope(point, [t], modes, decades)[0]),
+                "alpha_sd": spread.alpha_sd, "added_sd": float(added[i])}
+        rows.append(row)
+    return ModulusEstimate(rows, _curve(source, columns, window, times, spread, modes, decades))
+
+
+def _curve(source: Source, columns: Mapping[str, Any], window: ResolvedWindow,
+           times: Sequence[float], spread: ExponentSpread | None, modes: int,
+           decades: float) -> dict[str, Any]:
+    """E(t)'s 5, 50 and 95 % quantiles on CURVE_TIMES log-spaced times from a hundredth of the
+    shortest resolved time to the longest, over CURVE_DRAWS draws (the exponent's spread added as
+    for the reported times), and E's median and 90 % HDI: what the report draws."""
+    n = source.size
+    pick = np.linspace(0, n - 1, min(CURVE_DRAWS, n)).astype(int)
+    sub = {k: (np.asarray(v)[pick] if np.ndim(v) else v) for k, v in columns.items()}
+    grid = np.geomspace(min(window.shortest, min(times)) / 100.0,
+                        max(window.longest, max(times)), CURVE_TIMES)
+    e_t = modulus_draws(sub, grid, modes, decades)
+    if spread is not None:
+        e_t = apply_spread(e_t, spread.added_sd(source.point(), grid, modes, decades))
+    q = np.quantile(e_t, [0.05, 0.5, 0.95], axis=0)
+    e = np.atleast_1d(np.asarray(columns["E"], dtype=float)).ravel()
+    lo, hi = draw_stats(e)["hdi_90"] if e.size > 1 else (float(e[0]),) * 2
+    return {"t": grid.tolist(), "q05": q[0].tolist(), "q50": q[1].tolist(), "q95": q[2].tolist(),
+            "resolved": [window.shortest, window.longest], "E_median": float(np.median(e)),
+            "E_hdi_90": [lo, hi], "source": source.kind}
+

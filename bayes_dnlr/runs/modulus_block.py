@@ -1,0 +1,185 @@
+"""The ``modulus_at`` blocks of fit.json and summary.json: each test's E(t) from the one estimator
+(inference/modulus_estimate.py), with the draws of its source, its predictive band and its checks
+gathered here from the run, and its trust decided by the verdict's words (runs/verdict.py).
+
+- ``fit_rows``: a test's fit (fit.json, or one of a joint run's ``single_fits``): its Laplace draws,
+  their band and start check, the bounds it sits on, whether its likelihood matches its residuals,
+  its optimiser's convergence. The runs' `consistency` reads the same rows at the times every test
+  resolves.
+- ``posterior_block``: the chain's kept draws, the run's posterior bands, the bound check's
+  refits, E(t)'s prior sensitivity, the noise-model check and the stopping rule.
+
+A cyclic test gets one analysis, on its configured window: its E(t), its E and its verdict come
+from the same fit or posterior (docs/model-form.md, "Loading-unloading cycles").
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from bayes_dnlr.config import Config
+from bayes_dnlr.inference.checks import bounds as bound_rules
+from bayes_dnlr.inference.checks.band import Band
+from bayes_dnlr.inference.layout import Layout
+from bayes_dnlr.inference.modulus_estimate import (
+    MODULUS_PARAMETERS,
+    BoundRefit,
+    ModulusEstimate,
+    Source,
+    estimate,
+    exponent_spread,
+    fit_source,
+    posterior_source,
+)
+from bayes_dnlr.inference.modulus_window import times_for
+from bayes_dnlr.inference.posterior.priors import LOG_SPACE_KINDS
+from bayes_dnlr.runs.bands import N_CURVES, fit_noise, test_band
+from bayes_dnlr.runs.testset import TestSet
+from bayes_dnlr.runs.verdict import modulus_reasons
+
+
+def has_modulus(view: Config) -> bool:
+    """Whether a test's model has an E(t): E and tau_max among its parameters."""
+    return {"E", "tau_max"} <= set(view.parameters)
+
+
+def judged(result: ModulusEstimate, who: str) -> ModulusEstimate:
+    """The rows with their trust: the verdict's reasons, trusted when there are none."""
+    for row in result.rows:
+        row["trust_reasons"] = modulus_reasons(row, who)
+        row["trust"] = not row["trust_reasons"]
+    return result
+
+
+def _rows(view: Config, data, source: Source, band: Band | None, fit: Mapping[str, Any],
+          refits: Sequence[BoundRefit], noise_ok: bool, who: str,
+          times: Sequence[float] | None = None) -> ModulusEstimate:
+    chosen, why, window = times_for(view, data)
+    if times is not None:
+        chosen, why = list(times), "times every test of the run resolves"
+    spread = exponent_spread(fit, source.under_model_error)
+    return judged(estimate(source, chosen, why, window, band, spread, refits, noise_ok,
+                           view.model.modes, view.model.decades), who)
+
+
+# ---------------------------------------------------------------- a fit
+
+def under_model_error(fit: Mapping[str, Any]) -> bool:
+    """Whether a test's fit reports its generalized analysis (model error found, and its estimate
+    and covariance there)."""
+    d = fit.get("discrepancy") or {}
+    return bool(d.get("evidence") and d.get("estimate") and d.get("covariance") is not None)
+
+
+def fit_view(view: Config, fit: Mapping[str, Any]) -> Config:
+    """The test's config with the parameters its fit held (identifiability) fixed there."""
+    held = ((fit.get("identifiability") or {}).get("held") or {})
+    return view.with_holds({k: v["value"] for k, v in held.items()}) if held else view
+
+
+def fit_rows(view: Config, data, fit: Mapping[str, Any], who: str = "",
+             times: Sequence[float] | None = None) -> ModulusEstimate | None:
+    """E(t) of a test's fit (fit.json's layout of one test), at its times or ``times``."""
+    if not has_modulus(view) or not fit.get("estimate"):
+        return None
+    view = fit_view(view, fit)
+    under = under_model_error(fit)
+    d = fit.get("discrepancy") or {}
+    estimate_ = {**fit["estimate"], **(d.get("estimate") or {})} if under else dict(fit["estimate"])
+    names = list(fit.get("parameters") or fit["estimate"])
+    cov = d.get("covariance") if under else fit.get("covariance")
+    source = fit_source(estimate_, None if cov is None else np.asarray(cov, dtype=float), names,
+                        view.fixed_values, bool(fit.get("converged", True)), under)
+    band = test_band(view, data, {k: v[:N_CURVES] for k, v in source.draws.items()},
+                     fit_noise(view, data, fit, under))
+    white = bool((fit.get("residuals") or {}).get("white", True))
+    return _rows(view, data, source, band, fit, _fit_refits(view, data, fit, estimate_),
+                 under or white, who, times)
+
+
+def _fit_refits(view: Config, data, fit: Mapping[str, Any],
+                estimate_: Mapping[str, float]) -> list[BoundRefit]:
+    """The parameters of E(t) whose fit sits on a bound of its prior box (not a physical limit),
+    each refitted with that bound widened ×10 (the bound check's rule, runs/checks.py)."""
+    from bayes_dnlr.errors import BayesDnlrError
+    from bayes_dnlr.inference.lsq.run_fit import fit_run
+    from bayes_dnlr.inference.lsq.sensitivity import bound_side
+
+    out = []
+    for k in MODULUS_PARAMETERS:
+        if k not in view.free_parameters or k not in estimate_:
+            continue
+        spec = view.parameters[k]
+        low, high = spec.bounds()
+        side = bound_side(float(estimate_[k]), low, high)
+        if side is None or bound_rules.physical_limit(side, low if side == "low" else high):
+            continue
+        lo, hi = bound_rules.widened(low, high, side, spec.prior in LOG_SPACE_KINDS)
+        wide = view.model_copy(update={"parameters": {
+            **view.parameters, k: spec.model_copy(update={"low": lo, "high": hi})}})
+        try:
+            again = fit_run(wide, {view.name: data}, plain=True).to_dict()
+        except BayesDnlrError:
+            continue
+        after = again.get("estimate") or {}
+        if under_model_error(again):
+            after = {**after, **again["discrepancy"]["estimate"]}
+        out.append(BoundRefit(k, {**view.fixed_values, **estimate_},
+                              {**view.fixed_values, **after}))
+    return out
+
+
+# ---------------------------------------------------------------- a posterior
+
+def uses_discrepancy(checks: Mapping[str, Any], test: str) -> bool:
+    """Whether a test's posterior used the model discrepancy (its noise-model check says)."""
+    return ((checks.get("noise_model") or {}).get(test) or {}).get("likelihood") == "discrepancy"
+
+
+def _posterior_refits(bound_limited: Sequence[Mapping[str, Any]], layout: Layout, test: str,
+                      view: Config) -> list[BoundRefit]:
+    """The bound check's refits (runs/checks.py) in the test's own names."""
+    out = []
+    for b in bound_limited:
+        est = b.get("estimates")
+        if not est:
+            continue
+        before, after = ({k: v for k in MODULUS_PARAMETERS
+                          if (v := e.get(layout.name(k, test), view.fixed_values.get(k))) is not None}
+                         for e in (est["before"], est["after"]))
+        if "E" in before and "tau_max" in before and "E" in after and "tau_max" in after:
+            out.append(BoundRefit(b["parameter"], before, after))
+    return out
+
+
+def posterior_block(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray,
+                    names: list[str], bands: Mapping[str, Band], checks: Mapping[str, Any],
+                    log_prior: np.ndarray | None, converged: bool,
+                    fit: Mapping[str, Any]) -> tuple[Any, Any]:
+    """summary.json's ``modulus_at`` (per test, a list of {t, mean, sd, median, hdi_90, source,
+    resolved, why, checks, trust, trust_reasons}; a run with one test gives its list, a run with
+    several {"tests": {name: list}}) and ``modulus_curve`` (per test, what the report draws)."""
+    flat = draws.reshape(-1, draws.shape[-1])
+    per_test: dict[str, list[dict]] = {}
+    curves: dict[str, dict] = {}
+    for test in layout.tests:
+        view = cfg.for_test(test)
+        if not has_modulus(view):
+            continue
+        drawn = {k: flat[:, names.index(layout.name(k, test))] for k in view.parameters
+                 if layout.name(k, test) in names}
+        source = posterior_source(drawn, view.fixed_values, converged, log_prior,
+                                  uses_discrepancy(checks, test))
+        own = fit if layout.plain else (fit.get("single_fits") or {}).get(test) or {}
+        noise_ok = ((checks.get("noise_model") or {}).get(test) or {}).get("ok", True)
+        found = _rows(view, tests.tests[test], source, bands.get(test), own,
+                      _posterior_refits(checks.get("bound_limited") or [], layout, test, view),
+                      noise_ok, "" if layout.plain else f"{test}: ")
+        per_test[test], curves[test] = found.rows, found.curve
+    if layout.plain:
+        return next(iter(per_test.values()), []), next(iter(curves.values()), None)
+    return {"tests": per_test}, curves
+
