@@ -272,8 +272,20 @@ def modulus_records(cfg, summary: dict[str, Any]) -> list[dict[str, Any]]:
                     "truth": float(true), "covered": bool(lo <= true <= hi),
                     "trust": bool(r.get("trust")), "reasons": [
                         k for k, v in (r.get("checks") or {}).items()
-                        if (isinstance(v, dict) and v.get("ok") is False) or v is False]})
+                        if (isinstance(v, dict) and v.get("ok") is False) or v is False],
+                    "numbers": _check_numbers(r)})
     return out
+
+
+def _check_numbers(row: dict[str, Any]) -> dict[str, float | None]:
+    """The numbers E(t)'s checks decide on, kept to measure their thresholds out of sample."""
+    c = row.get("checks") or {}
+    band, start, shape, width = (c.get(k) or {} for k in ("band", "start", "shape", "width"))
+    return {"band_share": band.get("share"), "band_floor": band.get("floor"),
+            "start_z": start.get("z"), "start_convexity_z": start.get("convexity_z"),
+            "shape_z": shape.get("z"), "alpha_pulled": shape.get("alpha_pulled"),
+            "half_width": width.get("half_width"),
+            "added_sd": (row.get("spectrum_exponent") or {}).get("added_sd")}
 
 
 def modulus_table(results: list[dict[str, Any]]) -> str:

@@ -20,6 +20,7 @@ the same draws' curves), ``bounds`` (how far widening a piled-up bound moves E(t
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -44,6 +45,9 @@ SPREAD_SEED = 7919
 CURVE_TIMES = 80         # the report's E(t) curve: times and draws
 CURVE_DRAWS = 400
 NO_PRIOR = "a least-squares fit has no prior"
+SHAPE_Z = 2.576          # the exponent's pull moves E(t) by more than this many of its sd (two-sided 1 %)
+INFORMATIVE = 0.25       # a 90 % HDI wider than ± this share of E(t) says little about it
+LOCAL_Z = 2.576          # E(t) of the whole window against the local fit's, in the local sd (1 %)
 
 
 @dataclass(frozen=True)
@@ -166,6 +170,7 @@ class ExponentSpread:
 
     alpha_sd: float
     derivative: dict[str, float]     # d β*/dα of the other parameters along the least-squares path
+    step: float = 0.0                # the score test's Gauss-Newton step of alpha from ½
 
     def slope(self, point: Mapping[str, float], times: Sequence[float], modes: int,
               decades: float) -> np.ndarray:
@@ -178,6 +183,16 @@ class ExponentSpread:
     def added_sd(self, point: Mapping[str, float], times: Sequence[float], modes: int,
                  decades: float) -> np.ndarray:
         return np.abs(self.slope(point, times, modes, decades)) * self.alpha_sd
+
+    @property
+    def pull(self) -> float:
+        """How far the data pull alpha from ½: the score's step, kept inside the family's [0, 1]."""
+        return float(np.clip(UNIVERSAL_EXPONENT + self.step, 0.0, 1.0)) - UNIVERSAL_EXPONENT
+
+    def move(self, point: Mapping[str, float], times: Sequence[float], modes: int,
+             decades: float) -> np.ndarray:
+        """E(t)'s move when alpha follows the data's pull along the least-squares path."""
+        return self.slope(point, times, modes, decades) * self.pull
 
 
 def exponent_spread(fit: Mapping[str, Any], under_model_error: bool) -> ExponentSpread | None:
@@ -194,7 +209,57 @@ def exponent_spread(fit: Mapping[str, Any], under_model_error: bool) -> Exponent
         or block.get("score")
     if not score or not (score.get("sd") and np.isfinite(score["sd"])):
         return None
-    return ExponentSpread(float(score["sd"]), {k: float(v) for k, v in block["derivative"].items()})
+    return ExponentSpread(float(score["sd"]), {k: float(v) for k, v in block["derivative"].items()},
+                          float(score.get("step") or 0.0))
+
+
+def shape_check(spread: ExponentSpread | None, slope: float, sd: float) -> dict[str, float | bool] | None:
+    """Does the spectrum's shape decide E(t)? The data pull the exponent by the score's step (kept
+    inside the family's [0, 1]) and E(t) follows it, linearized along the least-squares path: a
+    linearization that holds near ½. On data the model describes the step is N(0, σ_α²), so the
+    move over E(t)'s sd (which holds |slope| σ_α) exceeds SHAPE_Z at most 1 % of the time; a move
+    beyond it says that the spectrum's shape, not the data, decides E(t), and that the move itself
+    lies past where its linearization holds."""
+    if spread is None or not sd > 0:
+        return None
+    move = slope * spread.pull
+    z = move / sd
+    return {"alpha_pulled": UNIVERSAL_EXPONENT + spread.pull, "move": move, "z": z,
+            "ok": abs(z) <= SHAPE_Z}
+
+
+@dataclass(frozen=True)
+class LocalEstimate:
+    """E(t) of a fit on the start of the test alone, up to ``end`` (s after the loading began):
+    where E(t) is measured, whatever the model's form does further on."""
+
+    mean: float
+    sd: float
+    end: float            # s after the loading began
+    time_max: float       # the same end on the file's clock (data.window's time_max)
+
+
+def local_check(local: LocalEstimate | None, value: float) -> dict[str, float | bool] | None:
+    """Does the whole window give the E(t) its own start gives? Where the model's form holds over
+    the whole window, both estimate one E(t) and the whole window's is the more precise: their
+    difference has at most the local sd, so |z| > LOCAL_Z is a false alarm at most 1 % of the
+    time. A larger gap says that the part of the test after ``end`` (a slower process, yield read
+    as relaxation, a hold one spectrum does not describe) moves E(t) where it is measured."""
+    if local is None or not local.sd > 0:
+        return None
+    z = (value - local.mean) / local.sd
+    return {"local_mean": local.mean, "local_sd": local.sd, "window_end": local.end,
+            "time_max": local.time_max, "z": z, "ok": abs(z) <= LOCAL_Z}
+
+
+def width_check(stats: Mapping[str, Any]) -> dict[str, float | bool]:
+    """Is the interval informative? Its 90 % HDI's half-width as a share of the median; wider than
+    ± INFORMATIVE, it does not tell one material from another."""
+    lo, hi = stats["hdi_90"]
+    half = (float(hi) - float(lo)) / 2.0
+    med = abs(float(stats["median"]))
+    share = half / med if med > 0 else math.inf
+    return {"half_width": share, "ok": share <= INFORMATIVE}
 
 
 def apply_spread(values: np.ndarray, added_sd: np.ndarray) -> np.ndarray:
@@ -261,21 +326,27 @@ class ModulusEstimate:
 
 def estimate(source: Source, times: Sequence[float], why: str, window: ResolvedWindow,
              band: Band | None, spread: ExponentSpread | None, refits: Sequence[BoundRefit],
-             noise_ok: bool, modes: int = 50, decades: float = 6.0) -> ModulusEstimate:
-    """E(t) of one test at ``times`` from ``source``, with the numbers of its checks."""
+             noise_ok: bool, modes: int = 50, decades: float = 6.0,
+             local: Mapping[float, LocalEstimate] | None = None) -> ModulusEstimate:
+    """E(t) of one test at ``times`` from ``source``, with the numbers of its checks (``local``:
+    the local fit's E(t) per time, where the test has a start to fit alone)."""
     columns = source.columns()
     point = source.point()
     values = modulus_draws(columns, times, modes, decades)
     added = spread.added_sd(point, times, modes, decades) if spread is not None else None
     if added is not None:
-        values = apply_spread(values, added)
+        values = apply_spread(values + spread.move(point, times, modes, decades)[None, :], added)
     start = band.start.to_dict() if band is not None and band.start is not None else None
     rows = []
     for i, t in enumerate(times):
         stats = draw_stats(values[:, i])
         g = gradient(band.point, band.free, [t], modes, decades)[0] if band is not None else None
+        slope = float(spread.slope(point, [t], modes, decades)[0]) if spread is not None else 0.0
         checks = {
             "inside_window": window.contains(t),
+            "width": width_check(stats),
+            "shape": shape_check(spread, slope, float(stats["sd"])),
+            "local": local_check((local or {}).get(float(t)), float(stats["mean"])),
             "band": band_check(band, g, window.origin) if g is not None else None,
             "start": start,
             "bounds": bound_moves(refits, t, float(stats["sd"]), modes, decades),
@@ -289,7 +360,7 @@ def estimate(source: Source, times: Sequence[float], why: str, window: ResolvedW
             row["lacks"] = dict(source.lacks)
         if added is not None:
             row["spectrum_exponent"] = {
-                "dE_dalpha": float(spread.slope(point, [t], modes, decades)[0]),
+                "dE_dalpha": slope,
                 "alpha_sd": spread.alpha_sd, "added_sd": float(added[i])}
         rows.append(row)
     return ModulusEstimate(rows, _curve(source, columns, window, times, spread, modes, decades))
@@ -308,7 +379,9 @@ def _curve(source: Source, columns: Mapping[str, Any], window: ResolvedWindow,
                         max(window.longest, max(times)), CURVE_TIMES)
     e_t = modulus_draws(sub, grid, modes, decades)
     if spread is not None:
-        e_t = apply_spread(e_t, spread.added_sd(source.point(), grid, modes, decades))
+        point = source.point()
+        e_t = apply_spread(e_t + spread.move(point, grid, modes, decades)[None, :],
+                           spread.added_sd(point, grid, modes, decades))
     q = np.quantile(e_t, [0.05, 0.5, 0.95], axis=0)
     e = np.atleast_1d(np.asarray(columns["E"], dtype=float)).ravel()
     lo, hi = draw_stats(e)["hdi_90"] if e.size > 1 else (float(e[0]),) * 2

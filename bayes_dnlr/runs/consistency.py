@@ -20,22 +20,17 @@ from bayes_dnlr.config import Config
 from bayes_dnlr.inference.analyses.consistency import Agreement, agreement
 from bayes_dnlr.inference.modulus_window import default_times, test_window
 from bayes_dnlr.numbers import fmt, pm
-from bayes_dnlr.runs.modulus_block import fit_rows, under_model_error
+from bayes_dnlr.runs.modulus_block import analysis, fit_rows
 from bayes_dnlr.runs.testset import TestSet
 
 
 def _own_e(single: Mapping[str, Any]) -> tuple[float, float, str] | None:
     """A test's own E and its linearized sd: generalized under model error, else white."""
-    under = under_model_error(single)
-    d = single.get("discrepancy") or {}
-    names = list(single.get("parameters") or single.get("sd") or [])
-    est = {**single["estimate"], **d["estimate"]} if under else single["estimate"]
-    cov = d.get("covariance") if under else single.get("covariance")
+    est, cov, names, under = analysis(single)
     if "E" not in names or cov is None or "E" not in est:
         return None
     j = names.index("E")
-    return float(est["E"]), float(np.sqrt(np.asarray(cov, dtype=float)[j, j])), (
-        "generalized" if under else "white")
+    return float(est["E"]), float(np.sqrt(cov[j, j])), "generalized" if under else "white"
 
 
 def common_times(cfg: Config, tests: TestSet) -> list[float]:

@@ -27,11 +27,13 @@ from bayes_dnlr.inference.layout import Layout
 from bayes_dnlr.inference.modulus_estimate import (
     MODULUS_PARAMETERS,
     BoundRefit,
+    LocalEstimate,
     ModulusEstimate,
     Source,
     estimate,
     exponent_spread,
     fit_source,
+    modulus_draws,
     posterior_source,
 )
 from bayes_dnlr.inference.modulus_window import times_for
@@ -39,6 +41,12 @@ from bayes_dnlr.inference.posterior.priors import LOG_SPACE_KINDS
 from bayes_dnlr.runs.bands import N_CURVES, fit_noise, test_band
 from bayes_dnlr.runs.testset import TestSet
 from bayes_dnlr.runs.verdict import modulus_reasons
+
+LOCAL_FACTOR = 10.0      # E(t) at t is measured by the slope over about a decade of time after t
+LOCAL_MIN_SAMPLES = 12   # a local fit needs this many samples ...
+LOCAL_MAX_SHARE = 0.5    # ... and leaves out at least half of the window (else it is the window)
+LOCAL_STARTS = 2         # a small problem near the whole window's optimum
+LOCAL_FREE = ("E", "tau_max")   # the start of a test identifies these; the rest held at the fit's
 
 
 def has_modulus(view: Config) -> bool:
@@ -61,8 +69,51 @@ def _rows(view: Config, data, source: Source, band: Band | None, fit: Mapping[st
     if times is not None:
         chosen, why = list(times), "times every test of the run resolves"
     spread = exponent_spread(fit, source.under_model_error)
+    local = local_estimates(view, data, fit, chosen, window.origin)
     return judged(estimate(source, chosen, why, window, band, spread, refits, noise_ok,
-                           view.model.modes, view.model.decades), who)
+                           view.model.modes, view.model.decades, local), who)
+
+
+def local_estimates(view: Config, data, fit: Mapping[str, Any], times: Sequence[float],
+                    origin: float) -> dict[float, LocalEstimate]:
+    """E(t) of a fit on the start of the test alone, up to LOCAL_FACTOR × t after the loading
+    began, for each time whose local window holds at least LOCAL_MIN_SAMPLES samples and at most
+    LOCAL_MAX_SHARE of the window: E and tau_max free, the other parameters held at the fit's
+    estimate, the same noise model (the generalized analysis under model error)."""
+    from dataclasses import replace
+
+    from bayes_dnlr.errors import BayesDnlrError
+    from bayes_dnlr.inference.lsq.run_fit import fit_run
+
+    if not fit.get("estimate"):
+        return {}
+    estimate_ = analysis(fit)[0]
+    held = {k: float(v) for k, v in estimate_.items() if k in view.free_parameters and k not in LOCAL_FREE}
+    local_view = fit_view(view, fit).with_holds(held)
+    local_view = local_view.model_copy(update={"fit": local_view.fit.model_copy(
+        update={"multistart": min(local_view.fit.multistart, LOCAL_STARTS)})})
+    window = np.asarray(data.window, dtype=bool)
+    time = np.asarray(data.time, dtype=float)
+    n = int(window[: data.model_end].sum())
+    out: dict[float, LocalEstimate] = {}
+    sources: dict[int, Source | None] = {}
+    for t in times:
+        end = origin + LOCAL_FACTOR * float(t)
+        mask = window & (time <= end)
+        k = int(mask[: data.model_end].sum())
+        if k < LOCAL_MIN_SAMPLES or k > LOCAL_MAX_SHARE * n:
+            continue
+        if k not in sources:
+            try:
+                again = fit_run(local_view, {view.name: replace(data, window=mask)}, plain=True)
+                sources[k] = _source_of_fit(local_view, again.to_dict())
+            except BayesDnlrError:
+                sources[k] = None
+        if sources[k] is not None:
+            values = modulus_draws(sources[k].columns(), [t], view.model.modes, view.model.decades)
+            out[float(t)] = LocalEstimate(float(values.mean()), float(values.std(ddof=1)),
+                                          end - origin, end)
+    return out
 
 
 # ---------------------------------------------------------------- a fit
@@ -86,18 +137,30 @@ def fit_rows(view: Config, data, fit: Mapping[str, Any], who: str = "",
     if not has_modulus(view) or not fit.get("estimate"):
         return None
     view = fit_view(view, fit)
+    source = _source_of_fit(view, fit)
+    band = test_band(view, data, {k: v[:N_CURVES] for k, v in source.draws.items()},
+                     fit_noise(view, data, fit, source.under_model_error))
+    white = bool((fit.get("residuals") or {}).get("white", True))
+    return _rows(view, data, source, band, fit, _fit_refits(view, data, fit, analysis(fit)[0]),
+                 source.under_model_error or white, who, times)
+
+
+def analysis(fit: Mapping[str, Any]) -> tuple[dict[str, float], np.ndarray | None, list[str], bool]:
+    """A fit's estimate, covariance and their names: of its generalized analysis under model
+    error, else of the white one; and whether it is the generalized one."""
     under = under_model_error(fit)
     d = fit.get("discrepancy") or {}
     estimate_ = {**fit["estimate"], **(d.get("estimate") or {})} if under else dict(fit["estimate"])
-    names = list(fit.get("parameters") or fit["estimate"])
     cov = d.get("covariance") if under else fit.get("covariance")
-    source = fit_source(estimate_, None if cov is None else np.asarray(cov, dtype=float), names,
-                        view.fixed_values, bool(fit.get("converged", True)), under)
-    band = test_band(view, data, {k: v[:N_CURVES] for k, v in source.draws.items()},
-                     fit_noise(view, data, fit, under))
-    white = bool((fit.get("residuals") or {}).get("white", True))
-    return _rows(view, data, source, band, fit, _fit_refits(view, data, fit, estimate_),
-                 under or white, who, times)
+    return (estimate_, None if cov is None else np.asarray(cov, dtype=float),
+            list(fit.get("parameters") or fit["estimate"]), under)
+
+
+def _source_of_fit(view: Config, fit: Mapping[str, Any]) -> Source:
+    """A fit's Laplace draws (``view``: the test's config with the fit's holds)."""
+    estimate_, cov, names, under = analysis(fit)
+    return fit_source(estimate_, cov, names, view.fixed_values, bool(fit.get("converged", True)),
+                      under)
 
 
 def _fit_refits(view: Config, data, fit: Mapping[str, Any],

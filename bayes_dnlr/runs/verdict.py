@@ -189,6 +189,25 @@ def modulus_reasons(row: dict[str, Any], who: str = "") -> list[str]:
         lo, hi = row["resolved"]
         out.append(f"{who}{t} lies outside the times the test resolves ({fmt(lo, 3)}-{fmt(hi, 4)} s): "
                    "an extrapolation through the model's spectrum, not a measurement")
+    width = c.get("width")
+    if width and not width["ok"]:
+        out.append(f"{who}{t}'s 90 % interval spans ±{100 * width['half_width']:.0f} % of its value: "
+                   "it says little about the material at this time; a test that resolves it (a "
+                   "denser record, a slower rate) or a time inside the well-measured part would")
+    shape = c.get("shape")
+    if shape and not shape["ok"]:
+        out.append(f"{who}the data pull the spectrum's exponent to {shape['alpha_pulled']:.2f} (eq. 12 "
+                   f"holds it at ½), which moves {t} by {fmt(shape['move'], 3)} MPa, "
+                   f"{abs(shape['z']):.1f} of its sd: the assumed spectrum's shape, not the data, "
+                   "decides it; sample the exponent (parameters.alpha, docs/model-form.md)")
+    local = c.get("local")
+    if local and not local["ok"]:
+        out.append(f"{who}fitted on its first {fmt(local['window_end'], 3)} s alone, where {t} is "
+                   f"measured, the model gives {fmt(local['local_mean'])} ± {fmt(local['local_sd'], 2)} "
+                   f"MPa, {abs(local['z']):.1f} of that sd from the whole window's: what follows (a "
+                   "slower process, yield read as relaxation, a hold one spectrum does not describe) "
+                   f"moves {t}; identify on data.window: {{time_max: {fmt(local['time_max'], 4)}}}, "
+                   "or give the model the form it lacks (docs/model-form.md)")
     band = c.get("band")
     if band and not band["ok"]:
         lo, hi = band["information_times"]
