@@ -37,6 +37,7 @@ from bayes_dnlr.config import load_config
 from bayes_dnlr.csvcells import safe_cell
 from bayes_dnlr.diskio import own_dir
 from bayes_dnlr.errors import BayesDnlrError, StaleRunError
+from bayes_dnlr.readback import read_json
 from bayes_dnlr.runs.folder import (
     jsonable,
     resolved_config_path,
@@ -182,9 +183,9 @@ def fingerprint(cfg, summary: dict[str, Any] | None = None) -> dict[str, Any]:
 def result_row(job: Job, cfg) -> dict[str, Any]:
     """A finished run's numbers, flat: one column per parameter statistic (summary.json, fit.json)."""
     run_dir = cfg.run_dir
-    summary = json.loads((run_dir / SUMMARY_FILE).read_text())
+    summary = read_json(run_dir / SUMMARY_FILE, SUMMARY_FILE)
     fit_path = run_dir / FIT_FILE
-    fit = json.loads(fit_path.read_text()) if fit_path.is_file() else {}
+    fit = read_json(fit_path, FIT_FILE) if fit_path.is_file() else {}
     post = summary.get("posterior") or {}
     tau = summary.get("autocorr_time") or {}
     gn = summary.get("gauss_newton") or {}
@@ -263,11 +264,11 @@ def current_row(job: Job, out: Path, want_report: bool) -> dict[str, Any] | None
     if job.error is not None or not path.is_file():
         return None
     try:
-        row = json.loads(path.read_text())
+        row = read_json(path, "row")
         if row.get("status") != "ok":
             return None
         cfg = job.config()
-        summary = json.loads((cfg.run_dir / SUMMARY_FILE).read_text())
+        summary = read_json(cfg.run_dir / SUMMARY_FILE, SUMMARY_FILE)
         fp = fingerprint(cfg, summary)
     except (OSError, ValueError, BayesDnlrError):
         return None

@@ -14,7 +14,6 @@ runs is never replaced silently (``force``).
 
 from __future__ import annotations
 
-import json
 import os
 import time
 from dataclasses import dataclass, field
@@ -22,10 +21,11 @@ from pathlib import Path
 from typing import Any
 
 from bayes_dnlr.config import ConfigError, load_config
-from bayes_dnlr.errors import RunError
+from bayes_dnlr.errors import DamagedFileError, RunError
 from bayes_dnlr.inference.analyses import heterogeneity
 from bayes_dnlr.inference.analyses.population import Population, population
 from bayes_dnlr.inference.posterior.priors import Prior
+from bayes_dnlr.readback import read_json
 from bayes_dnlr.runs.draws import load_run_draws
 from bayes_dnlr.runs.folder import find_config, write_json
 from bayes_dnlr.runs.layout import SUMMARY_FILE
@@ -232,10 +232,9 @@ def run_population(run_dirs: list[Path | str], *, parameter: str = "E", out: Pat
 def read_existing(path: Path) -> dict[str, Any]:
     """The population.json at ``path`` ({} when missing or unreadable)."""
     try:
-        old = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError, UnicodeDecodeError):
+        return read_json(path, POPULATION_FILE)
+    except (OSError, DamagedFileError):
         return {}
-    return old if isinstance(old, dict) else {}
 
 
 def same_inputs(old: dict[str, Any], runs: dict[str, str], fingerprints: dict[str, str],
@@ -258,9 +257,9 @@ def current_population(run_dirs: list[Path | str], *, parameter: str = "E",
     runs, fps, materials = {}, {}, {}
     for d in dirs:
         try:
-            summary = json.loads((d / SUMMARY_FILE).read_text())
+            summary = read_json(d / SUMMARY_FILE, SUMMARY_FILE)
             cfg = load_config(find_config(d))
-        except (OSError, ValueError, FileNotFoundError, ConfigError):
+        except (OSError, DamagedFileError, FileNotFoundError, ConfigError):
             return None
         name = str(summary.get("name") or cfg.name)
         runs[name] = os.path.relpath(d.resolve(), out_dir.resolve())
