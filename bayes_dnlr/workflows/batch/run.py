@@ -47,6 +47,7 @@ from bayes_dnlr.runs.folder import (
 )
 from bayes_dnlr.runs.layout import FIT_FILE, REPORT_FILE, SUMMARY_FILE
 from bayes_dnlr.runs.lock import run_lock
+from bayes_dnlr.runs.modulus_across import run_entries
 from bayes_dnlr.runs.trust import ET_FIELDS, run_trust
 from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS, PARAMETER_NAMES
 from bayes_dnlr.workflows.batch.manifest import BatchError, Job
@@ -223,6 +224,7 @@ def result_row(job: Job, cfg) -> dict[str, Any]:
             row.update({f"{key}[{test}]": values.get(key) for key in ("iso527_1", "astm_d638")})
     row["deborah_max"] = summary.get("deborah_max")
     row.update(trust_columns(summary))
+    row["modulus_at"] = run_entries(summary)       # E(t) at each time, for the page's comparisons
     rhats = [s.get("r_hat") for s in post.values() if s.get("r_hat") is not None]
     esss = [min(s.get("ess_bulk") or 0, s.get("ess_tail") or 0) for s in post.values()]
     row["r_hat_max"] = max(rhats) if rhats else None
@@ -279,7 +281,8 @@ def current_row(job: Job, out: Path, want_report: bool) -> dict[str, Any] | None
     if want_report and _stale_report(cfg.run_dir):
         return None
     _relabel(cfg)
-    return {**row, "reused": True, "origin": job.origin, "material": cfg.material}
+    return {**row, "reused": True, "origin": job.origin, "material": cfg.material,
+            "modulus_at": run_entries(summary)}
 
 
 def _relabel(cfg) -> None:
@@ -452,11 +455,16 @@ def _ordered(jobs: list[Job], rows: dict[str, dict[str, Any]]) -> list[dict[str,
     return out
 
 
+# a row's nested values that the table leaves out (the E(t) entries are its Et_* columns at the first
+# time; all of them stay in rows/<name>.json and each run's summary.json)
+NOT_IN_TABLE = ("inputs", "fingerprint", "traceback", "modulus_at")
+
+
 def table_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """The rows as table records: manifest cells as ``in:<key>`` columns, nested values dropped."""
     flat = []
     for r in rows:
-        rec = {k: v for k, v in r.items() if k not in ("inputs", "fingerprint", "traceback")}
+        rec = {k: v for k, v in r.items() if k not in NOT_IN_TABLE}
         rec.update({f"in:{k}": v for k, v in (r.get("inputs") or {}).items()})
         flat.append(rec)
     return flat
