@@ -10,9 +10,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import yaml
-
 from bayes_dnlr.config import ConfigError, load_config
+from bayes_dnlr.config.yamlio import YamlError, load_yaml
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.runs.layout import (
     CHAINS_FILE,
@@ -32,8 +31,8 @@ def _is_written_copy(folder: Path) -> bool:
     if (folder / RESOLVED_CONFIG_BESIDE_SOURCE).is_file():
         return False
     try:
-        raw = yaml.safe_load((folder / RESOLVED_CONFIG).read_text())
-    except (OSError, yaml.YAMLError):
+        raw = load_yaml(folder / RESOLVED_CONFIG)
+    except YamlError:       # unreadable, not UTF-8, not YAML: not a copy the package wrote
         return False
     return isinstance(raw, dict) and raw.get("output") == {"dir": "."}
 

@@ -10,17 +10,19 @@ material, never across two. Each run's trust (runs/trust.py) and E(t) at its fir
 of the table and columns of compare.csv.
 
 Consistency of E across runs (the paper's central claim: E is instantaneous, so it must not depend on
-the strain rate): with E_i ± s_i per run (posterior mean and sd, else the Gauss-Newton values),
-the weighted mean Ē = Σ E_i/s_i² / Σ 1/s_i², χ² = Σ ((E_i - Ē)/s_i)² on n - 1 degrees of freedom
-and its p-value; also the largest pairwise difference in combined sd, |E_i - E_j| / sqrt(s_i² + s_j²),
-and the spread (max - min)/Ē that the paper quotes (±4 % around the central value, section 5.1).
+the strain rate): with E_i ± s_i per run (posterior mean and sd, else the Gauss-Newton values), the
+package's one test of agreement (inference/analyses/agreement.py): the weighted mean
+Ē = Σ E_i/s_i² / Σ 1/s_i², χ² = Σ ((E_i - Ē)/s_i)² on n - 1 degrees of freedom and its p-value at
+the level P_AGREE; also the largest pairwise difference in combined sd,
+|E_i - E_j| / sqrt(s_i² + s_j²), and the spread (max - min)/Ē that the paper quotes (±4 % around the
+central value, section 5.1). The same test on E(t) at the time every run resolves
+(runs/modulus_across.py) follows it.
 """
 
 from __future__ import annotations
 
 import csv
 import io
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,18 +31,19 @@ from typing import Any
 from bayes_dnlr.csvcells import safe_cell
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.fileset import publishing
-from bayes_dnlr.inference.analyses.heterogeneity import P_SPREAD, weighted_spread
+from bayes_dnlr.inference.analyses.agreement import P_AGREE, agreement
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pm
 from bayes_dnlr.report.tables import Table, deborah
 from bayes_dnlr.runs.folder import write_atomic
 from bayes_dnlr.runs.layout import SUMMARY_FILE
+from bayes_dnlr.runs.modulus_across import at_common_time, run_entries
 from bayes_dnlr.runs.modulus_view import entries
 from bayes_dnlr.runs.results import RunResults, load_run, verdict_lines
 from bayes_dnlr.runs.testset import plain_names
 from bayes_dnlr.runs.trust import run_trust, trusted_count
 from bayes_dnlr.vocabulary import PARAMETER_NAMES, UNITS
 
-P_CONSISTENT = P_SPREAD      # one E at this level: the same test as between materials
+P_CONSISTENT = P_AGREE      # one E at this level: the package's one test of agreement
 # row keys kept out of compare.csv: the verdict's sentences one by one (its `verdict` column has them)
 NOT_IN_CSV = ("verdict_points",)
 
@@ -58,6 +61,7 @@ class Consistency:
     max_pair: tuple[str, str] | None = None
     spread: float | None = None          # (max - min) / weighted mean
     verdict: str = ""
+    modulus: str = ""                    # the same test on E(t) at a common time (or why not)
 
 
 @dataclass
@@ -132,6 +136,8 @@ class Comparison:
             elif m.rate_note:
                 parts += [f"No rate question: {m.rate_note}", ""]
             parts += [m.consistency.verdict, ""]
+            if m.consistency.modulus:
+                parts += [m.consistency.modulus, ""]
         if self.materials:
             parts.append(f"One answer per material (the configs' material:): {len(self.materials)} "
                          "materials, none compared with another.")
@@ -209,7 +215,8 @@ def run_row(run: RunResults) -> dict[str, Any]:
 
 
 def consistency_of_e(rows: Sequence[dict[str, Any]]) -> Consistency:
-    """χ² test of one E across runs, the largest pairwise gap in combined sd, and the spread."""
+    """The test of agreement (inference/analyses/agreement.py) of one E across runs, the largest
+    pairwise gap in combined sd, and the spread."""
     pts, sources = [], set()
     for r in rows:
         if r.get("E_post") is not None and r.get("E_post_sd"):
@@ -219,22 +226,16 @@ def consistency_of_e(rows: Sequence[dict[str, Any]]) -> Consistency:
             pts.append((r["run"], r["E_gn"], r["E_gn_sd"]))
             sources.add("white least-squares")
     c = Consistency(n=len(pts))
-    if len(pts) < 2:
+    a = agreement("E", {n: e for n, e, _ in pts}, {n: s for n, _, s in pts})
+    if a is None:
         c.verdict = "Fewer than two runs with E and its sd: nothing to compare."
         return c
-    spread = weighted_spread([e for _, e, _ in pts], [s for _, _, s in pts])
-    mean = c.weighted_mean = spread["weighted_mean"]
-    c.chi2, c.dof, c.p_value = spread["Q"], spread["dof"], spread["p_value"]
-    best = (0.0, None)
-    for i in range(len(pts)):
-        for j in range(i + 1, len(pts)):
-            z = abs(pts[i][1] - pts[j][1]) / math.hypot(pts[i][2], pts[j][2])
-            if z >= best[0]:
-                best = (z, (pts[i][0], pts[j][0]))
-    c.max_pair_sd, c.max_pair = best
+    mean = c.weighted_mean = a.pooled
+    c.chi2, c.dof, c.p_value = a.q, a.df, a.p
+    c.max_pair_sd, c.max_pair = a.worst_z, a.worst_pair
     es = [e for _, e, _ in pts]
     c.spread = (max(es) - min(es)) / mean
-    ok = c.p_value >= P_CONSISTENT
+    ok = a.agree
     c.verdict = (
         f"{'Yes' if ok else 'No'}: E = {fmt(mean)} MPa (weighted mean of {len(pts)} runs' "
         f"{' and '.join(sorted(sources))} E); "
@@ -258,6 +259,26 @@ def consistency_of_e(rows: Sequence[dict[str, Any]]) -> Consistency:
                       f"({100 * (hi - lo) / mean:.2f} %)" + (": the test should find them different."
                                                             if hi > lo else "."))
     return c
+
+
+def consistency_of_modulus(runs: Sequence[RunResults]) -> str:
+    """The same test on the runs' E(t) at the time every one resolves (runs/modulus_across.py): a
+    sentence, or why E(t) is not compared ('' with fewer than two runs with a posterior)."""
+    have = {r.name: run_entries(r.summary) for r in runs if r.summary}
+    have = {k: v for k, v in have.items() if v is not None}
+    if len(have) < 2:
+        return ""
+    at = at_common_time(have)
+    if at.t is None:
+        return f"E(t) not compared: {at.why}."
+    a = agreement(at.quantity, at.values(), at.sds())
+    if a is None:
+        return ""
+    untrusted = [k for k, e in at.entries.items() if e.get("trust") is False]
+    return (f"{at.quantity}, the modulus the data determine, at the time every run resolves: "
+            + (f"the runs agree ({a.figures()}), pooled {pm(a.pooled, a.pooled_sd)} MPa."
+               if a.agree else f"the runs differ ({a.figures()}; furthest apart: {a.pair_text()}).")
+            + (f" Not trusted by their own checks there: {', '.join(untrusted)}." if untrusted else ""))
 
 
 def rate_table(ra) -> Table:
@@ -334,14 +355,16 @@ def compare_runs(run_dirs: Sequence[Path | str], out_dir: Path | str | None = No
     if len(order) == 1:
         rate, rate_note = _rate_of_runs(runs)
         comp = Comparison(rows, consistency_of_e(rows), notes, rate=rate, rate_note=rate_note)
+        comp.consistency.modulus = consistency_of_modulus(runs)
     else:                       # one answer per material: no E is computed across two
         comp = Comparison(rows, Consistency(n=0, verdict=f"Runs of {len(order)} materials: one answer "
                                             "per material."), notes)
         for material in order:
             mine = [r for r in runs if r.cfg.material == material]
             m_rate, m_note = _rate_of_runs(mine)
-            comp.materials[material or "no material given"] = MaterialComparison(
-                consistency_of_e([r for r in rows if r["material"] == material]), m_rate, m_note)
+            c = consistency_of_e([r for r in rows if r["material"] == material])
+            c.modulus = consistency_of_modulus(mine)
+            comp.materials[material or "no material given"] = MaterialComparison(c, m_rate, m_note)
     out = Path(out_dir) if out_dir is not None else default_out_dir(run_dirs)
     md, cs = out / "compare.md", out / "compare.csv"
     with publishing(out, "compare", [md.name, cs.name]):        # the two tables as one set

@@ -1,6 +1,7 @@
-"""The ``consistency`` block of summary.json for a run with several tests: does each test, fitted alone, give
-the E(t) and the E the others give? (inference/analyses/consistency.py: Cochran's Q over the
-tests' own estimates, the pair furthest apart in combined sd.)
+"""The ``consistency`` block of summary.json for a run with several tests: does each test, fitted
+alone, give the E(t) and the E the others give? (inference/analyses/agreement.py, the package's one
+test of agreement: Cochran's Q over the tests' own estimates at the level P_AGREE, the pair furthest
+apart in combined sd.)
 
 Each test's own E(t) is the one estimator's on its fit (fit.json ``single_fits``, runs/modulus_block.py
 ``fit_rows``: the generalized analysis when that test shows model error, else the white one, with
@@ -17,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config import Config
-from bayes_dnlr.inference.analyses.consistency import Agreement, agreement
+from bayes_dnlr.inference.analyses.agreement import Agreement, agreement
 from bayes_dnlr.inference.modulus_window import default_times, test_window
 from bayes_dnlr.numbers import fmt, pm
 from bayes_dnlr.runs.modulus_block import analysis, fit_rows

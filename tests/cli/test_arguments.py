@@ -130,3 +130,11 @@ def test_sample_report_writes_the_report_then_keeps_it_current(finished, tmp_pat
     stamp = page.stat().st_mtime_ns
     assert main(["sample", str(run), "--quiet", "--report"]) == 0
     assert "is current" in capsys.readouterr().out and page.stat().st_mtime_ns == stamp
+
+
+def test_a_run_folder_whose_config_is_not_text_is_a_one_line_error(tmp_path, capsys):
+    (tmp_path / "config.yaml").write_bytes(b"\xff\xfe\x00not a config")
+    assert main(["fit", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "config.yaml" in err and "UTF-8" in err
+    assert "Traceback" not in err

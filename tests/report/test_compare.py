@@ -90,6 +90,17 @@ def test_table_and_consistency_by_hand(three_runs, tmp_path):
     assert "sigma_inf_post" not in rows[0]                    # columns with no value are dropped
 
 
+def test_one_e_at_the_one_level_of_agreement():
+    """p = 0.03: consistent at the package's one level (1 %), where compare's own 5 % said no."""
+    from bayes_dnlr.inference.analyses.agreement import P_AGREE
+
+    rows = [{"run": "x", "E_post": 2850.0, "E_post_sd": 20.0},
+            {"run": "y", "E_post": 2911.4, "E_post_sd": 20.0}]
+    c = consistency_of_e(rows)
+    assert P_AGREE < c.p_value < 0.05 and c.verdict.startswith("Yes:")
+    assert f"at the {100 * P_AGREE:.0f} % level" in c.verdict
+
+
 def test_consistent_runs_say_yes(tmp_path):
     rows = [{"run": f"r{i}", "E_post": 2850.0 + d, "E_post_sd": 20.0} for i, d in enumerate((-5, 0, 5))]
     c = consistency_of_e(rows)
@@ -208,6 +219,11 @@ def test_runs_of_two_materials_get_one_answer_each(tmp_path):
     assert "| material | A | A | B | B |" in md
     assert "| E(t) posterior (MPa) | 1200 ± 15 | 1210 ± 15 | 1990 ± 25 | 2000 ± 25 |" in md
     assert "| E(t) trusted | yes | yes | yes | no |" in md
+    # the one test of agreement on E(t) at the time every run of the material resolves
+    assert ("E(10.0 s), the modulus the data determine, at the time every run resolves: the runs "
+            "agree (Q = 0.2 on 1 degree of freedom, p = 0.64, I² = 0 %), pooled 1205 ± 11 MPa.") in md
+    assert "the runs agree (Q = 0.1 on 1 degree of freedom" in md
+    assert "Not trusted by their own checks there: b-fast." in md
     rows = list(csv.DictReader(open(tmp_path / "out" / "compare.csv")))
     assert [r["material"] for r in rows] == ["A", "A", "B", "B"]
     assert rows[1]["checks_fired"] == "model_form" and rows[1]["trust_interval"] == "False"

@@ -40,9 +40,12 @@ def checks(trust: bool) -> dict[str, Any]:
             "verdict": " ".join([head, *points]), "verdict_points": points}
 
 
-def modulus_entry(t: float, mean: float, sd: float, trust: bool = True) -> dict[str, Any]:
+def modulus_entry(t: float, mean: float, sd: float, trust: bool = True,
+                  resolved: tuple[float, float] = (0.5, 200.0)) -> dict[str, Any]:
+    """An entry of ``modulus_at``: E(t) at ``t``, the test resolving ``resolved`` (s)."""
     return {"t": t, "mean": mean, "sd": sd, "median": mean, "hdi_90": [mean - 1.645 * sd, mean + 1.645 * sd],
-            "trust": trust, "trust_reasons": [] if trust else ["E's interval is not trusted"]}
+            "resolved": list(resolved), "trust": trust,
+            "trust_reasons": [] if trust else ["E's interval is not trusted"]}
 
 
 def drawn_run(root: Path, name: str, e: float, sd: float, *, material: str | None = None,

@@ -190,12 +190,15 @@ def _zoom(mu_grid: np.ndarray, s_grid: np.ndarray, post: np.ndarray) -> tuple[np
 
 def population(draws: Mapping[str, np.ndarray], priors: Mapping[str, Any], parameter: str = "E",
                s_prior_scale: float | None = None,
-               own: Mapping[str, Mapping[str, float]] | None = None, labelled: bool = False) -> Population:
+               own: Mapping[str, Mapping[str, float]] | None = None, labelled: bool = False,
+               check: Mapping[str, Any] | None = None) -> Population:
     """The population of ``draws`` (name -> a specimen's posterior draws of the parameter) with
     each specimen's prior (``inference.priors.Prior``, for the division by π_k). ``own``: each
     specimen's posterior mean and sd as its run reports them (summary.json), shown as its own
-    estimate and checked for heterogeneity first; else those of all its draws. ``labelled``: the
-    specimens are labelled as one material (the heterogeneity check's words)."""
+    estimate; else those of all its draws. ``check``: the heterogeneity check of the specimens
+    (heterogeneity.one_material, made by the caller on the quantity it compares, E(t) at a common
+    time); None: made here on the own estimates, with ``labelled`` (the specimens are labelled as
+    one material) for its words."""
     names = list(draws)
     if len(names) < 2:
         raise ValueError("a population needs at least two specimens")
@@ -210,8 +213,10 @@ def population(draws: Mapping[str, np.ndarray], priors: Mapping[str, Any], param
             v = v[rng.choice(v.size, MAX_DRAWS, replace=False)]
         x[k] = v
         logpi[k] = np.asarray(priors[k].logpdf(v), dtype=float)
-    check = heterogeneity.one_material(names, [own_of[k]["mean"] for k in names],
-                                       [own_of[k]["sd"] for k in names], labelled=labelled)
+    if check is None:
+        check = heterogeneity.one_material(names, [own_of[k]["mean"] for k in names],
+                                           [own_of[k]["sd"] for k in names], labelled=labelled,
+                                           quantity=parameter)
     means = np.array([x[k].mean() for k in names])
     sds = np.array([x[k].std(ddof=1) for k in names])
     spread = float(means.std(ddof=1))
@@ -267,4 +272,4 @@ def population(draws: Mapping[str, np.ndarray], priors: Mapping[str, Any], param
         specimens[k] = {"own": own_of[k], "shrunk": _weighted_stats(v, w)}
     return Population(names, mu_stats, s_stats, specimens, ess_at, var_log_l,
                       {"mu": mu_grid, "s": s_grid, "posterior": post}, parameter, scale, warnings,
-                      check)
+                      dict(check))

@@ -1,15 +1,18 @@
 """The tests of a batch by material, and each material's numbers for the batch page: E across its
-tests (the spread between them beside the uncertainty within one), E(t) at its first time, and how
-many of them their own checks trust (runs/trust.py; the table's ``trust_interval`` and ``Et_trust``).
+tests (the spread between them beside the uncertainty within one), E(t) at the time every one of
+them resolves with the test of agreement there (the one that decides "one material":
+inference/analyses/heterogeneity.py), and how many of them their own checks trust (runs/trust.py;
+the table's ``trust_interval`` and ``Et_trust``).
 """
 
 from __future__ import annotations
 
-from collections import Counter
 from typing import Any
 
 import numpy as np
 
+from bayes_dnlr.inference.analyses.agreement import agreement
+from bayes_dnlr.runs.modulus_across import at_common_time
 from bayes_dnlr.workflows.population.run import UNLABELLED
 
 
@@ -59,14 +62,42 @@ def trust_counts(rows: list[dict[str, Any]]) -> dict[str, Any]:
             "et_k": sum(bool(r["Et_trust"]) for r in et), "et_n": len(et)}
 
 
-def modulus_at(rows: list[dict[str, Any]]) -> dict[str, Any] | None:
-    """E(t) at its first time across the ok tests that have it, at the time most of them share:
-    that time, the mean, smallest and largest posterior mean, and how many tests (None: none)."""
-    have = [r for r in rows if r.get("status") == "ok" and r.get("Et_mean") is not None]
+def modulus_compared(rows: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """E(t) of the ok one-test rows (their ``modulus_at`` entries) at the time every one resolves
+    (runs/modulus_across.py) and the test of agreement there (inference/analyses/agreement.py):
+    ``t_s`` (None: no common time, ``why``), ``quantity``, ``n``, ``mean``, ``min``, ``max``,
+    ``entries`` (name -> its entry at t_s), ``agreement`` (None with one test). None: no such row."""
+    have = {r["name"]: r["modulus_at"] for r in rows
+            if r.get("status") == "ok" and isinstance(r.get("modulus_at"), list)}
     if not have:
         return None
-    t, _ = Counter(r.get("Et_t_s") for r in have).most_common(1)[0]
-    at = [r for r in have if r.get("Et_t_s") == t]
-    m = np.array([r["Et_mean"] for r in at], float)
-    return {"t_s": t, "n": len(at), "mean": float(m.mean()), "min": float(m.min()),
-            "max": float(m.max()), "other_times": len(have) - len(at)}
+    at = at_common_time(have)
+    if at.t is None:
+        return {"t_s": None, "quantity": at.quantity, "n": len(have), "why": at.why, "entries": {},
+                "agreement": None}
+    m = np.array(list(at.values().values()), float)
+    return {"t_s": at.t, "quantity": at.quantity, "n": int(m.size), "mean": float(m.mean()),
+            "min": float(m.min()), "max": float(m.max()), "entries": at.entries, "why": "",
+            "agreement": agreement(at.quantity, at.values(), at.sds())}
+
+
+def first_modulus(row: dict[str, Any]) -> dict[str, Any] | None:
+    """A row's E(t) at its own first time (the table's Et_* columns) as an entry, or None."""
+    if row.get("Et_mean") is None:
+        return None
+    return {"t": row.get("Et_t_s"), "mean": row["Et_mean"], "sd": row.get("Et_sd"),
+            "hdi_90": [row.get("Et_hdi_lo"), row.get("Et_hdi_hi")], "trust": row.get("Et_trust")}
+
+
+def modulus_of_rows(rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Each ok row's E(t) as the page shows it: at its material's common time
+    (``modulus_compared``), else at its own first time. Name -> entry (``t``, ``mean``, ``sd``,
+    ``hdi_90``, ``trust``)."""
+    out: dict[str, dict[str, Any]] = {}
+    for rs in by_material(rows).values():
+        c = modulus_compared(rs) or {}
+        for r in rs:
+            e = (c.get("entries") or {}).get(r["name"]) or first_modulus(r)
+            if r.get("status") == "ok" and e is not None:
+                out[r["name"]] = dict(e)
+    return out

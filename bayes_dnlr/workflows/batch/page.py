@@ -32,7 +32,14 @@ from bayes_dnlr.report.page_parts import CSS
 from bayes_dnlr.runs.layout import FIGURES_DIR
 from bayes_dnlr.vocabulary import PARAMETER_NAMES
 from bayes_dnlr.workflows.batch.figure import e_caption, e_figure, with_e
-from bayes_dnlr.workflows.batch.groups import by_material, labelled, modulus_at, spread, trust_counts
+from bayes_dnlr.workflows.batch.groups import (
+    by_material,
+    labelled,
+    modulus_compared,
+    modulus_of_rows,
+    spread,
+    trust_counts,
+)
 from bayes_dnlr.workflows.batch.manifest import (
     BatchError,
     default_out,
@@ -182,29 +189,57 @@ def _trust_text(t: dict[str, Any]) -> str:
     return text
 
 
+def _agreement_cell(c: dict[str, Any] | None) -> str:
+    """Whether a material's tests agree on E(t) (the test that decides "one material")."""
+    a = (c or {}).get("agreement")
+    if a is None:
+        return "<td>–</td>"
+    if a.agree:
+        return f"<td class='text'>agree ({_e(a.figures())})</td>"
+    return (f"<td class='flag text'>differ ({_e(a.figures())}; furthest apart: {_e(a.pair_text())})"
+            "</td>")
+
+
+def _pooled_et(c: dict[str, Any]) -> str:
+    """A material's E(t) at its common time: pooled ± sd (one test: its value), and the range."""
+    a = c.get("agreement")
+    value = fmt(c["mean"]) if a is None else pm(a.re_mean, a.re_sd)
+    return f"{value} ({fmt(c['min'])}–{fmt(c['max'])}) at t = {fmt(c['t_s'], 3)} s"
+
+
 def _materials_table(rows: list[dict[str, Any]], with_et: bool) -> str:
-    """One row per material: its tests, how many its checks trust, E across them and E(t); a cell
-    drawn from tests that are not all trusted is amber, never plain."""
-    body = ""
+    """One row per material: its tests, how many its checks trust, E across them and E(t) at the
+    time every one resolves, with whether they agree there; a cell drawn from tests that are not
+    all trusted is amber, never plain."""
+    body, notes = "", []
     for label, rs in by_material(rows).items():
         t = trust_counts(rs)
         pop = spread(rs)
-        et = modulus_at(rs)
+        c = modulus_compared(rs) if with_et else None
         all_trusted = t["n"] > 0 and t["k"] == t["n"]
         cls = "" if all_trusted else " class='flag'"
         e_cell = ("–" if pop is None else
                   f"{fmt(pop['mean'])} ({fmt(pop['min'])}–{fmt(pop['max'])})")
         ratio = "–" if pop is None or pop["n"] < 2 else fmt(pop["ratio"], 3)
-        et_cell = "–" if et is None else (f"{fmt(et['mean'])} ({fmt(et['min'])}–{fmt(et['max'])}) "
-                                          f"at t = {fmt(et['t_s'], 3)} s")
-        et_cls = "" if et is None or (t["et_n"] and t["et_k"] == t["et_n"]) else " class='flag'"
+        if c is not None and c["t_s"] is None:
+            notes.append(f"{label}: E(t) not compared: {c['why']}.")
+        et_cell = "–" if c is None or c["t_s"] is None else _pooled_et(c)
+        trusted_et = c is not None and all((e.get("trust") is True) for e in c["entries"].values())
+        et_cls = "" if c is None or c["t_s"] is None or trusted_et else " class='flag'"
         body += (f"<tr><th>{_e(label)}</th><td>{t['ok']}</td><td class='text'>{_trust_text(t)}</td>"
                  f"<td{cls}>{e_cell}</td><td>{ratio}</td>"
-                 + (f"<td{et_cls}>{et_cell}</td>" if with_et else "") + "</tr>")
+                 + (f"<td{et_cls}>{et_cell}</td>{_agreement_cell(c)}" if with_et else "") + "</tr>")
     head = ("<tr><th>material</th><th>ok tests</th><th>trusted (own checks)</th><th>E (MPa): mean of "
             "the means (range)</th><th>between / within</th>"
-            + ("<th>E(t) (MPa): mean (range)</th>" if with_et else "") + "</tr>")
-    return f"<table class='num'><thead>{head}</thead><tbody>{body}</tbody></table>"
+            + ("<th>E(t) (MPa) at the time every test resolves: pooled (range)</th><th>one "
+               "material? (their E(t) agree within their uncertainty)</th>" if with_et else "")
+            + "</tr>")
+    if with_et:
+        notes.insert(0, "E(t) pooled: the random-effects mean of the tests' E(t), whose sd holds the "
+                        "spread between them beyond their own uncertainty (the population's pooled E(t), "
+                        "docs/population.md).")
+    note = "".join(f"<p class='note'>{_e(n)}</p>" for n in notes)
+    return f"<table class='num'><thead>{head}</thead><tbody>{body}</tbody></table>{note}"
 
 
 def _warnings_html(warned: list[dict[str, Any]], n_ok: int) -> str:
@@ -270,7 +305,8 @@ def write_page(result: BatchResult, step: PopulationStep | None = None) -> Path:
         if with_et:
             sec.append(_materials_table(rows, with_et))
     if fig is not None:
-        sec.append(_img(fig, "E across tests", e_caption(len(with_e(rows)), grouped)))
+        sec.append(_img(fig, "E across tests", e_caption(len(with_e(rows)), grouped,
+                                                          bool(modulus_of_rows(with_e(rows))))))
     sec.append(section(step, _img))
     sec.append("<h2>Failing tests</h2>")
     if failed or pending:
@@ -297,15 +333,23 @@ def write_page(result: BatchResult, step: PopulationStep | None = None) -> Path:
     sec.append(_warnings_html(warned, len(ok)))
     sec.append("<h2>All tests</h2>")
     head = "".join(f"<th>{p} (mean ± sd)</th>" for p in params)
-    t_s = modulus_at(rows)
-    et_head = f"<th>E(t = {fmt(t_s['t_s'], 3)} s) (MPa)</th>" if with_et and t_s else ""
+    et_of = modulus_of_rows(rows) if with_et else {}
+    times = {e["t"] for e in et_of.values()}
+    # the column says the time its values are at: in its head when they share one, else in each cell
+    one_time = next(iter(times)) if len(times) == 1 else None
+    et_head = ("" if not et_of else f"<th>E(t = {fmt(one_time, 3)} s) (MPa)</th>" if one_time else
+               "<th>E(t) (MPa), at t</th>")
     body = ""
     for r in rows:
         vals = "".join(f"<td>{_pm(r, p)}</td>" for p in params)
         et = ""
         if et_head:
-            flag = " class='flag'" if r.get("Et_trust") is False else ""
-            et = f"<td{flag}>{'–' if r.get('Et_mean') is None else pm(r['Et_mean'], r.get('Et_sd'))}</td>"
+            e = et_of.get(r["name"])
+            flag = " class='flag'" if e is not None and e.get("trust") is False else ""
+            cell = "–" if e is None else pm(e["mean"], e.get("sd"))
+            if e is not None and one_time is None:
+                cell += f" at {fmt(e['t'], 3)} s"
+            et = f"<td{flag}>{cell}</td>"
         row_cls = " class='warn'" if r.get("trust_interval") is False else ""
         body += (f"<tr{row_cls}><th>{_e(r['name'])}</th>"
                  + (f"<td class='text'>{_e(r.get('material'))}</td>" if grouped else "")

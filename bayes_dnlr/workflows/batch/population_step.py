@@ -27,6 +27,7 @@ from bayes_dnlr.workflows.batch.run import BatchResult
 from bayes_dnlr.workflows.population.page import (
     FIGURE,
     MARKDOWN,
+    modulus_line,
     pooled_label,
     population_report,
     trust_words,
@@ -164,12 +165,14 @@ def _group_box(material: str | None, g: dict[str, Any], step: PopulationStep | N
     one = het.get("passed") is not False
     all_trusted = bool(trusted.get("n")) and trusted.get("k") == trusted.get("n")
     green = bool(mc.get("passed")) and one and all_trusted
-    label = _e(pooled_label(g["parameter"], material, one, len(g["specimens"])))
+    label = _e(pooled_label(g["parameter"], material, one, len(g["specimens"]), het.get("quantity")))
     status = f" ({_e(step.status)}: {_e(step.note.rstrip('.'))})" if step is not None else ""
+    et = modulus_line(g.get("modulus_at"), material, len(g["specimens"]))
     return (f"<div class='box {'ok' if green else 'warn'}'><b>{label}: μ = {pm(mu['mean'], mu['sd'])} "
             f"MPa</b> (90 % HDI {_hdi(mu.get('hdi_90'), mu['sd'])}); specimen-to-specimen sd <b>s = "
             f"{pm(s['mean'], s['sd'])} MPa</b> (90 % HDI {_hdi(s.get('hdi_90'), s['sd'])}); from "
-            f"{len(g['specimens'])} tests{status}.<br>{_trusted_line(g)}"
+            f"{len(g['specimens'])} tests{status}."
+            + (f"<br><b>{_e(et)}</b>." if et else "") + f"<br>{_trusted_line(g)}"
             + ("" if green or not (mc.get("passed") and one) else
                " A number drawn from tests whose own checks do not trust E's interval is not green.")
             + "</div>")

@@ -37,6 +37,7 @@ from bayes_dnlr.config import load_config
 from bayes_dnlr.csvcells import safe_cell
 from bayes_dnlr.diskio import own_dir
 from bayes_dnlr.errors import BayesDnlrError, StaleRunError
+from bayes_dnlr.readback import read_json
 from bayes_dnlr.runs.folder import (
     jsonable,
     resolved_config_path,
@@ -46,6 +47,7 @@ from bayes_dnlr.runs.folder import (
 )
 from bayes_dnlr.runs.layout import FIT_FILE, REPORT_FILE, SUMMARY_FILE
 from bayes_dnlr.runs.lock import run_lock
+from bayes_dnlr.runs.modulus_across import run_entries
 from bayes_dnlr.runs.trust import ET_FIELDS, run_trust
 from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS, PARAMETER_NAMES
 from bayes_dnlr.workflows.batch.manifest import BatchError, Job
@@ -182,9 +184,9 @@ def fingerprint(cfg, summary: dict[str, Any] | None = None) -> dict[str, Any]:
 def result_row(job: Job, cfg) -> dict[str, Any]:
     """A finished run's numbers, flat: one column per parameter statistic (summary.json, fit.json)."""
     run_dir = cfg.run_dir
-    summary = json.loads((run_dir / SUMMARY_FILE).read_text())
+    summary = read_json(run_dir / SUMMARY_FILE, SUMMARY_FILE)
     fit_path = run_dir / FIT_FILE
-    fit = json.loads(fit_path.read_text()) if fit_path.is_file() else {}
+    fit = read_json(fit_path, FIT_FILE) if fit_path.is_file() else {}
     post = summary.get("posterior") or {}
     tau = summary.get("autocorr_time") or {}
     gn = summary.get("gauss_newton") or {}
@@ -222,6 +224,7 @@ def result_row(job: Job, cfg) -> dict[str, Any]:
             row.update({f"{key}[{test}]": values.get(key) for key in ("iso527_1", "astm_d638")})
     row["deborah_max"] = summary.get("deborah_max")
     row.update(trust_columns(summary))
+    row["modulus_at"] = run_entries(summary)       # E(t) at each time, for the page's comparisons
     rhats = [s.get("r_hat") for s in post.values() if s.get("r_hat") is not None]
     esss = [min(s.get("ess_bulk") or 0, s.get("ess_tail") or 0) for s in post.values()]
     row["r_hat_max"] = max(rhats) if rhats else None
@@ -263,11 +266,11 @@ def current_row(job: Job, out: Path, want_report: bool) -> dict[str, Any] | None
     if job.error is not None or not path.is_file():
         return None
     try:
-        row = json.loads(path.read_text())
+        row = read_json(path, "row")
         if row.get("status") != "ok":
             return None
         cfg = job.config()
-        summary = json.loads((cfg.run_dir / SUMMARY_FILE).read_text())
+        summary = read_json(cfg.run_dir / SUMMARY_FILE, SUMMARY_FILE)
         fp = fingerprint(cfg, summary)
     except (OSError, ValueError, BayesDnlrError):
         return None
@@ -278,7 +281,8 @@ def current_row(job: Job, out: Path, want_report: bool) -> dict[str, Any] | None
     if want_report and _stale_report(cfg.run_dir):
         return None
     _relabel(cfg)
-    return {**row, "reused": True, "origin": job.origin, "material": cfg.material}
+    return {**row, "reused": True, "origin": job.origin, "material": cfg.material,
+            "modulus_at": run_entries(summary)}
 
 
 def _relabel(cfg) -> None:
@@ -451,11 +455,16 @@ def _ordered(jobs: list[Job], rows: dict[str, dict[str, Any]]) -> list[dict[str,
     return out
 
 
+# a row's nested values that the table leaves out (the E(t) entries are its Et_* columns at the first
+# time; all of them stay in rows/<name>.json and each run's summary.json)
+NOT_IN_TABLE = ("inputs", "fingerprint", "traceback", "modulus_at")
+
+
 def table_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """The rows as table records: manifest cells as ``in:<key>`` columns, nested values dropped."""
     flat = []
     for r in rows:
-        rec = {k: v for k, v in r.items() if k not in ("inputs", "fingerprint", "traceback")}
+        rec = {k: v for k, v in r.items() if k not in NOT_IN_TABLE}
         rec.update({f"in:{k}": v for k, v in (r.get("inputs") or {}).items()})
         flat.append(rec)
     return flat

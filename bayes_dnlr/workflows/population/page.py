@@ -20,12 +20,26 @@ MARKDOWN = "population.md"
 UNTRUSTED_COLOUR = "#d08a00"      # amber: a specimen whose own checks do not trust E's interval
 
 
-def pooled_label(parameter: str, material: str | None, one_material: bool, n: int) -> str:
-    """What the pooled value is called: the material's only when its heterogeneity check passed."""
+def pooled_label(parameter: str, material: str | None, one_material: bool, n: int,
+                 compared: str | None = None) -> str:
+    """What the pooled value is called: the material's only when its heterogeneity check passed
+    (on ``compared``, the quantity it compared: E(t) at a common time, or E)."""
     if one_material:
         return f"{parameter} of the material{f' {material}' if material else ''}"
     return (f"Pooled {parameter} of these {n} tests{f' labelled {material}' if material else ''} "
-            "(not a material's: they do not look like one material)")
+            f"(not shown as a material's: their {compared or parameter} differ beyond their own "
+            "uncertainty)")
+
+
+def modulus_line(m: dict[str, Any] | None, material: str | None, n: int) -> str:
+    """The pooled E(t) of a population (population.json's ``modulus_at``) in words, or ''."""
+    if not m:
+        return ""
+    who = (f"of the material{f' {material}' if material else ''}" if m.get("agree") else
+           f"of these {n} tests (not a material's)")
+    return (f"{m['quantity']} {who}: {pm(m['mean'], m['sd'])} MPa (their random-effects mean: the "
+            f"spread between them beyond their own uncertainty, τ = {fmt(m['tau'], 3)} MPa, is in its "
+            "sd)")
 
 
 def listed(names: list[str], limit: int = 8) -> str:
@@ -61,11 +75,13 @@ def _group_markdown(pr: PopulationRun, label: str, title: str) -> list[str]:
     mu, s = r.mu, r.s
     material = None if label == UNLABELLED else label
     trusted = pr.trusted(r.names)
+    compared = r.heterogeneity.get("quantity")
+    et = modulus_line(pr.modulus.get(label), material, len(r.names))
     lines = [title, "",
-             f"**{pooled_label(p, material, r.one_material, len(r.names))}: μ = "
+             f"**{pooled_label(p, material, r.one_material, len(r.names), compared)}: μ = "
              f"{pm(mu['mean'], mu['sd'])} MPa** (90 % HDI {interval(*mu['hdi_90'], mu['sd'])}); "
              f"specimen-to-specimen sd **s = {pm(s['mean'], s['sd'])} MPa** (90 % HDI "
-             f"{interval(*s['hdi_90'], s['sd'])}).", "",
+             f"{interval(*s['hdi_90'], s['sd'])}).", "", *([f"**{et}**.", ""] if et else []),
              f"Heterogeneity: {r.heterogeneity.get('words', 'not checked.')}", "",
              f"Trust: {trust_words(trusted, p)}", "",
              *([] if r.spread_resolved else [

@@ -5,8 +5,9 @@
 Stage 1 is each specimen's own run (``fit`` and ``sample``, or ``batch``); stage 2 reweights their
 posterior draws of E under E_k ~ Normal(μ_E, s_E) (inference/analyses/population.py), one population
 per material (the configs' ``material:``), each after the check that its tests look like one
-material (inference/analyses/heterogeneity.py); each specimen's own verdict (runs/trust.py) travels
-into the population's warnings. The result,
+material (inference/analyses/heterogeneity.py) on E(t) at a time every test resolves
+(runs/modulus_across.py; E where there is none); each specimen's own verdict (runs/trust.py)
+travels into the population's warnings. The result,
 population.json, goes into the folder that holds the runs (or ``out``); it records which runs (and
 which of their posteriors, by fingerprint) it was made from, so a population.json made from other
 runs is never replaced silently (``force``).
@@ -14,7 +15,7 @@ runs is never replaced silently (``force``).
 
 from __future__ import annotations
 
-import json
+import math
 import os
 import time
 from dataclasses import dataclass, field
@@ -22,13 +23,17 @@ from pathlib import Path
 from typing import Any
 
 from bayes_dnlr.config import ConfigError, load_config
-from bayes_dnlr.errors import RunError
+from bayes_dnlr.errors import DamagedFileError, RunError
 from bayes_dnlr.inference.analyses import heterogeneity
+from bayes_dnlr.inference.analyses.agreement import agreement
 from bayes_dnlr.inference.analyses.population import Population, population
 from bayes_dnlr.inference.posterior.priors import Prior
+from bayes_dnlr.readback import read_json
 from bayes_dnlr.runs.draws import load_run_draws
 from bayes_dnlr.runs.folder import find_config, write_json
 from bayes_dnlr.runs.layout import SUMMARY_FILE
+from bayes_dnlr.runs.modulus_across import at_common_time
+from bayes_dnlr.runs.modulus_view import entries
 from bayes_dnlr.runs.trust import run_trust, trusted_count
 
 POPULATION_FILE = "population.json"
@@ -52,6 +57,7 @@ class PopulationRun:
     members: dict[str, dict[str, Any]] = field(default_factory=dict)  # specimen -> runs/trust.py
     skipped: dict[str, str] = field(default_factory=dict)   # material -> why it has no population
     between: dict[str, Any] | None = None  # several materials: analyses/heterogeneity.between_groups
+    modulus: dict[str, dict[str, Any]] = field(default_factory=dict)  # material -> its pooled E(t)
 
     @property
     def grouped(self) -> bool:
@@ -78,7 +84,7 @@ class PopulationRun:
     def group_dict(self, label: str) -> dict[str, Any]:
         pop = self.results[label]
         return {**pop.to_dict(), "material": None if label == UNLABELLED else label,
-                "trusted": self.trusted(pop.names)}
+                "trusted": self.trusted(pop.names), "modulus_at": self.modulus.get(label)}
 
     def to_dict(self) -> dict[str, Any]:
         from bayes_dnlr import __version__
@@ -117,6 +123,7 @@ class Specimen:
     material: str | None
     own: dict[str, float] | None       # summary.json's posterior mean and sd of the parameter
     trust: dict[str, Any]              # runs/trust.py run_trust
+    modulus: list[dict[str, Any]]      # summary.json's modulus_at: E(t) at its times
 
 
 def _specimen(run_dir: Path, parameter: str) -> Specimen:
@@ -140,7 +147,7 @@ def _specimen(run_dir: Path, parameter: str) -> Specimen:
            if post.get("mean") is not None and post.get("sd") else None)
     return Specimen(name, draws.values[parameter], Prior.from_spec(parameter, spec),
                     str(draws.summary.get("fingerprint") or ""), truth, cfg.material, own,
-                    run_trust(draws.summary))
+                    run_trust(draws.summary), list(entries(draws.summary).get("") or []))
 
 
 def _check_dirs(dirs: list[Path]) -> None:
@@ -170,6 +177,48 @@ def member_warnings(specimens: list[Specimen]) -> list[str]:
     return out
 
 
+def one_material(members: list[Specimen], parameter: str,
+                 labelled: bool) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """The check before pooling ``members`` (inference/analyses/heterogeneity.py) on their E(t) at
+    the time every one resolves (runs/modulus_across.py), else on their own ``parameter`` with the
+    reason; and their pooled E(t) there (the random-effects mean, its sd and the spread τ between
+    them; None without a common time)."""
+    at = at_common_time({m.name: m.modulus for m in members})
+    names = [m.name for m in members]
+    if at.t is None:
+        own = {m.name: m.own or {} for m in members}
+        return heterogeneity.one_material(
+            names, [own[k].get("mean", math.nan) for k in names], [own[k].get("sd", math.nan)
+                                                                   for k in names],
+            labelled=labelled, quantity=parameter, note=f"E(t) not compared: {at.why}"), None
+    check = heterogeneity.one_material(names, [at.values()[k] for k in names],
+                                       [at.sds()[k] for k in names], labelled=labelled,
+                                       quantity=at.quantity)
+    if check.get("random_effects") is None:
+        return check, None
+    return check, {"t": at.t, "quantity": at.quantity, **check["random_effects"],
+                   "tau": check["tau"], "n": len(names), "agree": check["passed"]}
+
+
+def _between(results: dict[str, Population], members: list[list[Specimen]],
+             parameter: str) -> dict[str, Any]:
+    """The materials against each other: their pooled E(t) at a time every test of every one
+    resolves, else their populations' μ of ``parameter``."""
+    at = at_common_time({m.name: m.modulus for group in members for m in group})
+    if at.t is not None:
+        pooled = {}
+        for label, group in zip(results, members, strict=True):
+            a = agreement(at.quantity, {m.name: at.values()[m.name] for m in group},
+                          {m.name: at.sds()[m.name] for m in group})
+            if a is not None:
+                pooled[label] = (a.re_mean, a.re_sd)
+        if len(pooled) == len(results):
+            return heterogeneity.between_groups(pooled, quantity=at.quantity)
+    return heterogeneity.between_groups({label: (p.mu["mean"], p.mu["sd"])
+                                         for label, p in results.items()}, quantity=parameter,
+                                        note=f"E(t) not compared: {at.why}" if at.why else "")
+
+
 def run_population(run_dirs: list[Path | str], *, parameter: str = "E", out: Path | str | None = None,
                    force: bool = False, write: bool = True, made_by: str = "population",
                    min_group: int = 2) -> PopulationRun:
@@ -195,16 +244,17 @@ def run_population(run_dirs: list[Path | str], *, parameter: str = "E", out: Pat
     groups: dict[str, list[Specimen]] = {}
     for sp in specimens.values():
         groups.setdefault(sp.material or UNLABELLED, []).append(sp)
-    results, skipped = {}, {}
+    results, skipped, modulus = {}, {}, {}
     for label, members in groups.items():
         if len(members) < min_group:
             skipped[label] = (f"{len(members)} test{'s' if len(members) != 1 else ''} "
                               f"({', '.join(m.name for m in members)}); a population needs at least "
                               f"{min_group}")
             continue
+        check, modulus[label] = one_material(members, parameter, label != UNLABELLED)
         pop = population({m.name: m.draws for m in members}, {m.name: m.prior for m in members},
                          parameter=parameter, own={m.name: m.own for m in members if m.own},
-                         labelled=label != UNLABELLED)
+                         check=check)
         if pop.heterogeneity.get("passed") is False:
             pop.warnings.insert(0, NOT_ONE + pop.heterogeneity["words"])
         pop.warnings += member_warnings(members)
@@ -214,12 +264,12 @@ def run_population(run_dirs: list[Path | str], *, parameter: str = "E", out: Pat
                        + "; ".join(f"{k}: {v}" for k, v in skipped.items()) + ")")
     between = None
     if len(groups) > 1:
-        between = heterogeneity.between_groups({label: (p.mu["mean"], p.mu["sd"])
-                                                for label, p in results.items()})
+        between = _between(results, [groups[label] for label in results], parameter)
     pr = PopulationRun(results, runs, fps, truth, out_dir, time.perf_counter() - t0, made_by=made_by,
                        materials={k: sp.material for k, sp in specimens.items()},
                        members={k: {"material": sp.material, **sp.trust} for k, sp in specimens.items()},
-                       skipped=skipped, between=between)
+                       skipped=skipped, between=between,
+                       modulus={k: v for k, v in modulus.items() if k in results and v})
     if write:
         path = out_dir / POPULATION_FILE
         _check_replace(path, pr, force)
@@ -232,10 +282,9 @@ def run_population(run_dirs: list[Path | str], *, parameter: str = "E", out: Pat
 def read_existing(path: Path) -> dict[str, Any]:
     """The population.json at ``path`` ({} when missing or unreadable)."""
     try:
-        old = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError, UnicodeDecodeError):
+        return read_json(path, POPULATION_FILE)
+    except (OSError, DamagedFileError):
         return {}
-    return old if isinstance(old, dict) else {}
 
 
 def same_inputs(old: dict[str, Any], runs: dict[str, str], fingerprints: dict[str, str],
@@ -258,9 +307,9 @@ def current_population(run_dirs: list[Path | str], *, parameter: str = "E",
     runs, fps, materials = {}, {}, {}
     for d in dirs:
         try:
-            summary = json.loads((d / SUMMARY_FILE).read_text())
+            summary = read_json(d / SUMMARY_FILE, SUMMARY_FILE)
             cfg = load_config(find_config(d))
-        except (OSError, ValueError, FileNotFoundError, ConfigError):
+        except (OSError, DamagedFileError, FileNotFoundError, ConfigError):
             return None
         name = str(summary.get("name") or cfg.name)
         runs[name] = os.path.relpath(d.resolve(), out_dir.resolve())

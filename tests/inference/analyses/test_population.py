@@ -167,7 +167,12 @@ def test_population_command_writes_json_md_and_figure(specimens, cli_here):
         assert {"own", "shrunk"} <= set(data["shrunk"][k])
     assert (root / "population.png").stat().st_size > 10_000
     md = (root / "population.md").read_text()
-    assert "E of the material" in md and "Monte Carlo check: passed" in md
+    assert "Monte Carlo check: passed" in md
+    # E 5 % apart, E(2 s) far beyond their sd: the tests do not agree, so no "E of the material"
+    het = data["heterogeneity"]
+    assert het["quantity"] == "E(2.00 s)" and het["passed"] is False and het["I2"] > 0.9
+    assert "E of the material" not in md and "Pooled E of these 3 tests (not shown as a material's" in md
+    assert "**E(2.00 s) of these 3 tests (not a material's):" in md
     # the same runs again: the same file, no refusal
     assert cli_here("population", *map(str, dirs)).returncode == 0
 

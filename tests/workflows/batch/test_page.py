@@ -41,6 +41,7 @@ def _row(run_dir, material: str | None) -> dict:
     """A batch row of a drawn run, its trust read the way the batch reads it."""
     import json
 
+    from bayes_dnlr.runs.modulus_across import run_entries
     from bayes_dnlr.workflows.batch.run import trust_columns
 
     summary = json.loads((run_dir / "summary.json").read_text())
@@ -48,7 +49,8 @@ def _row(run_dir, material: str | None) -> dict:
     return {"name": run_dir.name, "status": "ok", "material": material, "run_dir": str(run_dir),
             "E_mean": e["mean"], "E_sd": e["sd"], "E_hdi90_lo": e["hdi_90"][0],
             "E_hdi90_hi": e["hdi_90"][1], "n_warnings": 1,
-            "warnings": "G = 0 (its lower bound) | one of its own", **trust_columns(summary)}
+            "warnings": "G = 0 (its lower bound) | one of its own", **trust_columns(summary),
+            "modulus_at": run_entries(summary)}
 
 
 def _batch_page(tmp_path, materials: bool):
@@ -95,8 +97,11 @@ def test_the_page_marks_every_test_and_counts_the_trusted(tmp_path):
     box_b = html.split("E of the material B: μ =")[0].rsplit("<div class='box ", 1)[1]
     assert box_a.startswith("warn") and box_b.startswith("ok")
     assert "The groups&#x27; E differ beyond their uncertainty" in html
-    # E(t) beside E, the untrusted one flagged
-    assert "<th>E(t = 10.0 s) (MPa)</th>" in html and "E(t) (MPa): mean (range)" in html
+    # E(t) beside E, the untrusted one flagged; whether a material's tests agree on it
+    assert "<th>E(t = 10.0 s) (MPa)</th>" in html
+    assert "E(t) (MPa) at the time every test resolves: pooled (range)" in html
+    assert "<td class='flag'>1200 ± 12 (1200–1200) at t = 10.0 s</td>" in html   # a2's E(t) not trusted
+    assert "<td class='text'>agree (Q = 0.0 on 2 degrees of freedom, p = 1, I² = 0 %)</td>" in html
     # a warning every test shares is listed once
     assert "<b>6 of 6 tests</b>: G = 0 (its lower bound)" in html
     assert html.count("G = 0 (its lower bound)") == 1
@@ -113,13 +118,50 @@ def test_the_forest_plot_is_grouped_and_flags_the_untrusted(tmp_path):
     assert top_down == ["a0", "a1", "a2 ⚑", "b0", "b1", "b2"]      # by material, then by E
     assert {t.get_text() for t in ax.texts} == {"A", "B"}                  # the groups labelled
     assert "grouped by material" in page.e_caption(6, grouped=True)
+    # E(t) beside it in the same rows: the A tests' at 10 s, a2's amber; the B tests have none
+    fig = page.e_plot(ok, page.modulus_of_rows(ok))
+    assert [a.get_title() for a in fig.axes] == ["E of each of 6 tests", "E(t) of each test (t = 10.0 s)"]
+    et = fig.axes[1]
+    assert [len(c.get_segments()) for c in et.collections] == [2, 1]      # trusted a0, a1; amber a2
+    caption = page.e_caption(6, grouped=True, with_et=True)
+    assert "each test's E(t) at the time every test of its material" in caption
 
 
 def test_without_the_material_column_the_page_says_not_one_material(tmp_path):
     html, _ = _batch_page(tmp_path, materials=False)
     first = html.split("<div class='box ", 1)[1].split("</div>", 1)[0]
     assert "<b>The tests do not look like one material</b> (standing out:" in first
-    assert "<b>Not one material</b>: The tests do not look like one material" in html
-    assert html.count("look like one material: a spread between tests") == 1     # said once
-    assert "Pooled E of these 6 tests (not a material&#x27;s" in html
+    assert "<b>Not one material</b>: The tests&#x27; E differ beyond their own uncertainty" in html
+    assert html.count("differ beyond their own uncertainty (Q =") == 1     # said once
+    assert "(E(t) not compared: no E(t) in b0, b1, b2" in html           # why E decides here
+    assert ("Pooled E of these 6 tests (not shown as a material&#x27;s: their E differ beyond their "
+            "own uncertainty)") in html
     assert "E of the material" not in html
+
+
+def test_the_e_t_column_says_the_time_its_values_are_at(tmp_path):
+    """Each material's E(t) at the time all its tests resolve: 2 s for A, whose first time 0.5 s one
+    test does not resolve (the column said "E(t = 0.500 s)" over values at 2 s); a batch whose
+    materials compare at two times says the time in each cell."""
+    from support.drawn_runs import modulus_entry
+
+    from bayes_dnlr.workflows.batch.page import write_page
+    from bayes_dnlr.workflows.batch.run import BatchResult
+
+    def row(name, material, at):
+        return {"name": name, "status": "ok", "material": material, "E_mean": 1500.0, "E_sd": 20.0,
+                "E_hdi90_lo": 1467.0, "E_hdi90_hi": 1533.0, "Et_t_s": at[0]["t"],
+                "Et_mean": at[0]["mean"], "Et_sd": at[0]["sd"], "modulus_at": at}
+
+    early = [modulus_entry(0.5, 1300.0, 3.0, resolved=(0.2, 50)), modulus_entry(2.0, 1200.0, 3.0,
+                                                                                 resolved=(0.2, 50))]
+    late = [modulus_entry(0.5, 1310.0, 3.0, resolved=(1.0, 50)), modulus_entry(2.0, 1205.0, 3.0,
+                                                                                resolved=(1.0, 50))]
+    rows = [row("a0", "A", early), row("a1", "A", late)]
+    html = write_page(BatchResult(rows, tmp_path, "1 local process", 1.0)).read_text()
+    assert "<th>E(t = 2.00 s) (MPa)</th>" in html and "<th>E(t = 0.500 s) (MPa)</th>" not in html
+    assert "<td>1200.0 ± 3.0</td>" in html and "<td>1205.0 ± 3.0</td>" in html
+    rows.append(row("b0", "B", [modulus_entry(0.5, 900.0, 3.0)]))
+    html = write_page(BatchResult(rows, tmp_path, "1 local process", 1.0)).read_text()
+    assert "<th>E(t) (MPa), at t</th>" in html
+    assert "<td>1200.0 ± 3.0 at 2.00 s</td>" in html and "<td>900.0 ± 3.0 at 0.500 s</td>" in html
