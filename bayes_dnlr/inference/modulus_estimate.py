@@ -262,15 +262,19 @@ def width_check(stats: Mapping[str, Any]) -> dict[str, float | bool]:
     return {"half_width": share, "ok": share <= INFORMATIVE}
 
 
-def apply_spread(values: np.ndarray, added_sd: np.ndarray) -> np.ndarray:
-    """E(t) draws (draws, times) with the exponent's spread: each multiplied by exp(σ z), z standard
-    normal (seeded), σ the log-normal's whose sd is the added sd over the median, r:
-    e^{σ²}(e^{σ²} − 1) = r², so σ ≈ r where r is small and grows as sqrt(2 ln r) where it is not
-    (no overflow, no negative modulus)."""
-    rel = np.asarray(added_sd, dtype=float) / np.maximum(np.median(values, axis=0), 1e-300)
+def apply_spread(values: np.ndarray, added_sd: np.ndarray,
+                 move: np.ndarray | None = None) -> np.ndarray:
+    """E(t) draws (draws, times) with the exponent's pull and spread: each multiplied by
+    exp(μ + σ z), z standard normal (seeded); μ = move / median (the pull's move, to first order,
+    and never a negative modulus however far it reaches); σ the log-normal's whose sd is the added
+    sd over the median, r: e^{σ²}(e^{σ²} − 1) = r², so σ ≈ r where r is small and grows as
+    sqrt(2 ln r) where it is not (no overflow)."""
+    median = np.maximum(np.median(values, axis=0), 1e-300)
+    rel = np.asarray(added_sd, dtype=float) / median
     sigma = np.sqrt(np.log1p((np.sqrt(1.0 + 4.0 * rel**2) - 1.0) / 2.0))
+    mu = np.zeros_like(sigma) if move is None else np.asarray(move, dtype=float) / median
     z = np.random.default_rng(SPREAD_SEED).standard_normal(values.shape)
-    return values * np.exp(z * sigma[None, :])
+    return values * np.exp(mu[None, :] + z * sigma[None, :])
 
 
 # ---------------------------------------------------------------- the estimate
@@ -332,10 +336,11 @@ def estimate(source: Source, times: Sequence[float], why: str, window: ResolvedW
     the local fit's E(t) per time, where the test has a start to fit alone)."""
     columns = source.columns()
     point = source.point()
-    values = modulus_draws(columns, times, modes, decades)
+    held = modulus_draws(columns, times, modes, decades)       # with alpha where the source has it
+    values = held
     added = spread.added_sd(point, times, modes, decades) if spread is not None else None
     if added is not None:
-        values = apply_spread(values + spread.move(point, times, modes, decades)[None, :], added)
+        values = apply_spread(held, added, spread.move(point, times, modes, decades))
     start = band.start.to_dict() if band is not None and band.start is not None else None
     rows = []
     for i, t in enumerate(times):
@@ -346,7 +351,8 @@ def estimate(source: Source, times: Sequence[float], why: str, window: ResolvedW
             "inside_window": window.contains(t),
             "width": width_check(stats),
             "shape": shape_check(spread, slope, float(stats["sd"])),
-            "local": local_check((local or {}).get(float(t)), float(stats["mean"])),
+            # like with like: the local fit holds alpha where the whole window's source does
+            "local": local_check((local or {}).get(float(t)), float(held[:, i].mean())),
             "band": band_check(band, g, window.origin) if g is not None else None,
             "start": start,
             "bounds": bound_moves(refits, t, float(stats["sd"]), modes, decades),
@@ -380,8 +386,8 @@ def _curve(source: Source, columns: Mapping[str, Any], window: ResolvedWindow,
     e_t = modulus_draws(sub, grid, modes, decades)
     if spread is not None:
         point = source.point()
-        e_t = apply_spread(e_t + spread.move(point, grid, modes, decades)[None, :],
-                           spread.added_sd(point, grid, modes, decades))
+        e_t = apply_spread(e_t, spread.added_sd(point, grid, modes, decades),
+                           spread.move(point, grid, modes, decades))
     q = np.quantile(e_t, [0.05, 0.5, 0.95], axis=0)
     e = np.atleast_1d(np.asarray(columns["E"], dtype=float)).ravel()
     lo, hi = draw_stats(e)["hdi_90"] if e.size > 1 else (float(e[0]),) * 2

@@ -69,9 +69,25 @@ def _rows(view: Config, data, source: Source, band: Band | None, fit: Mapping[st
     if times is not None:
         chosen, why = list(times), "times every test of the run resolves"
     spread = exponent_spread(fit, source.under_model_error)
-    local = local_estimates(view, data, fit, chosen, window.origin)
+    local = _stored_local(fit, chosen) if source.kind == "posterior" else None
+    if local is None:
+        local = local_estimates(view, data, fit, chosen, window.origin)
     return judged(estimate(source, chosen, why, window, band, spread, refits, noise_ok,
                            view.model.modes, view.model.decades, local), who)
+
+
+def _stored_local(fit: Mapping[str, Any], times: Sequence[float]) -> dict[float, LocalEstimate] | None:
+    """The local fits that fit.json's E(t) made at these times (None unless it made them at every
+    one): a posterior reads them rather than fit again."""
+    rows = {float(r["t"]): r for r in fit.get("modulus_at") or [] if isinstance(r, Mapping)}
+    if not all(float(t) in rows for t in times):
+        return None
+    out = {}
+    for t in times:
+        c = (rows[float(t)].get("checks") or {}).get("local")
+        if c:
+            out[float(t)] = LocalEstimate(c["local_mean"], c["local_sd"], c["window_end"], c["time_max"])
+    return out
 
 
 def local_estimates(view: Config, data, fit: Mapping[str, Any], times: Sequence[float],

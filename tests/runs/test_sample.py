@@ -94,7 +94,11 @@ def test_table_gives_the_verdict_one_check_per_line(quick_run) -> None:
     lines = post.table().splitlines()
     head = next(i for i, line in enumerate(lines) if line.startswith("verdict: "))
     points = checks["verdict_points"]
-    shown = [line[4:] for line in lines[head + 1:] if line.startswith("  - ")]
+    shown = []
+    for line in lines[head + 1:]:           # the verdict's points, up to the next block (E(t)'s)
+        if not line.startswith("  - "):
+            break
+        shown.append(line[4:])
     if len(points) >= 2:
         assert shown == points and " ".join([lines[head][9:], *points]) == checks["verdict"]
     else:
