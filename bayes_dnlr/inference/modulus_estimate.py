@@ -191,8 +191,18 @@ class ExponentSpread:
 
     def move(self, point: Mapping[str, float], times: Sequence[float], modes: int,
              decades: float) -> np.ndarray:
-        """E(t)'s move when alpha follows the data's pull along the least-squares path."""
-        return self.slope(point, times, modes, decades) * self.pull
+        """E(t)'s move when alpha follows the data's pull and the other parameters the
+        least-squares path: E(t) of the moved parameters, so that a far pull still gives a
+        relaxation modulus (below E, above 3G), and to first order slope × pull."""
+        d, a = self.derivative, self.pull
+        moved = {"E": max(float(point["E"]) + d.get("E", 0.0) * a, 1e-9 * float(point["E"])),
+                 "G": max(float(point.get("G", 0.0)) + d.get("G", 0.0) * a, 0.0),
+                 # a time constant moves in log space (d ln τ = dτ/τ), never to a negative τ
+                 "tau_max": float(point["tau_max"]) * math.exp(
+                     d.get("tau_max", 0.0) * a / float(point["tau_max"])),
+                 SPECTRUM_EXPONENT: float(point.get(SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT)) + a}
+        return (modulus_draws(moved, times, modes, decades)[0]
+                - modulus_draws(_with_defaults(point), times, modes, decades)[0])
 
 
 def exponent_spread(fit: Mapping[str, Any], under_model_error: bool) -> ExponentSpread | None:
@@ -213,19 +223,27 @@ def exponent_spread(fit: Mapping[str, Any], under_model_error: bool) -> Exponent
                           float(score.get("step") or 0.0))
 
 
-def shape_check(spread: ExponentSpread | None, slope: float, sd: float) -> dict[str, float | bool] | None:
-    """Does the spectrum's shape decide E(t)? The data pull the exponent by the score's step (kept
-    inside the family's [0, 1]) and E(t) follows it, linearized along the least-squares path: a
-    linearization that holds near ½. On data the model describes the step is N(0, σ_α²), so the
-    move over E(t)'s sd (which holds |slope| σ_α) exceeds SHAPE_Z at most 1 % of the time; a move
-    beyond it says that the spectrum's shape, not the data, decides E(t), and that the move itself
-    lies past where its linearization holds."""
-    if spread is None or not sd > 0:
-        return None
-    move = slope * spread.pull
-    z = move / sd
-    return {"alpha_pulled": UNIVERSAL_EXPONENT + spread.pull, "move": move, "z": z,
-            "ok": abs(z) <= SHAPE_Z}
+def followed(held: np.ndarray, spread: ExponentSpread, point: Mapping[str, float],
+             times: Sequence[float], modes: int, decades: float
+             ) -> tuple[np.ndarray, list[dict[str, float | bool]]]:
+    """E(t) draws (draws, times) with the exponent's spread and, at each time where it is small, its
+    pull; with the shape check of each time. The data pull the exponent by the score's step (kept
+    inside the family's [0, 1]); E(t) follows along the least-squares path (``ExponentSpread.move``:
+    a posterior with alpha free and a flat prior, linearized). On data the model describes the step
+    is N(0, σ_α²), so the move exceeds SHAPE_Z of E(t)'s sd (which holds |slope| σ_α) at most 1 %
+    of the time. A larger move is not followed, since its linearization does not hold that far:
+    E(t) stays at ½ and the check says that the spectrum's shape, not the data, decides it."""
+    added = spread.added_sd(point, times, modes, decades)
+    move = spread.move(point, times, modes, decades)
+    still = apply_spread(held, added)
+    sd = still.std(axis=0, ddof=1) if still.shape[0] > 1 else added
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(sd > 0, move / sd, 0.0)
+    ok = np.abs(z) <= SHAPE_Z
+    values = np.where(ok[None, :], apply_spread(held, added, np.where(ok, move, 0.0)), still)
+    checks = [{"alpha_pulled": UNIVERSAL_EXPONENT + spread.pull, "move": float(m), "z": float(zi),
+               "ok": bool(o), "followed": bool(o)} for m, zi, o in zip(move, z, ok, strict=True)]
+    return values, checks
 
 
 @dataclass(frozen=True)
@@ -265,14 +283,14 @@ def width_check(stats: Mapping[str, Any]) -> dict[str, float | bool]:
 def apply_spread(values: np.ndarray, added_sd: np.ndarray,
                  move: np.ndarray | None = None) -> np.ndarray:
     """E(t) draws (draws, times) with the exponent's pull and spread: each multiplied by
-    exp(μ + σ z), z standard normal (seeded); μ = move / median (the pull's move, to first order,
-    and never a negative modulus however far it reaches); σ the log-normal's whose sd is the added
+    exp(μ + σ z), z standard normal (seeded); μ = ln(1 + move / median) (the median moves by
+    ``move``, which ``ExponentSpread.move`` keeps above −median); σ the log-normal's whose sd is the added
     sd over the median, r: e^{σ²}(e^{σ²} − 1) = r², so σ ≈ r where r is small and grows as
     sqrt(2 ln r) where it is not (no overflow)."""
     median = np.maximum(np.median(values, axis=0), 1e-300)
     rel = np.asarray(added_sd, dtype=float) / median
     sigma = np.sqrt(np.log1p((np.sqrt(1.0 + 4.0 * rel**2) - 1.0) / 2.0))
-    mu = np.zeros_like(sigma) if move is None else np.asarray(move, dtype=float) / median
+    mu = np.zeros_like(sigma) if move is None else np.log1p(np.asarray(move, dtype=float) / median)
     z = np.random.default_rng(SPREAD_SEED).standard_normal(values.shape)
     return values * np.exp(mu[None, :] + z * sigma[None, :])
 
@@ -337,10 +355,10 @@ def estimate(source: Source, times: Sequence[float], why: str, window: ResolvedW
     columns = source.columns()
     point = source.point()
     held = modulus_draws(columns, times, modes, decades)       # with alpha where the source has it
-    values = held
+    values, shapes = held, [None] * len(times)
     added = spread.added_sd(point, times, modes, decades) if spread is not None else None
     if added is not None:
-        values = apply_spread(held, added, spread.move(point, times, modes, decades))
+        values, shapes = followed(held, spread, point, times, modes, decades)
     start = band.start.to_dict() if band is not None and band.start is not None else None
     rows = []
     for i, t in enumerate(times):
@@ -350,7 +368,7 @@ def estimate(source: Source, times: Sequence[float], why: str, window: ResolvedW
         checks = {
             "inside_window": window.contains(t),
             "width": width_check(stats),
-            "shape": shape_check(spread, slope, float(stats["sd"])),
+            "shape": shapes[i],
             # like with like: the local fit holds alpha where the whole window's source does
             "local": local_check((local or {}).get(float(t)), float(held[:, i].mean())),
             "band": band_check(band, g, window.origin) if g is not None else None,
@@ -385,9 +403,7 @@ def _curve(source: Source, columns: Mapping[str, Any], window: ResolvedWindow,
                         max(window.longest, max(times)), CURVE_TIMES)
     e_t = modulus_draws(sub, grid, modes, decades)
     if spread is not None:
-        point = source.point()
-        e_t = apply_spread(e_t, spread.added_sd(point, grid, modes, decades),
-                           spread.move(point, grid, modes, decades))
+        e_t = followed(e_t, spread, source.point(), grid, modes, decades)[0]
     q = np.quantile(e_t, [0.05, 0.5, 0.95], axis=0)
     e = np.atleast_1d(np.asarray(columns["E"], dtype=float)).ravel()
     lo, hi = draw_stats(e)["hdi_90"] if e.size > 1 else (float(e[0]),) * 2

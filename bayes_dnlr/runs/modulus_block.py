@@ -15,6 +15,7 @@ from the same fit or posterior (docs/model-form.md, "Loading-unloading cycles").
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -76,6 +77,15 @@ def _rows(view: Config, data, source: Source, band: Band | None, fit: Mapping[st
                            view.model.modes, view.model.decades, local), who)
 
 
+def _first_turn(data) -> float:
+    """The time of the first turning point of the strain in the window (inf: it never turns)."""
+    from bayes_dnlr.inference.checks.predictive import turning_points
+
+    rows = np.flatnonzero(np.asarray(data.window)[: data.model_end])
+    turns = turning_points(np.asarray(data.strain_input, dtype=float)[rows])
+    return float(np.asarray(data.time, dtype=float)[rows[turns[0]]]) if turns else math.inf
+
+
 def _stored_local(fit: Mapping[str, Any], times: Sequence[float]) -> dict[float, LocalEstimate] | None:
     """The local fits that fit.json's E(t) made at these times (None unless it made them at every
     one): a posterior reads them rather than fit again."""
@@ -111,10 +121,12 @@ def local_estimates(view: Config, data, fit: Mapping[str, Any], times: Sequence[
     window = np.asarray(data.window, dtype=bool)
     time = np.asarray(data.time, dtype=float)
     n = int(window[: data.model_end].sum())
+    first_turn = _first_turn(data)
     out: dict[float, LocalEstimate] = {}
     sources: dict[int, Source | None] = {}
     for t in times:
-        end = origin + LOCAL_FACTOR * float(t)
+        # the start of the test: a decade of time after t, within the first loading of cycles
+        end = min(origin + LOCAL_FACTOR * float(t), first_turn)
         mask = window & (time <= end)
         k = int(mask[: data.model_end].sum())
         if k < LOCAL_MIN_SAMPLES or k > LOCAL_MAX_SHARE * n:
