@@ -60,10 +60,11 @@ def test_band(view: Config, data, columns: Mapping[str, np.ndarray | float],
     point = dict(view.fixed_values)
     point.update({k: float(np.median(v)) for k, v in full.items()})
     X, free = _jacobian(view, data, point, inside.size)
-    turns = predictive.turning_points(strain)
+    peak = data.first_peak
     return Band(inside, time, strain, data.relaxation_start, X, free, point,
                 _start(data, rows, curves, noise.process),
-                float(time[turns[0]]) if turns else None)
+                None if peak is None else float(data.time[peak]),
+                data.turns.within(np.arange(data.model_end)[rows]))
 
 
 def predictive_bands(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray,
@@ -93,12 +94,12 @@ def _start(data, rows: slice | np.ndarray, curves: np.ndarray, noise: Noise) -> 
     if rows.size == 0 or int(rows[0]) != first or not math.isfinite(noise.sigma0_sq):
         return None
     time = np.asarray(data.time, dtype=float)[rows]
-    # the first loading: up to the hold, or to the first turning point of cycles
+    # the first loading: up to the hold, or to the first peak of cycles (data/cycles.py)
     loading = time <= data.relaxation_start if data.relaxation_start is not None else np.ones(
         rows.size, dtype=bool)
-    turns = predictive.turning_points(np.asarray(data.strain_input, dtype=float)[rows])
-    if turns:
-        loading &= np.arange(rows.size) <= turns[0]
+    peak = data.turns.first_peak_within(rows)
+    if peak is not None:
+        loading &= rows <= peak
     observed = np.asarray(data.stress, dtype=float)[rows][loading]
     strain = np.asarray(data.strain, dtype=float)[rows][loading]
     nominal = (np.asarray(data.nominal_stress, dtype=float)[rows][loading]
