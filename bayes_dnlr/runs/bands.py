@@ -62,7 +62,7 @@ def test_band(view: Config, data, columns: Mapping[str, np.ndarray | float],
     X, free = _jacobian(view, data, point, inside.size)
     peak = data.first_peak
     return Band(inside, time, strain, data.relaxation_start, X, free, point,
-                _start(data, rows, curves, noise.process),
+                _start(data, rows, curves, noise.process, compensated=view.data.toe != "none"),
                 None if peak is None else float(data.time[peak]),
                 data.turns.within(np.arange(data.model_end)[rows]))
 
@@ -86,9 +86,11 @@ def predictive_bands(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndar
     return out
 
 
-def _start(data, rows: slice | np.ndarray, curves: np.ndarray, noise: Noise) -> StartCheck | None:
+def _start(data, rows: slice | np.ndarray, curves: np.ndarray, noise: Noise,
+           compensated: bool = False) -> StartCheck | None:
     """The start check of a test whose window begins at its first measured sample: the data's
-    ISO chord against the model curves' (inference/checks/start.py)."""
+    ISO chord against the model curves' (inference/checks/start.py); ``compensated``: the test's
+    toe was compensated (data.toe)."""
     first = int(getattr(data, "virtual_start", 0))
     rows = np.arange(data.model_end)[rows]
     if rows.size == 0 or int(rows[0]) != first or not math.isfinite(noise.sigma0_sq):
@@ -110,7 +112,8 @@ def _start(data, rows: slice | np.ndarray, curves: np.ndarray, noise: Noise) -> 
     if noise.axis is not None:
         noise = replace(noise, axis=noise.axis[loading])
     return start_check(np.asarray(data.nominal_strain, dtype=float)[rows][loading], nominal,
-                       curves[:, loading] * ratio, noise, time[loading], window.origin)
+                       curves[:, loading] * ratio, noise, time[loading], window.origin,
+                       compensated=compensated)
 
 
 def _process(view: Config, data, var: float, amplitude: float, length: float,
