@@ -131,7 +131,7 @@ def toe_test(nominal_strain: np.ndarray, nominal_stress: np.ndarray,
     return Toe(z, threshold, p, int(d.shape[0]))
 
 
-@lru_cache(maxsize=64)
+@lru_cache(maxsize=16)
 def _null_maxima(corr: tuple[float, ...], m: int, dof: int) -> np.ndarray:
     """NULL_DRAWS draws, sorted, of the largest of m standardized rises on a straight start with
     white noise: a multivariate t with correlation ``corr`` (flattened, m × m) and ``dof`` degrees
@@ -144,7 +144,7 @@ def _null_maxima(corr: tuple[float, ...], m: int, dof: int) -> np.ndarray:
     return out
 
 
-@lru_cache(maxsize=8)
+@lru_cache(maxsize=4)       # 0.4 MB per rise: a run sees one or two numbers of rises
 def _normal_draws(m: int) -> np.ndarray:
     """NULL_DRAWS independent standard normal m-vectors, one per column (seeded, shared by the
     designs of m rises)."""
