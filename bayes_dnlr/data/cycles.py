@@ -10,6 +10,11 @@ polymer: 0.25 % of strain takes 6 MPa off), a relaxation hold drops the stress b
 constant strain, the wander of a DIC strain in a hold moves the stress by nothing like it, and a
 force that falls after its peak in a tensile test (necking, a break) does so while the strain
 still rises.
+
+The rule is applied once, when a test is loaded (``TestData.turns``); everything that asks where a
+test turns (init's window, the reader's hints, the strain rate of the first loading, the start
+check, the branches of the predictive check) reads that one answer. Its thresholds are measured on
+real and synthetic tests in docs/thresholds.md ("Turning points").
 """
 
 from __future__ import annotations
@@ -47,6 +52,34 @@ class Turns:
         """The index of the first valley after the first peak (None: no reloading)."""
         return self.valleys[0] if self.valleys else None
 
+    def shifted(self, offset: int) -> Turns:
+        """The same turns with ``offset`` added to every index (negative: counted from a later
+        sample)."""
+        return Turns(tuple(p + offset for p in self.peaks), tuple(v + offset for v in self.valleys))
+
+    def first_peak_within(self, rows: np.ndarray) -> int | None:
+        """The first peak that a window of samples (``rows``: their indices, increasing) runs
+        past: the end of its first loading; None when the window does not run past a peak."""
+        rows = np.asarray(rows)
+        if rows.size < 2:
+            return None
+        return next((p for p in self.peaks if rows[0] <= p < rows[-1]), None)
+
+    def within(self, rows: np.ndarray) -> Turns:
+        """The turns among a window's samples (``rows``: their indices, increasing): the positions
+        in ``rows`` of the peaks and valleys that lie inside it, before its last sample."""
+        rows = np.asarray(rows)
+
+        def inside(ks: tuple[int, ...]) -> tuple[int, ...]:
+            if rows.size < 2:
+                return ()
+            return tuple(int(np.searchsorted(rows, k)) for k in ks if rows[0] <= k < rows[-1])
+
+        return Turns(inside(self.peaks), inside(self.valleys))
+
+
+NO_TURNS = Turns((), ())
+
 
 def _next_turn(x: np.ndarray, start: int, floor: float, up: bool) -> tuple[int, int] | None:
     """(the extreme, the index where x has moved back from it) from ``start`` on: for a peak
@@ -79,12 +112,22 @@ def _stress_turns(stress: np.ndarray, floor: float) -> list[int]:
 def turning_points(strain: np.ndarray, stress: np.ndarray) -> Turns:
     """The peaks and valleys of the strain where the test unloads and reloads (module doc): the
     stress's turns, each placed on the strain's extreme between its neighbours, kept while the strain
-    goes back with the stress. NaN-free input."""
+    goes back with the stress. Samples where either is NaN (padding) are left out; the indices
+    count every sample."""
     e = np.asarray(strain, dtype=float)
     s = np.asarray(stress, dtype=float)
+    ok = np.isfinite(e) & np.isfinite(s)
+    if not ok.all():
+        keep = np.flatnonzero(ok)
+        found = _turning_points(e[keep], s[keep])
+        return Turns(tuple(int(keep[p]) for p in found.peaks), tuple(int(keep[v]) for v in found.valleys))
+    return _turning_points(e, s)
+
+
+def _turning_points(e: np.ndarray, s: np.ndarray) -> Turns:
     top = float(np.max(s)) if s.size else 0.0
     if e.size < 3 or not top > 0:
-        return Turns((), ())
+        return NO_TURNS
     turns = _stress_turns(s, FLOOR * top)
     stress_peaks, stress_valleys = turns[0::2], turns[1::2]
     span = float(np.ptp(e))

@@ -19,7 +19,7 @@ import numpy as np
 
 from bayes_dnlr.config import DataConfig
 from bayes_dnlr.data import relations as rel
-from bayes_dnlr.data.cycles import turning_points
+from bayes_dnlr.data.cycles import Turns
 from bayes_dnlr.data.ramp import find_hold
 from bayes_dnlr.data.reading import Table
 
@@ -44,11 +44,12 @@ def _rows(n: int) -> np.ndarray:
 
 
 def hold_without_start(d: DataConfig, time: np.ndarray, strain: np.ndarray, stress: np.ndarray,
-                       window: np.ndarray, first: int) -> str | None:
-    """A hold inside the window while ``data.relaxation_start`` is not set."""
+                       window: np.ndarray, first: int, turns: Turns) -> str | None:
+    """A hold inside the window while ``data.relaxation_start`` is not set (``turns``: the test's
+    turning points, data/cycles.py: a test that unloads has no hold)."""
     if d.relaxation_start is not None:
         return None
-    hold = find_hold(time[first:], strain[first:], stress[first:])
+    hold = find_hold(time[first:], strain[first:], stress[first:], turns)
     if hold is None or int(np.flatnonzero(window)[-1]) < first + hold.start + 5:
         return None
     return (f"warning: a relaxation hold: {hold.describe()} MPa, but data.relaxation_start is not set, "
@@ -134,20 +135,22 @@ def peak_window(time: np.ndarray, strain: np.ndarray, k: int) -> dict[str, float
 
 
 def window_past_peak(d: DataConfig, time: np.ndarray, strain: np.ndarray, load: np.ndarray,
-                     window: np.ndarray, relaxation_start: float | None, first: int) -> str | None:
+                     window: np.ndarray, relaxation_start: float | None, first: int,
+                     turns: Turns) -> str | None:
     """A window that ends just past the load peak (yield): its upper bound was meant for the peak
     (a bound on another strain column, a rounding) and lets in samples of the load's fall, where a
     crosshead strain is not the specimen's (necking). A window that goes on well past the peak, or
     to the end of the loading, is a choice, not flagged. In a loading-unloading test the loading is
-    the first one (its peak a turning point, the unloading after it the fall). ``strain``: the
-    measured Hencky strain, which the window's strain bounds read. Never recommends the window set."""
+    the first one (its peak a turning point, the unloading after it the fall; ``turns``: the
+    test's turning points, data/cycles.py). ``strain``: the measured Hencky strain, which the
+    window's strain bounds read. Never recommends the window set."""
     w = d.window
     if w.strain_max is None and w.time_max is None:
         return None
     load_end = time.size if relaxation_start is None else int(np.searchsorted(time, relaxation_start))
-    turns = turning_points(strain[first:load_end], load[first:load_end])
-    if turns.first_unloading_end is not None:
-        load_end = first + turns.first_unloading_end + 1
+    valley = turns.first_unloading_end
+    if valley is not None and valley < load_end:
+        load_end = valley + 1
     v = load[first:load_end]
     if v.size < 10:
         return None

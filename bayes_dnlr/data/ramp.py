@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bayes_dnlr.data.checks import noise_sd
-from bayes_dnlr.data.cycles import turning_points
+from bayes_dnlr.data.cycles import Turns, turning_points
 
 
 def ramp_strain_rate(time: np.ndarray, strain: np.ndarray, relaxation_start: float | None) -> float:
@@ -75,18 +75,23 @@ def _slope(t: np.ndarray, e: np.ndarray) -> float:
 
 
 def window_strain_rate(time: np.ndarray, strain: np.ndarray, window: np.ndarray,
-                       relaxation_start: float | None, first: int = 0) -> tuple[float, str]:
+                       relaxation_start: float | None, first: int = 0,
+                       peak: int | None = None) -> tuple[float, str]:
     """The strain rate of the loading the fit sees, and how it was found.
 
     The least-squares slope of ε(t) over the window's loading: its samples of the ramp (up to
-    relaxation_start) from the first one until the strain has made 98 % of its rise in the window
-    (so a hold or an unloading inside the window does not count). When that leaves fewer than 3
+    relaxation_start, and up to ``peak``, the first peak of cycles the window runs past,
+    data/cycles.py) from the first one until the strain has made 98 % of its rise there (so a
+    hold or an unloading inside the window does not count, nor the creep of cycles to a force,
+    whose largest strain comes at the last peak). When that leaves fewer than 3
     samples, or no rise (a window in a hold), the slope of the loading before: from the first model
     sample (``first``) to the largest strain up to the window's end, within the ramp. NaN when the
     strain never rises.
     """
     ramp = np.ones(time.size, bool) if relaxation_start is None else time <= relaxation_start
     ramp[:first] = False
+    if peak is not None:
+        ramp[peak + 1:] = False
     sel = np.flatnonzero(window & ramp)
     if sel.size >= 3:
         e = strain[sel]
@@ -135,12 +140,14 @@ class Hold:
                 f"from {self.stress_from:.4g} to {self.stress_to:.4g}")
 
 
-def find_hold(time: np.ndarray, strain: np.ndarray, stress: np.ndarray) -> Hold | None:
+def find_hold(time: np.ndarray, strain: np.ndarray, stress: np.ndarray,
+              turns: Turns | None = None) -> Hold | None:
     """A relaxation hold: the strain stays within HOLD_FLAT of its range (or within HOLD_NOISE sd of
     its scatter in the test's last tenth, for a noisy strain such as DIC's) of its level at the end,
     but for HOLD_OUTLIERS of its samples, from some sample to the end, for at least HOLD_SHARE of the
     test, near its largest value, while the stress falls by HOLD_FALL of
-    its largest value or more. None for a tensile test (or a machine that only stopped). NaN rows
+    its largest value or more, and the test does not unload (``turns``: the test's turning points
+    when known, data/cycles.py). None for a tensile test (or a machine that only stopped). NaN rows
     (padding) are left out."""
     ok = np.isfinite(time) & np.isfinite(strain) & np.isfinite(stress)
     t, e, s = time[ok], strain[ok], stress[ok]
@@ -162,7 +169,9 @@ def find_hold(time: np.ndarray, strain: np.ndarray, stress: np.ndarray) -> Hold 
         return None
     top = float(np.max(np.abs(s)))
     fall = float(s[start] - s[-1])
-    if not top > 0 or fall < HOLD_FALL * top or turning_points(e, s).peaks:
+    if turns is None:
+        turns = turning_points(e, s)
+    if not top > 0 or fall < HOLD_FALL * top or turns.peaks:
         return None                     # no fall, or an unloading: the strain went back with the stress
     return Hold(int(np.flatnonzero(ok)[start]), float(t[start]), float(t[-1]), level,
                 float(s[start]), float(s[-1]), band)

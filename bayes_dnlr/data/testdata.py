@@ -34,6 +34,7 @@ from bayes_dnlr.data.conversions import (
     sigma_star,
     true_stress,
 )
+from bayes_dnlr.data.cycles import Turns, turning_points
 from bayes_dnlr.data.errors import DataError
 from bayes_dnlr.data.initial_state import plan_start
 from bayes_dnlr.data.ramp import detect_relaxation_start, window_strain_rate
@@ -82,6 +83,13 @@ class TestData:
     rows_per_point: int = 1       # data.reduce: each sample the mean of this many consecutive rows
     # the smoothed strain to keep in the run folder's cache once the folder exists (``keep_smoothing``)
     unkept_smoothing: UnkeptSmoothing | None = field(default=None, repr=False, compare=False)
+    # where the test unloads and reloads (data/cycles.py), indices of these arrays; computed once
+    # from the measured strain and the stress when not given
+    turns: Turns | None = field(default=None, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        if self.turns is None:
+            object.__setattr__(self, "turns", turns_of(self.strain, self.stress, self.virtual_start))
 
     def keep_smoothing(self) -> None:
         """Keep the smoothed strain in the run folder's cache, if it could not be kept when the test
@@ -95,9 +103,21 @@ class TestData:
         return int(np.flatnonzero(self.window)[-1]) + 1
 
     @property
+    def first_peak(self) -> int | None:
+        """The index of the first peak the window runs past (data/cycles.py): where the first
+        loading of a cyclic window ends; None for a window without unloading."""
+        return self.turns.first_peak_within(np.flatnonzero(self.window))
+
+    @property
     def n_points(self) -> int:
         """Number of samples compared with the model (q in the paper)."""
         return int(self.window.sum())
+
+
+def turns_of(strain: np.ndarray, stress: np.ndarray, first: int = 0) -> Turns:
+    """The turning points of a test (data/cycles.py) on its samples from ``first`` on (after the
+    model-only ones), as indices of the whole arrays."""
+    return turning_points(strain[first:], stress[first:]).shifted(first)
 
 
 def _observable(cfg: Config, values: dict[str, np.ndarray], strain: np.ndarray,
@@ -290,7 +310,9 @@ def load_test(cfg: Config, cache: Path | None = None) -> TestData:
         lines = np.asarray(lines)[cuts[:-1]]
     window = window_mask(time[virtual:], strain[virtual:], d.window, path=path, key="data.window")
     window = np.concatenate((np.zeros(virtual, bool), window))
-    rate, how = window_strain_rate(time, strain, window, rs, first=virtual)
+    turns = turns_of(strain, stress, virtual)
+    rate, how = window_strain_rate(time, strain, window, rs, first=virtual,
+                                   peak=turns.first_peak_within(np.flatnonzero(window)))
     notes.append(f"strain_rate: {rate:.4g} 1/s ({how})")
     if virtual == 0 and d.toe == "none" and d.initial_state is None:
         force = values.get("force") if d.observable != "stress" else None
@@ -299,7 +321,7 @@ def load_test(cfg: Config, cache: Path | None = None) -> TestData:
             notes.append(warn)
     check_load(stress, window, lines, path, _load_source(d))
     notes += _hints(cfg, table, raw_nominal, time, strain, stress, values.get("force"), nom_stress,
-                    window, rs, virtual)
+                    window, rs, virtual, turns)
     spike = spike_warning(stress, lines, virtual, strain, window)
     if spike:
         notes.append(spike)
@@ -313,20 +335,22 @@ def load_test(cfg: Config, cache: Path | None = None) -> TestData:
         stress=stress, nominal_strain=nominal, nominal_stress=nom_stress, window=window,
         relaxation_start=rs, strain_rate=rate, observable=d.observable, notes=tuple(notes),
         force=values.get("force"), transverse_strain=eps22, area0=d.area0, virtual_start=virtual,
-        lines=lines, rows_per_point=k, unkept_smoothing=unkept)
+        lines=lines, rows_per_point=k, unkept_smoothing=unkept, turns=turns)
     return test
 
 
 def _hints(cfg: Config, table: Table, nominal: np.ndarray, time: np.ndarray, strain: np.ndarray,
            stress: np.ndarray, force: np.ndarray | None,
-           nom_stress: np.ndarray | None, window: np.ndarray, rs: float | None, virtual: int) -> list[str]:
+           nom_stress: np.ndarray | None, window: np.ndarray, rs: float | None, virtual: int,
+           turns: Turns) -> list[str]:
     """What init would have noticed (data/hints.py), as warning notes."""
     d = cfg.data
     load = force if force is not None and d.observable != "stress" else nom_stress
-    found = [hints.hold_without_start(d, time, strain, stress, window, virtual),
+    found = [hints.hold_without_start(d, time, strain, stress, window, virtual, turns),
              hints.engineering_as_true(d, table, nominal),
              hints.area_check(d, table),
-             None if load is None else hints.window_past_peak(d, time, strain, load, window, rs, virtual)]
+             None if load is None else hints.window_past_peak(d, time, strain, load, window, rs,
+                                                              virtual, turns)]
     return [n for n in found if n]
 
 

@@ -60,10 +60,11 @@ def test_band(view: Config, data, columns: Mapping[str, np.ndarray | float],
     point = dict(view.fixed_values)
     point.update({k: float(np.median(v)) for k, v in full.items()})
     X, free = _jacobian(view, data, point, inside.size)
-    turns = predictive.turning_points(strain)
+    peak = data.first_peak
     return Band(inside, time, strain, data.relaxation_start, X, free, point,
-                _start(data, rows, curves, noise.process),
-                float(time[turns[0]]) if turns else None)
+                _start(data, rows, curves, noise.process, compensated=view.data.toe != "none"),
+                None if peak is None else float(data.time[peak]),
+                data.turns.within(np.arange(data.model_end)[rows]))
 
 
 def predictive_bands(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray,
@@ -85,20 +86,22 @@ def predictive_bands(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndar
     return out
 
 
-def _start(data, rows: slice | np.ndarray, curves: np.ndarray, noise: Noise) -> StartCheck | None:
+def _start(data, rows: slice | np.ndarray, curves: np.ndarray, noise: Noise,
+           compensated: bool = False) -> StartCheck | None:
     """The start check of a test whose window begins at its first measured sample: the data's
-    ISO chord against the model curves' (inference/checks/start.py)."""
+    ISO chord against the model curves' (inference/checks/start.py); ``compensated``: the test's
+    toe was compensated (data.toe)."""
     first = int(getattr(data, "virtual_start", 0))
     rows = np.arange(data.model_end)[rows]
     if rows.size == 0 or int(rows[0]) != first or not math.isfinite(noise.sigma0_sq):
         return None
     time = np.asarray(data.time, dtype=float)[rows]
-    # the first loading: up to the hold, or to the first turning point of cycles
+    # the first loading: up to the hold, or to the first peak of cycles (data/cycles.py)
     loading = time <= data.relaxation_start if data.relaxation_start is not None else np.ones(
         rows.size, dtype=bool)
-    turns = predictive.turning_points(np.asarray(data.strain_input, dtype=float)[rows])
-    if turns:
-        loading &= np.arange(rows.size) <= turns[0]
+    peak = data.turns.first_peak_within(rows)
+    if peak is not None:
+        loading &= rows <= peak
     observed = np.asarray(data.stress, dtype=float)[rows][loading]
     strain = np.asarray(data.strain, dtype=float)[rows][loading]
     nominal = (np.asarray(data.nominal_stress, dtype=float)[rows][loading]
@@ -109,7 +112,8 @@ def _start(data, rows: slice | np.ndarray, curves: np.ndarray, noise: Noise) -> 
     if noise.axis is not None:
         noise = replace(noise, axis=noise.axis[loading])
     return start_check(np.asarray(data.nominal_strain, dtype=float)[rows][loading], nominal,
-                       curves[:, loading] * ratio, noise, time[loading], window.origin)
+                       curves[:, loading] * ratio, noise, time[loading], window.origin,
+                       compensated=compensated)
 
 
 def _process(view: Config, data, var: float, amplitude: float, length: float,

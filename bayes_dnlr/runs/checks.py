@@ -50,7 +50,7 @@ def coverage_check(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarra
     out = {}
     for t, b in bands.items():
         out[t] = predictive.coverage(b.inside, predictive.segments(b.time, b.relaxation_start,
-                                                                    strain=b.strain))
+                                                                    turns=b.turns))
         if b.X is not None and "E" in b.free:
             out[t]["E_weighted"] = predictive.weighted_share(
                 b.inside, predictive.weights(b.X, b.free.index("E")))

@@ -20,7 +20,7 @@ import numpy as np
 
 from bayes_dnlr.config import NAME_PATTERN, ConfigError, parse_config
 from bayes_dnlr.data.checks import LOADED_START
-from bayes_dnlr.data.cycles import turning_points
+from bayes_dnlr.data.cycles import Turns, turning_points
 from bayes_dnlr.data.guess import FRACTION_MAX, Guess, Pick, guess_columns
 from bayes_dnlr.data.hints import peak_window
 from bayes_dnlr.diskio import storage_error
@@ -325,7 +325,7 @@ def _window(guess: Guess, dr: _Draft, load: Pick, strain: Pick, strain_h: np.nda
         if strain_h is not None and "time" in guess.picks:
             t, s = guess.picks["time"].column.values, load.column.values
             ok = np.isfinite(strain_h) & np.isfinite(t) & np.isfinite(s)
-            cycles = _cycles_window(t[ok], strain_h[ok], s[ok])
+            cycles = _cycles_window(t[ok], strain_h[ok], turning_points(strain_h[ok], s[ok]))
         window, why = cycles or _peak_window(guess, load, strain_h, strain.column.label)
     dr.data["window"] = window
     dr.comments["window"] = why
@@ -458,11 +458,11 @@ def _force_only(note: str, test: Any) -> str:
     return first_sample_warning(test.stress, test.strain, int(test.lines[0]), force=test.force) or note
 
 
-def _cycles_window(time: np.ndarray, strain: np.ndarray, stress: np.ndarray,
+def _cycles_window(time: np.ndarray, strain: np.ndarray, turns: Turns,
                    lines: np.ndarray | None = None) -> tuple[dict[str, float], str] | None:
-    """For a loading-unloading test (data/cycles.py): the whole history, with the first loading
-    named as the other window that means something; None for a test without cycles."""
-    turns = turning_points(strain, stress)
+    """For a loading-unloading test (its ``turns``, data/cycles.py, indices of ``time``): the whole
+    history, with the first loading named as the other window that means something; None for a
+    test without cycles."""
     if not turns.cyclic:
         return None
     k = turns.first_loading_end
@@ -479,7 +479,8 @@ def _window_at_peak(test: Any, raw: dict[str, Any], edits: list[Edit], comments:
     itself, the bound on the measured Hencky strain that the window's strain bounds read
     (``data.hints.peak_window``: strain_max, or time_max when the strain turns there)."""
     first = test.virtual_start
-    cycles = _cycles_window(test.time[first:], test.strain[first:], test.stress[first:], test.lines[first:])
+    cycles = _cycles_window(test.time[first:], test.strain[first:], test.turns.shifted(-first),
+                            test.lines[first:])
     load = test.force if test.force is not None else test.nominal_stress
     if load is None:
         load = test.stress * np.exp(-test.strain)

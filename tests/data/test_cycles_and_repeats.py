@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from support.real_data import CYCLES, reads_export
 
 from bayes_dnlr.config import ConfigError
 from bayes_dnlr.data import DataError, load_test
@@ -165,3 +166,76 @@ def test_a_name_a_confirmed_relation_contradicts_is_overruled_with_where_it_fits
     assert lines[0].startswith("column 4 is named 'exxHencky' (a Hencky strain), but column 4 = column 1")
     assert "the true stress is column 6" in lines[1]
     assert "the name 'StressTrue' over column 5 fits it: the header is shifted" in lines[2]
+
+
+def _plastic_cycles(peaks=(0.2, 0.35, 0.5), back=0.02, step=0.0005, rate=1e-3, yield_stress=20.0):
+    """Time, nominal strain and stress of cycles at large strain on an elastic-plastic material
+    (E, then flow at ``yield_stress`` with a small hardening): each unloading takes the stress to
+    zero while the strain goes back by ``back`` only (4 % of the range at 0.02 of 0.5)."""
+    e = [0.0]
+    for p in peaks:
+        e += list(np.arange(e[-1] + step, p + 1e-12, step))
+        e += list(np.arange(e[-1] - step, p - back - 1e-12, -step))
+    e = np.array(e)
+    plastic, s = 0.0, np.empty(e.size)
+    for i, x in enumerate(e):
+        trial = E * (x - plastic)
+        flow = yield_stress + 10.0 * plastic
+        if trial > flow:
+            plastic = (E * x - yield_stress) / (E + 10.0)
+            trial = E * (x - plastic)
+        s[i] = max(trial, 0.0)
+    return np.arange(e.size) * step / rate, e, s
+
+
+def test_cycles_that_reverse_by_4_percent_of_the_strain_are_cycles_everywhere(write_csv, make_config,
+                                                                              tmp_path):
+    """One rule for where a test turns (data/cycles.py), computed when the test is loaded and read
+    by init's window, the strain rate of the first loading, the branches the predictive check
+    reports on, and the first peak a first loading ends at."""
+    from bayes_dnlr.data.cycles import turning_points as rule
+    from bayes_dnlr.inference.checks.predictive import segments
+    from bayes_dnlr.workflows.init import init_config
+
+    t, e, s = _plastic_cycles()
+    s = s + np.random.default_rng(5).normal(0, 0.01, e.size)
+    _write(write_csv, t, e, s)
+    test = load_test(make_config(**CYCLIC))
+    path, turns = test.path, test.turns
+    assert len(turns.peaks) == 3 and len(turns.valleys) == 2 and turns == rule(test.strain, test.stress)
+    e_n = test.nominal_strain
+    back = [e_n[p] - e_n[v] for p, v in zip(turns.peaks[:2], turns.valleys, strict=True)]
+    assert np.allclose(back, 0.04 * np.ptp(test.nominal_strain), rtol=0.05)      # 4 % of the range
+    assert test.first_peak == turns.peaks[0] and test.time[test.first_peak] == pytest.approx(200.0)
+    # the strain rate of the first loading, not of the whole history
+    assert test.strain_rate == pytest.approx(1e-3, rel=0.1)
+    # the branches of the predictive check
+    seg = segments(test.time, None, turns=turns.within(np.arange(test.time.size)))
+    assert [k for k in seg if k.startswith(("loading", "unloading"))] == [
+        "loading 1", "unloading 1", "loading 2", "unloading 2", "loading 3", "unloading 3"]
+    # init proposes the whole history and names the first loading, which ends at the same peak
+    result = init_config(path, tmp_path / "init" / "config.yaml")
+    assert "the whole history: 3 loading-unloading cycles" in result.text()
+    assert "the strain turns back first at t = 200.00 s" in result.text()
+    assert "the first loading alone is {time_max: 200.0}" in result.text()
+    # a window that ends before the first peak has no peak to end at
+    early = load_test(make_config(**CYCLIC, window={"time_max": 150.0}))
+    assert early.first_peak is None and early.turns == turns
+
+
+@reads_export(CYCLES)
+def test_the_strain_rate_of_real_cycles_to_a_force_is_that_of_their_first_loading(make_config):
+    """The film's fifth cyclic specimen is cycled to a force: its strain creeps up from cycle to
+    cycle, so that its largest strain comes at the last peak; the rate is that of the
+    first loading (the export's README: 0.1 %/s), not of the whole history (1.26e-5 1/s)."""
+    rates = []
+    for specimen in range(1, 7):
+        test = load_test(make_config(file=str(CYCLES), specimen=specimen, specimen_columns=8,
+                                     columns={"time": 1, "strain": 2, "stress": 4},
+                                     strain_unit="fraction", strain_measure="nominal",
+                                     observable="stress", stress_measure="engineering",
+                                     repeated_time="drop", area0=None, window={}))
+        assert test.turns.cyclic and len(test.turns.peaks) == 10, (specimen, test.turns)
+        assert test.first_peak == test.turns.peaks[0]
+        rates.append(test.strain_rate)
+    assert np.allclose(rates, 1e-3, rtol=0.12), rates

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from bayes_dnlr.data.cycles import NO_TURNS, Turns
 from bayes_dnlr.inference.checks.predictive import band_floor
 from bayes_dnlr.inference.checks.start import StartCheck
 
@@ -34,7 +35,8 @@ class Band:
     free: list[str]             # its columns
     point: dict[str, float]     # the draws' median (fixed parameters at their values)
     start: StartCheck | None = None   # the data's ISO chord against the model curves'
-    first_turn: float | None = None   # the time of the strain's first turning point (cycles)
+    first_turn: float | None = None   # the time of the test's first peak in the window (cycles)
+    turns: Turns = NO_TURNS           # the test's turning points (data/cycles.py) among the samples
 
 
 def information_weights(X: np.ndarray, g: np.ndarray) -> np.ndarray:

@@ -20,10 +20,10 @@ import math
 
 import numpy as np
 
+from bayes_dnlr.data.cycles import NO_TURNS, Turns
 from bayes_dnlr.vocabulary import Z90
 
 TIME_BLOCKS = 5
-REVERSAL = 0.05     # a strain reversal of this share of the strain's range is a turning point
 BAND_Z = 2.326      # one-sided 1 % quantile of the standard normal
 CALIBRATED = 0.90   # the share of the data a calibrated 90 % band holds
 
@@ -36,64 +36,43 @@ def inside_band(y: np.ndarray, curves: np.ndarray, noise_var: np.ndarray | float
     return np.abs(np.asarray(y, dtype=float) - mean) <= half
 
 
-def turning_points(strain: np.ndarray, reversal: float = REVERSAL) -> list[int]:
-    """The samples where the strain turns (a peak or a valley), each reversal at least
-    ``reversal`` of the strain's range: the zig-zag of loading-unloading cycles, not the noise of a
-    hold."""
-    e = np.asarray(strain, dtype=float)
-    if e.size < 3:
-        return []
-    step = reversal * float(np.ptp(e))
-    if not step > 0:
-        return []
-    turns: list[int] = []
-    up, extreme = None, 0
-    for i in range(1, e.size):
-        if up is None:
-            if abs(e[i] - e[0]) > step:
-                up, extreme = e[i] > e[0], i
-            continue
-        if (e[i] > e[extreme]) == up and e[i] != e[extreme]:
-            extreme = i
-        elif abs(e[i] - e[extreme]) > step:
-            turns.append(extreme)
-            up, extreme = not up, i
-    return turns
-
-
-def branches(strain: np.ndarray) -> dict[str, np.ndarray]:
+def branches(turns: Turns, size: int) -> dict[str, np.ndarray]:
     """Masks of the loading and unloading branches of a cyclic test ("loading 1", "unloading 1",
-    ...; each turning point belongs to the branch it ends); empty when the strain never turns."""
-    e = np.asarray(strain, dtype=float)
-    turns = turning_points(e)
-    if not turns:
+    ...) on its ``size`` compared samples, cut at its turning points (``turns``: the test's one
+    rule, data/cycles.py, as positions among those samples; each turning point belongs to the
+    branch it ends: a peak ends a loading, a valley an unloading); empty when the test never
+    turns."""
+    ends = sorted([(k, True) for k in turns.peaks] + [(k, False) for k in turns.valleys])
+    if not ends:
         return {}
-    edges = [0, *[k + 1 for k in turns], e.size]
+    # the branch after the last turning point runs the other way
+    ends.append((size - 1, not ends[-1][1]))
     out: dict[str, np.ndarray] = {}
     count = {True: 0, False: 0}
-    for a, b in zip(edges, edges[1:], strict=False):
-        if b - a < 1:
+    a = 0
+    for k, rising in ends:
+        if k + 1 <= a:
             continue
-        rising = bool(e[b - 1] >= e[a])
         count[rising] += 1
-        mask = np.zeros(e.size, dtype=bool)
-        mask[a:b] = True
+        mask = np.zeros(size, dtype=bool)
+        mask[a:k + 1] = True
         out[f"{'loading' if rising else 'unloading'} {count[rising]}"] = mask
+        a = k + 1
     return out
 
 
 def segments(time: np.ndarray, relaxation_start: float | None,
-             blocks: int = TIME_BLOCKS, strain: np.ndarray | None = None) -> dict[str, np.ndarray]:
+             blocks: int = TIME_BLOCKS, turns: Turns = NO_TURNS) -> dict[str, np.ndarray]:
     """Masks of the test's segments on its compared samples: the loading and the hold (when there
-    is one), the loading and unloading branches of cycles (when ``strain`` turns), and ``blocks``
-    blocks of equal time."""
+    is one), the loading and unloading branches of cycles (``turns``: the positions of the test's
+    turning points among the samples, see ``branches``), and ``blocks`` blocks of equal time."""
     t = np.asarray(time, dtype=float)
     out: dict[str, np.ndarray] = {}
     if relaxation_start is not None:
         out["loading"] = t < relaxation_start
         out["hold"] = t >= relaxation_start
-    elif strain is not None:
-        out.update(branches(strain))
+    else:
+        out.update(branches(turns, t.size))
     edges = np.linspace(t.min(), t.max(), blocks + 1)
     for b in range(blocks):
         hi = t <= edges[b + 1] if b == blocks - 1 else t < edges[b + 1]

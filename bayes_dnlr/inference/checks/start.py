@@ -11,9 +11,9 @@ A toe (slack, seating: the strain reads ahead of the specimen's at first) the mo
 the same, as a softer start: its curves follow the data's chord, and E(t) comes out low. What
 gives a toe away is the curve's shape: a material that only relaxes gives a concave start under
 a constant-rate loading (its slope E(t) falls), a toe a convex one (the slope rises as the slack is
-taken up). So the start check also compares the steepest slope of the start with its first one,
-beside the same rise of the model's curve (a loading that speeds up stiffens both), and fails
-when the data's slope rises beyond the model's by more than START_Z of the noise.
+taken up). So the start check also runs the toe test (toe.py): the largest rise of the start's
+slope over its first one, beside the same rise of the model's curve (a loading that speeds up
+stiffens both), against the point that a straight start's noise passes 0.5 % of the time.
 """
 
 from __future__ import annotations
@@ -23,12 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bayes_dnlr.inference.checks.toe import NO_TEST, Toe, toe_test
 from bayes_dnlr.standards import ISO_STRAINS, iso527_1_modulus
 
 START_Z = 2.576      # two-sided 1 % quantile of the standard normal: the data's chord this many sd
 #                      from the model's is a start the model does not follow
-TOE_STRAIN = 0.01    # the toe check looks at the start up to this nominal strain (four times the
-#                      chord's upper strain: a seating slack of a few 0.1 %)
 
 
 @dataclass(frozen=True)
@@ -42,8 +41,14 @@ class StartCheck:
     noise_sd: float
     z: float
     times: tuple[float, float]      # s after the loading began: where the chord's strains lie
-    convexity_z: float = math.nan   # the rise of the start's slope over its sd (> 0: a toe)
+    toe_test: Toe = NO_TEST         # the largest rise of the start's slope, and its threshold
     standard: str = "ISO 527-1"     # whose chord: ISO 527-1's, or ASTM D638's on a cropped start
+    compensated: bool = False       # the toe was compensated (data.toe) before this start
+
+    @property
+    def convexity_z(self) -> float:
+        """The largest rise of the start's slope, in sd of the rise (> 0: the slope rises)."""
+        return self.toe_test.z
 
     @property
     def follows(self) -> bool:
@@ -52,8 +57,8 @@ class StartCheck:
 
     @property
     def toe(self) -> bool:
-        """The data's start is convex beyond its noise: a toe."""
-        return self.convexity_z > START_Z
+        """The data's start is convex beyond its noise: a toe (toe.py)."""
+        return self.toe_test.found
 
     @property
     def ok(self) -> bool:
@@ -62,8 +67,9 @@ class StartCheck:
     def to_dict(self) -> dict[str, float | bool | list[float]]:
         return {"data_chord": self.data, "model_chord": self.model, "model_sd": self.model_sd,
                 "noise_sd": self.noise_sd, "z": self.z, "times": list(self.times),
-                "convexity_z": self.convexity_z, "toe": self.toe, "ok": self.ok,
-                "standard": self.standard}
+                "convexity_z": self.convexity_z, "toe_threshold": self.toe_test.threshold,
+                "toe_p": self.toe_test.p, "toe": self.toe, "compensated": self.compensated,
+                "ok": self.ok, "standard": self.standard}
 
 
 @dataclass(frozen=True)
@@ -124,16 +130,18 @@ def chord_noise_sd(nominal_strain: np.ndarray, noise: Noise, method: str) -> flo
 
 def start_check(nominal_strain: np.ndarray, nominal_stress: np.ndarray,
                 model_nominal_stress: np.ndarray, noise: Noise, time: np.ndarray,
-                origin: float) -> StartCheck | None:
+                origin: float, compensated: bool = False) -> StartCheck | None:
     """The check on the loading samples of a test (nominal strain and stress, the model's nominal
     stress of each posterior draw (draws, n) on the same samples, their times and the time the
     loading began); ``noise``: the likelihood's noise on those samples (the stresses the chord is
     computed from are nominal, the noise is on the observable: the two differ by a factor within
-    0.25 % of 1 at these strains). None where the data give no chord (the curve starts past 0.05 %,
-    or never reaches 0.25 %)."""
+    0.25 % of 1 at these strains); ``compensated``: the test's toe was compensated (data.toe), so
+    that a toe found here is what the compensation left. None where the data give no chord (the
+    curve starts past 0.05 %, or never reaches 0.25 %)."""
     data = iso527_1_modulus(nominal_strain, nominal_stress)
     if data.modulus is None:
-        return _astm_check(nominal_strain, nominal_stress, model_nominal_stress, noise, time, origin)
+        return _astm_check(nominal_strain, nominal_stress, model_nominal_stress, noise, time, origin,
+                           compensated)
     chords = np.array([iso527_1_modulus(nominal_strain, m).modulus for m in model_nominal_stress],
                       dtype=float)
     chords = chords[np.isfinite(chords)]
@@ -145,13 +153,13 @@ def start_check(nominal_strain: np.ndarray, nominal_stress: np.ndarray,
     z = (float(data.modulus) - model) / math.hypot(spread, noise_sd)
     return StartCheck(float(data.modulus), model, spread, noise_sd, float(z),
                       chord_times(nominal_strain, time, origin),
-                      convexity(nominal_strain, nominal_stress, noise.sigma0_sq,
-                                np.median(model_nominal_stress, axis=0)))
+                      toe_test(nominal_strain, nominal_stress, np.median(model_nominal_stress, axis=0)),
+                      compensated=compensated)
 
 
 def _astm_check(nominal_strain: np.ndarray, nominal_stress: np.ndarray,
                 model_nominal_stress: np.ndarray, noise: Noise, time: np.ndarray,
-                origin: float) -> StartCheck | None:
+                origin: float, compensated: bool) -> StartCheck | None:
     """Where the curve starts past 0.05 % (a cropped toe), the ASTM D638 window instead: the
     least-squares slope of the data over the samples of its steepest window beside the model
     curves' over the same samples (the data's choice of window biases its slope up by about its
@@ -175,49 +183,8 @@ def _astm_check(nominal_strain: np.ndarray, nominal_stress: np.ndarray,
     t = np.asarray(time, dtype=float)
     return StartCheck(float(data.modulus), model, spread, noise_sd, float(z),
                       (float(t[rows[0]] - origin), float(t[rows[-1]] - origin)),
-                      convexity(nominal_strain, nominal_stress, noise.sigma0_sq,
-                                np.median(model_nominal_stress, axis=0)), "ASTM D638")
-
-
-def convexity(nominal_strain: np.ndarray, nominal_stress: np.ndarray, sigma0_sq: float,
-              model: np.ndarray | None = None) -> float:
-    """How far the curve's slope rises over its start beyond the model's own, in sd of the rise
-    under the measurement noise σ0²: the steepest least-squares slope over windows of consecutive
-    samples (half overlapping) on the first passage up to TOE_STRAIN, less the first window's; the
-    same two windows' rise of the ``model`` curve (driven by the same strain) taken off (NaN with
-    fewer than 8 samples there). A relaxing material's slope only falls (E(t) does), unless the
-    loading speeds up, which the model, driven by the measured strain, follows too: a rise beyond
-    the model's and the noise is a toe. The discrepancy is left out: it models the model's error,
-    and a toe is one; the question here is the data's own shape."""
-    e = np.asarray(nominal_strain, dtype=float)
-    y = np.asarray(nominal_stress, dtype=float)
-    past = np.flatnonzero(e > TOE_STRAIN)
-    n = int(past[0]) if past.size else e.size
-    if n < 8 or not sigma0_sq > 0:
-        return math.nan
-    k = max(4, n // 8)
-    windows = []
-    for a in range(0, n - k + 1, max(1, k // 2)):
-        d = e[a:a + k] - e[a:a + k].mean()
-        ss = float(d @ d)
-        if ss > 0:
-            windows.append((a, d, ss))
-    if len(windows) < 2:
-        return math.nan
-
-    def slope(curve: np.ndarray, w: tuple) -> float:
-        a, d, ss = w
-        return float(d @ (curve[a:a + k] - curve[a:a + k].mean())) / ss
-
-    slopes = [slope(y, w) for w in windows]
-    j = 1 + int(np.argmax(slopes[1:]))
-    rise = slopes[j] - slopes[0]
-    if model is not None:
-        # the data's slope must rise, and rise beyond the model's where the model's rises too (a
-        # model whose slope falls faster than the data's is another misfit, not a toe)
-        m = np.asarray(model, dtype=float)
-        rise -= max(slope(m, windows[j]) - slope(m, windows[0]), 0.0)
-    return rise / math.sqrt(sigma0_sq / windows[0][2] + sigma0_sq / windows[j][2])
+                      toe_test(nominal_strain, nominal_stress, np.median(model_nominal_stress, axis=0)),
+                      "ASTM D638", compensated)
 
 
 def chord_times(nominal_strain: np.ndarray, time: np.ndarray, origin: float) -> tuple[float, float]:
