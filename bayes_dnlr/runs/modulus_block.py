@@ -78,12 +78,10 @@ def _rows(view: Config, data, source: Source, band: Band | None, fit: Mapping[st
 
 
 def _first_turn(data) -> float:
-    """The time of the first turning point of the strain in the window (inf: it never turns)."""
-    from bayes_dnlr.inference.checks.predictive import turning_points
-
-    rows = np.flatnonzero(np.asarray(data.window)[: data.model_end])
-    turns = turning_points(np.asarray(data.strain_input, dtype=float)[rows])
-    return float(np.asarray(data.time, dtype=float)[rows[turns[0]]]) if turns else math.inf
+    """The time of the first peak the window runs past (the one rule, data/cycles.py; inf: the
+    test never turns there)."""
+    k = data.first_peak
+    return math.inf if k is None else float(np.asarray(data.time, dtype=float)[k])
 
 
 def _stored_local(fit: Mapping[str, Any], times: Sequence[float]) -> dict[float, LocalEstimate] | None:
