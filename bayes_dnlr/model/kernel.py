@@ -806,3 +806,16 @@ def stress_shift_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, sigma_s, drivi
     if not ok:
         out[:] = np.nan
     return ok
+
+
+@njit(cache=True, fastmath=_FASTMATH, parallel=True)
+def stress_shift_batch_into(sets, ln_at, driving, grid, out):
+    """``stress_shift_into`` for every row of sets (k, 7) = (E, G, sigma_inf, tau_max, tau_max_R,
+    alpha, sigma_s) with ln_at (k, q-1) (or (k, 0): no per-step temperature shift), rows of
+    ``out`` (k, q), in parallel over rows. Returns the number of invalid rows (NaN)."""
+    bad = np.zeros(sets.shape[0], dtype=np.int64)
+    for r in prange(sets.shape[0]):
+        ok = stress_shift_into(sets[r, 0], sets[r, 1], sets[r, 2], sets[r, 3], sets[r, 4],
+                               sets[r, 5], sets[r, 6], driving, ln_at[r], grid, out[r])
+        bad[r] = 0 if ok else 1
+    return bad.sum()

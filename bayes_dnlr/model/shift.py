@@ -71,30 +71,34 @@ NO_SHIFT = Shift()
 
 
 def log_temperature_shift(temperature: np.ndarray | float, law: TemperatureLaw,
-                          reference_temperature: float | None, Ea: float | None = None,
-                          C1: float | None = None, C2: float | None = None) -> np.ndarray | float:
+                          reference_temperature: float | None, Ea: np.ndarray | float | None = None,
+                          C1: np.ndarray | float | None = None, C2: np.ndarray | float | None = None
+                          ) -> np.ndarray | float:
     """ln a_T at the temperatures ``temperature`` (°C): 0 for ``law`` none or T = T_ref.
 
-    Arrhenius needs Ea (kJ/mol); WLF needs C1 (−) and C2 (K). Returns a float for a float input.
-    Below the WLF singularity (T − T_ref <= −C2) a_T is not defined: inf there.
+    Arrhenius needs Ea (kJ/mol); WLF needs C1 (−) and C2 (K). The arguments broadcast against
+    each other (e.g. temperatures (1, m) and Ea (k, 1) give (k, m)); a float for scalars. Below the
+    WLF singularity (T − T_ref <= −C2) a_T is not defined: inf there.
     """
     if law == "none":
         return 0.0 if np.ndim(temperature) == 0 else np.zeros(np.shape(temperature))
     if reference_temperature is None:
         raise ValueError(f"a temperature shift ({law}) needs reference_temperature (°C)")
     t = np.asarray(temperature, dtype=float)
-    dt = t - float(reference_temperature)
+    t_ref = float(reference_temperature)
     if law == "arrhenius":
         if Ea is None:
             raise ValueError("the Arrhenius shift needs Ea (kJ/mol)")
-        out = (1000.0 * float(Ea) / GAS_CONSTANT) * (1.0 / (t + KELVIN)
-                                                     - 1.0 / (float(reference_temperature) + KELVIN))
+        out = (1000.0 * np.asarray(Ea, dtype=float) / GAS_CONSTANT) * (
+            1.0 / (t + KELVIN) - 1.0 / (t_ref + KELVIN))
     elif law == "wlf":
         if C1 is None or C2 is None:
             raise ValueError("the WLF shift needs C1 and C2 (K)")
-        den = float(C2) + dt
+        dt = t - t_ref
+        den = np.asarray(C2, dtype=float) + dt
         with np.errstate(divide="ignore", invalid="ignore"):
-            out = np.where(den > 0, -LN10 * float(C1) * dt / np.where(den > 0, den, 1.0), np.inf)
+            out = np.where(den > 0, -LN10 * np.asarray(C1, dtype=float) * dt
+                           / np.where(den > 0, den, 1.0), np.inf)
     else:
         raise ValueError(f"unknown temperature law {law!r}; expected arrhenius, wlf or none")
     return float(out) if np.ndim(out) == 0 else out
