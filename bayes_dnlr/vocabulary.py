@@ -15,6 +15,7 @@ import numpy as np
 # the spectrum's exponent, then the shift factor's (model/shift.py): Ea (Arrhenius), C1 and C2
 # (WLF), sigma_s (Eyring).
 SHIFT_PARAMETERS = ("Ea", "C1", "C2", "sigma_s")
+SHIFT_LAW_PARAMETERS = {"arrhenius": ("Ea",), "wlf": ("C1", "C2"), "eyring": ("sigma_s",), "none": ()}
 PARAMETER_NAMES = ("E", "G", "tau_max", "sigma_inf", "tau_max_R", "alpha", *SHIFT_PARAMETERS)
 TENSILE_PARAMETERS = ("E", "G", "tau_max")
 RELAXATION_PARAMETERS = ("sigma_inf", "tau_max_R")

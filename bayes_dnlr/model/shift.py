@@ -29,6 +29,8 @@ from typing import Literal
 
 import numpy as np
 
+from bayes_dnlr.vocabulary import SHIFT_LAW_PARAMETERS
+
 GAS_CONSTANT = 8.314462618          # J/(mol K)
 KELVIN = 273.15                     # 0 °C in K
 LN10 = math.log(10.0)
@@ -39,9 +41,6 @@ StressLaw = Literal["eyring", "none"]
 # stress so far (held while the stress falls), or the overstress σ − σ^r that the modes carry
 Driving = Literal["stress", "peak", "overstress"]
 DRIVING_CODE = {"stress": 0, "peak": 1, "overstress": 2}
-# the parameters of each law (config names, vocabulary.py)
-TEMPERATURE_PARAMETERS = {"arrhenius": ("Ea",), "wlf": ("C1", "C2"), "none": ()}
-STRESS_PARAMETERS = {"eyring": ("sigma_s",), "none": ()}
 
 
 @dataclass(frozen=True)
@@ -64,7 +63,7 @@ class Shift:
     @property
     def parameters(self) -> tuple[str, ...]:
         """The shift's parameters, in the canonical order (Ea; C1, C2; sigma_s)."""
-        return TEMPERATURE_PARAMETERS[self.temperature] + STRESS_PARAMETERS[self.stress]
+        return SHIFT_LAW_PARAMETERS[self.temperature] + SHIFT_LAW_PARAMETERS[self.stress]
 
 
 NO_SHIFT = Shift()

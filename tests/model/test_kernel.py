@@ -97,7 +97,8 @@ def test_prepared_grid_is_linear_in_q():
         levels = m.kernel_args.levels.size
         assert levels < 80
     per_point = (sizes[16000] - sizes[1000]) / 15000
-    assert per_point <= 7 * 8 + 1          # 6 floats and one index per step
+    # 6 floats, ln Δ (the shifted model's reduced steps) and one index per step
+    assert per_point <= 8 * 8 + 1
 
 
 # ------------------------------------------------------- every decay path against Radau
