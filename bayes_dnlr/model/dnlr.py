@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bayes_dnlr.data.conversions import haward_thackray_strain
-from bayes_dnlr.model import kernel, threads
+from bayes_dnlr.model import kernel, reduced_time, threads
 from bayes_dnlr.model.grid import Grid, grid_arrays
 from bayes_dnlr.model.shift import DRIVING_CODE, NO_SHIFT, Shift, log_temperature_shift
 from bayes_dnlr.model.spectrum import tau_scale, weights
@@ -261,7 +261,7 @@ class DNLR:
         (``kernel.stress_into``; a temperature shift at a constant temperature multiplies both
         time constants by a_T) and ln_at None; with it, sets (k, 7) with sigma_s last (inf without
         a stress shift) and ln_at (k, q-1) the ln a_T of each step (k, 0) when folded or none
-        (``kernel.stress_shift_into``).
+        (``reduced_time.stress_shift_into``).
         """
         sets = pack_theta(column, k, self.has_relaxation)
         if self.shift.is_none:
@@ -309,10 +309,10 @@ class DNLR:
             return
         code = DRIVING_CODE[self.shift.driving]
         if threads.parallel_allowed():
-            kernel.stress_shift_batch_into(sets, ln_at, code, self._kernel_args, out)
+            reduced_time.stress_shift_batch_into(sets, ln_at, code, self._kernel_args, out)
         else:
             for r, row in enumerate(sets):
-                kernel.stress_shift_into(*row, code, ln_at[r], self._kernel_args, out[r])
+                reduced_time.stress_shift_into(*row, code, ln_at[r], self._kernel_args, out[r])
 
     def jacobian(self, params: Mapping[str, float], names: Sequence[str]) -> np.ndarray:
         """∂σ/∂u (q, len(names)) at ``params`` by central differences, u = ln β for the

@@ -19,7 +19,7 @@ Grid data (``DNLR.kernel_args``, a ``Grid`` named tuple built by ``grid_arrays``
     levels     float64 (n_t+n_r,) the level step lengths Δ_L, tensile levels first
     p, shape   float64 (N,)      the weights p_j at the exponent alpha0 = ½ and the spectrum shape
     log_shape                    tau_j/tau_max and its ln (eq. 12-14); other exponents alpha
-    alpha0                       (p_j ∝ tau_j^alpha) are computed per call (``_weights``)
+    alpha0                       (p_j ∝ tau_j^alpha) are computed per call (``mode_weights``)
     n_tensile, n_levels_t, n_levels_r, exact_t, exact_r, h0, d_min_t, d_min_r: the tensile step
                                  count, level counts and kinds per phase, h_0 and the shortest
                                  step of each phase
@@ -33,18 +33,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from bayes_dnlr.model.kernel import (
-    DE,
-    DH,
-    DT,
-    EYRING_END,
-    EYRING_STEP,
-    H1,
-    IDT,
-    LATTICE_BITS,
-    RHO,
-    X_RELAXED,
-)
+from bayes_dnlr.model.kernel import DE, DH, DT, H1, IDT, RHO, X_RELAXED
+from bayes_dnlr.model.reduced_time import EYRING_END, EYRING_STEP, LATTICE_BITS
 
 LEVEL_SPACING = 0.005   # ln(Δ_L+1/Δ_L) of quantized levels: |ρ|/Δ_L <= 0.0025, |ρ/tau| <= 0.0025 x
 LEVEL_RANGE = 2.0       # only steps up to 2x the shortest of their phase get a level: active modes

@@ -23,19 +23,19 @@ are grouped once per grid into *levels* (model/grid.py): exact levels share thei
 once per call; a step on a quantized level Δ_L + ρ takes a = a_L·exp(-ρ/tau) by a short
 polynomial; the few others a full exp.
 
-exp is computed by ``_decay``, an inlined polynomial (Cody-Waite reduction, degree-12 Estrin,
+exp is computed by ``decay``, an inlined polynomial (Cody-Waite reduction, degree-12 Estrin,
 2 ulp) that the compiler vectorises over modes (llvmlite has no SVML: a libm exp costs 10-15 ns).
 The same routines serve ``integrate`` and ``stress_into``, so both agree to rounding.
 
 The grid (``DNLR.kernel_args``) is a ``grid.Grid`` named tuple; its step table's columns are DT,
 IDT, DE, DH, H1, RHO below. Its weights p_j are those of eq. 12 (alpha0 = ½); other exponents
-alpha (p_j ∝ tau_j^alpha) are computed per call (``_weights``).
+alpha (p_j ∝ tau_j^alpha) are computed per call (``mode_weights``).
 
 The derivatives with respect to ln(tau_max) and ln(tau_max_R) are carried forward-mode in
 ``integrate`` (exact): d a/d ln tau = x a, d φ/d ln tau = φ - a.
 
-All njit functions stay in this one module: numba's on-disk cache does not notice changes in a
-helper imported from another module (inference/posterior/fused.py: ``numba_cache.depend_on``).
+numba's on-disk cache does not notice changes in a helper imported from another module: modules
+whose njit functions call these (reduced_time.py, fused.py) key them on this file (``depend_on``).
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ TINY = 1.0e-200         # states below this are flushed to zero (denormals are s
 DT, IDT, DE, DH, H1, RHO = 0, 1, 2, 3, 4, 5    # the columns of Grid.steps (model/grid.py)
 
 # no "contract" (FMA): compiled and cache-loaded code fused differently, so first runs were 1 ulp off
-_FASTMATH = {"reassoc", "nsz"}
+FASTMATH = {"reassoc", "nsz"}
 
 _LOG2E = 1.4426950408889634
 _LN2_HI = 6.93147180369123816490e-01    # 0x3fe62e42fee00000: n·_LN2_HI is exact
@@ -71,8 +71,8 @@ _TAB_EXACT = 1      # (a_L, p tau (1 - a_L)/Δ_L): stress on exact levels
 _TAB_QUANT = 2      # (a_L, p tau (1 - a_L), p tau a_L): stress on quantized levels
 
 
-@njit(cache=True, fastmath=_FASTMATH, inline="always")
-def _decay(x):
+@njit(cache=True, fastmath=FASTMATH, inline="always")
+def decay(x):
     """(exp(-x), 1 - exp(-x)) for 0 <= x <= 40, to 2 and 4 ulp, branch-free (vectorises).
 
     x = n ln2 - r, |r| <= ln2/2; Q(r) = expm1(r)/r, degree 12 by Estrin; exp(-x) = 2^-n (1 + r Q),
@@ -93,7 +93,7 @@ def _decay(x):
     return a, om
 
 
-@njit(cache=True, fastmath=_FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def _rho_powers(rho):
     """Coefficients of 1 - exp(-ρ/tau) = Σ_{m=1..6} c_m (1/tau)^m, c_m = -(-ρ)^m/m!."""
     c1 = rho
@@ -105,7 +105,7 @@ def _rho_powers(rho):
     return c1, c2, c3, c4, c5, c6
 
 
-@njit(cache=True, fastmath=_FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def _one_minus_exp_small(it, c1, c2, c3, c4, c5, c6):
     """1 - exp(-z), z = ρ·it, by Horner in it with the step's coefficients (``_rho_powers``).
 
@@ -115,12 +115,12 @@ def _one_minus_exp_small(it, c1, c2, c3, c4, c5, c6):
     return it * (c1 + it * (c2 + it * (c3 + it * (c4 + it * (c5 + it * c6)))))
 
 
-@njit(cache=True, fastmath=_FASTMATH, inline="always")
-def _flush(v):
+@njit(cache=True, fastmath=FASTMATH, inline="always")
+def flush_tiny(v):
     return v if abs(v) > TINY else 0.0
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@njit(cache=True, fastmath=FASTMATH)
 def _level_tables(lev, itau, ptau, kind):
     """Decays of every level for the active modes, x = min(Δ_L/tau_k, X_RELAXED): three (levels,
     modes) tables whose content depends on ``kind`` (_TAB_DECAY, _TAB_EXACT, _TAB_QUANT)."""
@@ -132,7 +132,7 @@ def _level_tables(lev, itau, ptau, kind):
     for m in range(nl):
         d = lev[m]
         for k in range(nk):
-            a, om = _decay(min(d * itau[k], X_RELAXED))
+            a, om = decay(min(d * itau[k], X_RELAXED))
             t1[m, k] = a
             t2[m, k] = om
         if kind == _TAB_EXACT:
@@ -161,8 +161,8 @@ class PhaseTables(NamedTuple):
     t3: np.ndarray
 
 
-@njit(cache=True, fastmath=_FASTMATH)
-def _weights(grid, alpha):
+@njit(cache=True, fastmath=FASTMATH)
+def mode_weights(grid, alpha):
     """p_j = (tau_j/tau_max)^alpha / Σ_k (tau_k/tau_max)^alpha (eq. 12 with the exponent alpha):
     the grid's own p at its exponent alpha0 (so that results at ½ are the paper's bit for bit),
     else computed, the largest term scaled to 1 (no overflow for any alpha)."""
@@ -182,7 +182,7 @@ def _weights(grid, alpha):
     return w
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@njit(cache=True, fastmath=FASTMATH)
 def _phase_tables(grid, p, tau_max, relaxation, for_stress):
     """Relaxed-mode count, active spectrum and level tables of one phase (relaxation: False
     tensile, True relaxation; for_stress: False gives the _TAB_DECAY tables of integrate, True
@@ -221,7 +221,7 @@ _BLOCK = 32     # steps whose decays integrate computes in one call
 _FLAGS, _STEP0 = np.array([False, True]), np.zeros(1, np.int64)  # run-time, not literal: docs/performance.md
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@njit(cache=True, fastmath=FASTMATH)
 def _block_decays(i0, i1, grid, itau, ta, tom, a_out, om_out):
     """(a, 1 - a) of steps i0..i1-1 (rows 0.. of a_out, om_out) for the active modes: from the
     step's level m (tables a_L, 1 - a_L, with the ρ correction) or by a full exp (m < 0)."""
@@ -244,14 +244,14 @@ def _block_decays(i0, i1, grid, itau, ta, tom, a_out, om_out):
         else:
             d = fg[i, DT]
             for k in range(itau.size):
-                a, om = _decay(min(d * itau[k], X_RELAXED))
+                a, om = decay(min(d * itau[k], X_RELAXED))
                 a_out[b, k] = a
                 om_out[b, k] = om
 
 
 # ---------------------------------------------------------------- one parameter set: the stress
 
-@njit(cache=True, fastmath=_FASTMATH)
+@njit(cache=True, fastmath=FASTMATH)
 def _stress_phase(grid, i0, i1, exact, tabs, e_mod, g_h, s_base, D, out):
     """Advance the active states D over steps i0..i1-1 and write out[i+1]:
     w = E Δε - g_h Δh, σ = g_h h1 + s_base + spt w/Δ + Σ D, with D <- a D + b w per mode.
@@ -299,7 +299,7 @@ def _stress_phase(grid, i0, i1, exact, tabs, e_mod, g_h, s_base, D, out):
                 s2 += v
                 v = ta[m3, k] * v + tb[m3, k] * w3
                 s3 += v
-                D[k] = _flush(v)
+                D[k] = flush_tiny(v)
             out[i + 1] = g_h * fg[i, H1] + s_base + spt * w0 * fg[i, IDT] + s0
             out[i + 2] = g_h * fg[i + 1, H1] + s_base + spt * w1 * fg[i + 1, IDT] + s1
             out[i + 3] = g_h * fg[i + 2, H1] + s_base + spt * w2 * fg[i + 2, IDT] + s2
@@ -313,7 +313,7 @@ def _stress_phase(grid, i0, i1, exact, tabs, e_mod, g_h, s_base, D, out):
         flush = (j & 3) == 0
         if exact:
             for k in range(nk):
-                v = _flush(ta[m, k] * D[k] + tb[m, k] * w)
+                v = flush_tiny(ta[m, k] * D[k] + tb[m, k] * w)
                 D[k] = v
                 s += v
         elif m >= 0:
@@ -322,7 +322,7 @@ def _stress_phase(grid, i0, i1, exact, tabs, e_mod, g_h, s_base, D, out):
                 for k in range(nk):
                     u = _one_minus_exp_small(itau[k], c1, c2, c3, c4, c5, c6)
                     a_l = ta[m, k]
-                    v = _flush((a_l - a_l * u) * D[k] + (tb[m, k] + tc[m, k] * u) * wi)
+                    v = flush_tiny((a_l - a_l * u) * D[k] + (tb[m, k] + tc[m, k] * u) * wi)
                     D[k] = v
                     s += v
             else:
@@ -335,14 +335,14 @@ def _stress_phase(grid, i0, i1, exact, tabs, e_mod, g_h, s_base, D, out):
         else:
             d = fg[j, DT]
             for k in range(nk):
-                a, om = _decay(min(d * itau[k], X_RELAXED))
-                v = _flush(a * D[k] + ptau[k] * om * wi)
+                a, om = decay(min(d * itau[k], X_RELAXED))
+                v = flush_tiny(a * D[k] + ptau[k] * om * wi)
                 D[k] = v
                 s += v
         out[j + 1] = g_h * fg[j, H1] + s_base + spt * wi + s
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@njit(cache=True, fastmath=FASTMATH)
 def stress_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, grid, out):
     """True stress of one parameter set at every sample, written into ``out`` (q,). Returns True,
     or False (``out`` filled with NaN) when tau_max, or tau_max_R with a relaxation phase, is not
@@ -368,7 +368,7 @@ def stress_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, grid, out):
             alpha > -np.inf and alpha < np.inf):
         out[:] = np.nan
         return False
-    p = _weights(grid, alpha)
+    p = mode_weights(grid, alpha)
     out[0] = G * grid.h0
     D = np.zeros(n)
     j0t = 0
@@ -394,7 +394,7 @@ def stress_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, grid, out):
     return True
 
 
-@njit(cache=True, fastmath=_FASTMATH, parallel=True)
+@njit(cache=True, fastmath=FASTMATH, parallel=True)
 def stress_batch_into(theta, grid, out):
     """``stress_into`` for every row of theta (k, 6) = (E, G, sigma_inf, tau_max, tau_max_R, alpha),
     rows of ``out`` (k, q), in parallel over rows (numba threads). Returns the number of rows
@@ -410,7 +410,7 @@ def stress_batch_into(theta, grid, out):
 
 # ------------------------------------------------ unit responses and their derivatives (basis)
 
-@njit(cache=True, fastmath=_FASTMATH)
+@njit(cache=True, fastmath=FASTMATH)
 def _integrate_phase(grid, tabs, relaxation, i0, i1, p, cw, states, want_grad, out, g_own,
                      g_other, g_alpha, av, omv):
     """Advance the unit-response states of the active modes over steps i0..i1-1 of one phase and
@@ -467,18 +467,18 @@ def _integrate_phase(grid, tabs, relaxation, i0, i1, p, cw, states, want_grad, o
                 a = av[b, k]
                 x_a = d * itau[k] * a
                 pdphi = ptau[k] * omv[b, k] * idt - pk[k] * a
-                dA[k] = _flush(a * dA[k] + x_a * A[k] + pdphi * de)
+                dA[k] = flush_tiny(a * dA[k] + x_a * A[k] + pdphi * de)
                 ga += dA[k]
                 if relaxation:
-                    dB[k] = _flush(a * dB[k] + x_a * B[k])
-                    dC[k] = _flush(a * dC[k] + x_a * (C[k] - pk[k]))
-                    fA[k] = _flush(a * fA[k])
-                    fB[k] = _flush(a * fB[k])
+                    dB[k] = flush_tiny(a * dB[k] + x_a * B[k])
+                    dC[k] = flush_tiny(a * dC[k] + x_a * (C[k] - pk[k]))
+                    fA[k] = flush_tiny(a * fA[k])
+                    fB[k] = flush_tiny(a * fB[k])
                     gc += dC[k]
                     oa += fA[k]
                     ob += fB[k]
                 else:
-                    dB[k] = _flush(a * dB[k] + x_a * (B[k] - pk[k] * h0) - pdphi * dh)
+                    dB[k] = flush_tiny(a * dB[k] + x_a * (B[k] - pk[k] * h0) - pdphi * dh)
                 gb += dB[k]
             g_own[i + 1, 0] = ga
             g_own[i + 1, 1] = gb
@@ -490,9 +490,9 @@ def _integrate_phase(grid, tabs, relaxation, i0, i1, p, cw, states, want_grad, o
             for k in range(nk):
                 a = av[b, k]
                 oma = omv[b, k]
-                A[k] = _flush(a * A[k] + ptau[k] * oma * idt * de)
-                B[k] = _flush(a * B[k])
-                C[k] = _flush(a * C[k] + pk[k] * oma)
+                A[k] = flush_tiny(a * A[k] + ptau[k] * oma * idt * de)
+                B[k] = flush_tiny(a * B[k])
+                C[k] = flush_tiny(a * C[k] + pk[k] * oma)
                 sa += A[k]
                 sb += B[k]
                 sc += C[k]
@@ -500,8 +500,8 @@ def _integrate_phase(grid, tabs, relaxation, i0, i1, p, cw, states, want_grad, o
             for k in range(nk):
                 a = av[b, k]
                 c = ptau[k] * omv[b, k] * idt
-                A[k] = _flush(a * A[k] + c * de)
-                B[k] = _flush(a * B[k] + pk[k] * (h1 - a * h0) - c * dh)
+                A[k] = flush_tiny(a * A[k] + c * de)
+                B[k] = flush_tiny(a * B[k] + pk[k] * (h1 - a * h0) - c * dh)
                 sa += A[k]
                 sb += B[k]
         out[i + 1, 0] = sa
@@ -527,7 +527,7 @@ def _integrate_phase(grid, tabs, relaxation, i0, i1, p, cw, states, want_grad, o
             g_alpha[i + 1, 2] = cc
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@njit(cache=True, fastmath=FASTMATH)
 def integrate(tau_max, tau_max_R, alpha, grid, want_grad, out, grad_t, grad_r, grad_a):
     """Integrate all modes over the whole record; write ΣA, ΣB, ΣC per sample into ``out`` (q, 3).
 
@@ -536,7 +536,7 @@ def integrate(tau_max, tau_max_R, alpha, grid, want_grad, out, grad_t, grad_r, g
     constants must be finite and positive, alpha finite (checked by the caller).
     """
     fg = grid.steps
-    p = _weights(grid, alpha)
+    p = mode_weights(grid, alpha)
     shape = grid.shape
     n = p.size
     n_steps = fg.shape[0]
@@ -597,225 +597,3 @@ def integrate(tau_max, tau_max_R, alpha, grid, want_grad, out, grad_t, grad_r, g
     states = (A[j0:], B[j0:], C[j0:], rA[j0:], rB[j0:], rC[j0:], gA[j0:], gB[j0:])
     _integrate_phase(grid, tabs, True, n_tensile, n_steps, p, cw, states, want_grad, out, grad_r,
                      grad_t, grad_a, av, omv)
-
-
-# ------------------------------------------- the shifted model: reduced time (model/shift.py)
-
-_LN2 = 0.6931471805599453
-_LN_XR = math.log(X_RELAXED)
-LOG_SHIFT_LIMIT = 700.0     # |ln(g/tau_max)| is clipped here (e^700: every mode relaxed, or none)
-DRIVE_STRESS, DRIVE_PEAK, DRIVE_OVERSTRESS = 0, 1, 2    # shift.DRIVING_CODE
-LATTICE_BITS = 8            # K = 256 lattice points per mode spacing (model/grid.py decay_lattice)
-
-
-EYRING_STEP = 1.0 / 32.0    # node spacing of the table of ln(x/sinh x) (model/grid.py)
-EYRING_END = 128.0          # the table's end; beyond it ln(x/sinh x) = ln(2x) - x to 1e-111
-
-
-@njit(cache=True, fastmath=_FASTMATH, inline="always")
-def _log_eyring(x, table):
-    """ln(x / sinh x) for x >= 0 (model/shift.py ``log_stress_shift``): cubic Hermite between the
-    nodes of ``table`` (values and slopes at k·EYRING_STEP; error below 1e-11), ln(2x) - x beyond
-    EYRING_END."""
-    if x >= EYRING_END:
-        return math.log(2.0 * x) - x
-    u = x * (1.0 / EYRING_STEP)
-    k = np.int64(u)
-    t = u - k
-    f0 = table[k, 0]
-    f1 = table[k + 1, 0]
-    d0 = table[k, 1] * EYRING_STEP
-    d1 = table[k + 1, 1] * EYRING_STEP
-    # Hermite: f0 + t d0 + t² (3Δ - 2 d0 - d1) + t³ (d0 + d1 - 2Δ), Δ = f1 - f0
-    df = f1 - f0
-    return f0 + t * (d0 + t * ((3.0 * df - 2.0 * d0 - d1) + t * (d0 + d1 - 2.0 * df)))
-
-
-@njit(cache=True, fastmath=_FASTMATH)
-def _shift_phase(grid, i0, i1, ps, cps, ish, tm, relax, e_mod, g_h, s_base, inv_ss, driving,
-                 ln_at, D, peak, out):
-    """Advance the states D over steps i0..i1-1 of one phase in reduced time; write out[i+1].
-
-    Step i has the reduced length g = Δ / (a_T a_σ): ln a_T from ``ln_at`` (per step; none when
-    empty: a constant temperature is folded into tm by the caller), ln a_σ = ln(x/sinh x) of the
-    driving stress at the step's middle, x = |s| inv_ss, extrapolated from the two last samples
-    (``stress_shift_into``). Each mode takes the exact update of a step whose input is linear in
-    reduced time, D <- a D + p tau (1 - a) w/g with a = exp(-x_j), x_j = g/tau_j (ps = p·tau/tau_max).
-
-    Decays from the grid's lattice (model/grid.py ``decay_lattice``): tabulated at
-    x = X_RELAXED e^{-k h}, h = ln(tau_{j+1}/tau_j)/K, so that one offset k_0 places every mode
-    (k_j = k_0 + K j) and the modes read one contiguous row. The step's x_j lie e^{-ε} off the
-    lattice by the same |ε| <= h/2 for every mode; a = a_L (1 - t), t = 1 - e^{-δx} with
-    δx = x_j (1 - e^{-ε}) (|δx| <= X_RELAXED h/2), by its cubic (absolute error of a below 1e-13).
-    Modes past the lattice's slow end (x < 1e-9) take a = 1 - x + x²/2. Modes j < j1
-    (x_j > X_RELAXED) are quasi-static, D_j = p_j tau_j w/g, summed by the prefix sums cps in
-    O(1); a mode that leaves that set starts from its quasi-static state of the step before. On
-    return every D_j holds its state. Returns (ok, the peak driving stress); not ok when the stress
-    stopped being finite.
-    """
-    fg = grid.steps
-    ldt = grid.log_dt
-    eyring = grid.eyring
-    tab_a = grid.lattice_a
-    tab_o = grid.lattice_om
-    kk_n = tab_a.shape[0]           # K = 2^LATTICE_BITS lattice points per mode spacing
-    n_cols = tab_a.shape[1]
-    h = grid.lattice_step
-    inv_h = 1.0 / h
-    ls0 = grid.log_shape[0]
-    n = ps.size
-    have_at = ln_at.size > 0
-    ln_tm = math.log(tm)
-    j0 = 0
-    w_prev = 0.0
-    g_prev = 1.0
-    for i in range(i0, i1):
-        dt = fg[i, DT]
-        if relax:
-            w = e_mod * fg[i, DE]
-        else:
-            w = e_mod * fg[i, DE] - g_h * fg[i, DH]
-        # the driving stress at the step's middle, from samples i-1 and i (same relaxed state)
-        cur = out[i]
-        if driving == DRIVE_OVERSTRESS:
-            cur -= s_base if relax else g_h * (fg[i, H1] - fg[i, DH])
-        mid = cur
-        if i > 0:
-            before = out[i - 1]
-            if driving == DRIVE_OVERSTRESS:
-                before -= s_base if relax else g_h * (fg[i - 1, H1] - fg[i - 1, DH])
-            mid = cur + 0.5 * (cur - before) * dt / fg[i - 1, DT]
-        if driving == DRIVE_PEAK:
-            peak = max(peak, abs(mid))
-            mid = peak
-        ln_a = _log_eyring(abs(mid) * inv_ss, eyring) if inv_ss > 0.0 else 0.0
-        if have_at:
-            ln_a += ln_at[i]
-        lgt = ldt[i] - ln_tm - ln_a          # ln(g/tau_max); x_j = (g/tau_max)/shape_j
-        if not (lgt > -np.inf and lgt < np.inf):
-            return False, peak
-        lgt = min(max(lgt, -LOG_SHIFT_LIMIT), LOG_SHIFT_LIMIT)
-        gt = _decay(-lgt)[0]
-        g = gt * tm
-        # the lattice: mode j at k_j = k0 + K j, u_j = ln(X_RELAXED/x_j) = u0 + j K h
-        u0 = _LN_XR - lgt + ls0
-        k0 = math.floor(u0 * inv_h + 0.5)
-        eps = k0 * h - u0
-        m = eps * (1.0 - eps * (0.5 - eps * ((1.0 / 6.0) - eps * (1.0 / 24.0))))   # 1 - e^{-ε}
-        ki = np.int64(k0)
-        j1 = 0 if ki >= 0 else min(n, (kk_n - 1 - ki) >> LATTICE_BITS)
-        kf = ki + kk_n * j1                  # >= 0: the first active mode's lattice index
-        n1 = kf >> LATTICE_BITS
-        kap = kf & (kk_n - 1)
-        j2 = min(n, j1 + max(0, n_cols - n1))
-        if j1 < j0:     # modes that leave the quasi-static set: their state of the step before
-            c = tm * w_prev / g_prev
-            for j in range(j1, j0):
-                D[j] = ps[j] * c
-        c = tm * w / g
-        s = 0.0
-        # unsigned indices: numba then tests no negative index (wraparound) and the loops vectorise
-        ju1 = np.uint64(j1)
-        ju2 = np.uint64(j2)
-        off = np.uint64(n1) - ju1       # (mod 2^64) the lattice column of mode j is off + j
-        row = np.uint64(kap)
-        for j in range(ju1, ju2):
-            a_l = tab_a[row, off + j]
-            dx = gt * ish[j] * m
-            t = dx * (1.0 - dx * (0.5 - dx * (1.0 / 6.0)))
-            v = _flush((a_l - a_l * t) * D[j] + ps[j] * (tab_o[row, off + j] + a_l * t) * c)
-            D[j] = v
-            s += v
-        for j in range(ju2, np.uint64(n)):
-            x = gt * ish[j]
-            om = x - 0.5 * x * x
-            v = _flush((1.0 - om) * D[j] + ps[j] * om * c)
-            D[j] = v
-            s += v
-        j0 = j1
-        w_prev = w
-        g_prev = g
-        out[i + 1] = (s_base if relax else g_h * fg[i, H1]) + cps[j1] * c + s
-    c = tm * w_prev / g_prev
-    for j in range(j0):
-        D[j] = ps[j] * c
-    return True, peak
-
-
-@njit(cache=True, fastmath=_FASTMATH)
-def stress_shift_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, sigma_s, driving, ln_at, grid,
-                      out):
-    """True stress of one parameter set of the shifted model (model/shift.py), into ``out`` (q,).
-
-    Each mode relaxes in reduced time, dψ = dt/(a_T a_σ): ``ln_at`` (q-1,) holds ln a_T of each
-    step (a temperature logged per row), or is empty (no temperature shift, or a constant one that
-    the caller folds into tau_max and tau_max_R); a_σ = x/sinh x with x = |s|/sigma_s, s the driving
-    stress (``driving``: DRIVE_STRESS the true stress, DRIVE_PEAK the largest so far, DRIVE_OVERSTRESS
-    σ − σ^r); sigma_s = inf switches it off. a_σ is taken at the middle of each step from the
-    two last samples' stress, extrapolated (s_{i+½} = s_i + ½ (s_i − s_{i−1}) Δ_i/Δ_{i−1}): the step
-    stays an exact exponential in reduced time and the lag's error is second order in Δ.
-
-    Returns True, or False (``out`` NaN) for invalid time constants, alpha or sigma_s. Without a
-    relaxation phase sigma_inf and tau_max_R are ignored. Same grid as ``stress_into``; every step
-    takes its own decays (no level tables: the reduced step depends on the stress).
-    """
-    fg = grid.steps
-    shape = grid.shape
-    n = shape.size
-    n_steps = fg.shape[0]
-    nt = grid.n_tensile
-    relax = nt < n_steps
-    if not (tau_max > 0.0 and tau_max < np.inf) or (
-            relax and not (tau_max_R > 0.0 and tau_max_R < np.inf)) or not (
-            alpha > -np.inf and alpha < np.inf) or not (sigma_s > 0.0) or (
-            ln_at.size > 0 and ln_at.size != n_steps):
-        out[:] = np.nan
-        return False
-    if ln_at.size > 0:
-        for i in range(n_steps):
-            if not (ln_at[i] > -np.inf and ln_at[i] < np.inf):
-                out[:] = np.nan
-                return False
-    p = _weights(grid, alpha)
-    ps = np.empty(n)
-    ish = np.empty(n)
-    cps = np.zeros(n + 1)       # prefix sums of p_j tau_j / tau_max
-    for j in range(n):
-        ps[j] = p[j] * shape[j]
-        ish[j] = 1.0 / shape[j]
-        cps[j + 1] = cps[j] + ps[j]
-    inv_ss = 1.0 / sigma_s if sigma_s < np.inf else 0.0
-    out[0] = G * grid.h0
-    D = np.zeros(n)
-    peak = 0.0
-    ok = True
-    if nt > 0:
-        ok, peak = _shift_phase(grid, 0, nt, ps, cps, ish, tau_max, False, E, G, 0.0, inv_ss,
-                                driving, ln_at, D, peak, out)
-    if not ok:
-        out[:] = np.nan
-        return False
-    if not relax:
-        return True
-    # the switch (section 4.1): D_j = σ_j - p_j σ_inf (every state is held by _shift_phase)
-    h_sw = fg[nt - 1, H1] if nt > 0 else grid.h0
-    for j in range(n):
-        D[j] += p[j] * (G * h_sw - sigma_inf)
-    ok, peak = _shift_phase(grid, nt, n_steps, ps, cps, ish, tau_max_R, True, E, 0.0, sigma_inf,
-                            inv_ss, driving, ln_at, D, peak, out)
-    if not ok:
-        out[:] = np.nan
-    return ok
-
-
-@njit(cache=True, fastmath=_FASTMATH, parallel=True)
-def stress_shift_batch_into(sets, ln_at, driving, grid, out):
-    """``stress_shift_into`` for every row of sets (k, 7) = (E, G, sigma_inf, tau_max, tau_max_R,
-    alpha, sigma_s) with ln_at (k, q-1) (or (k, 0): no per-step temperature shift), rows of
-    ``out`` (k, q), in parallel over rows. Returns the number of invalid rows (NaN)."""
-    bad = np.zeros(sets.shape[0], dtype=np.int64)
-    for r in prange(sets.shape[0]):
-        ok = stress_shift_into(sets[r, 0], sets[r, 1], sets[r, 2], sets[r, 3], sets[r, 4],
-                               sets[r, 5], sets[r, 6], driving, ln_at[r], grid, out[r])
-        bad[r] = 0 if ok else 1
-    return bad.sum()
