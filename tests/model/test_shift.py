@@ -231,3 +231,14 @@ def test_a_shifted_model_has_no_basis_and_checks_its_inputs():
     with pytest.raises(ValueError, match="sigma_s"):
         DNLR(t, e, shift=EYRING).stress({**PARAMS, "sigma_s": -1.0})
     assert DNLR(t, e, shift=EYRING).parameter_names() == ["E", "G", "tau_max", "sigma_s"]
+
+
+def test_relaxation_modulus_at_another_temperature_is_the_shifted_curve():
+    from bayes_dnlr.model.modulus import relaxation_modulus
+
+    at = temperature_shift(40.0, "arrhenius", 20.0, Ea=200.0)     # faster at 40 °C
+    t = np.array([2.0, 20.0, 100.0])
+    hot = relaxation_modulus(t, 1000.0, 5.0, 300.0, shift_factor=at)
+    assert np.allclose(hot, relaxation_modulus(t / at, 1000.0, 5.0, 300.0), rtol=1e-13)
+    assert np.array_equal(relaxation_modulus(t, 1000.0, 5.0, 300.0, shift_factor=1.0),
+                          relaxation_modulus(t, 1000.0, 5.0, 300.0))
