@@ -242,3 +242,15 @@ def test_relaxation_modulus_at_another_temperature_is_the_shifted_curve():
     assert np.allclose(hot, relaxation_modulus(t / at, 1000.0, 5.0, 300.0), rtol=1e-13)
     assert np.array_equal(relaxation_modulus(t, 1000.0, 5.0, 300.0, shift_factor=1.0),
                           relaxation_modulus(t, 1000.0, 5.0, 300.0))
+
+
+def test_design_sensitivities_of_the_shifted_model_are_the_exact_ones_without_stress():
+    from bayes_dnlr.workflows.design import fisher
+
+    t, e = smooth_ramp(200)
+    params = {**PARAMS, "sigma_s": 1e12}               # x = |σ|/sigma_s ~ 1e-11: a_σ = 1
+    mask = np.ones(t.size, dtype=bool)
+    names = ["E", "G", "tau_max"]
+    shifted = fisher._sensitivities(DNLR(t, e, shift=EYRING), params, names, mask, False)
+    exact = fisher._sensitivities(DNLR(t, e), PARAMS, names, mask, False)
+    assert np.max(np.abs(shifted - exact), axis=0).max() < 1e-7 * np.abs(exact).max()

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from bayes_dnlr.config import ConfigError
 from bayes_dnlr.inference.discrepancy import gp
 from bayes_dnlr.inference.discrepancy.axis import make_axis
 from bayes_dnlr.inference.lsq.sensitivity import correlation, covariance, sensitivity_matrix
@@ -141,8 +142,8 @@ def predict(candidate: Candidate, draws: Draws, free: Sequence[str], modes: int,
     """The predicted sd, Err, ρ, Δ̃, D and A of ``candidate`` averaged over ``draws`` (``shift``:
     a stress shift of the model; a planned test has no temperature, so no temperature shift)."""
     if shift.temperature != "none":
-        raise ValueError("design plans tests without a temperature: a temperature shift "
-                         "(model.shift.temperature) cannot be predicted; leave it out")
+        raise ConfigError("model.shift.temperature: design plans tests without a temperature, so a "
+                          "temperature shift cannot be predicted; leave it out (a stress shift can)")
     pred = Prediction(candidate, total_points=candidate.total_points)
     pred.feasible = ((max_duration is None or candidate.duration <= max_duration * (1 + 1e-12))
                      and (max_points is None or candidate.total_points <= max_points))
