@@ -20,6 +20,10 @@ _UNITS: dict[str, tuple[str, float]] = {
     "microstrain": ("strain", 1e-6),
     "mm": ("length", 1.0), "m": ("length", 1e3), "µm": ("length", 1e-3), "um": ("length", 1e-3),
     "in": ("length", 25.4), "cm": ("length", 10.0),
+    # a temperature column (data.temperature): °C or kelvin, converted by an offset, not a factor
+    # (data/temperature.py)
+    "°c": ("temperature", 1.0), "ºc": ("temperature", 1.0), "degc": ("temperature", 1.0),
+    "k": ("temperature", 1.0),
 }
 ROLE_KIND = {"time": "time", "force": "force", "stress": "stress", "eps11": "strain", "eps22": "strain",
              "strain": "strain", "extension": "length"}

@@ -11,8 +11,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# The model parameters in the canonical (config) order: tensile, then relaxation (paper eq. 17-18).
-PARAMETER_NAMES = ("E", "G", "tau_max", "sigma_inf", "tau_max_R", "alpha")
+# The model parameters in the canonical (config) order: tensile, then relaxation (paper eq. 17-18),
+# the spectrum's exponent, then the shift factor's (model/shift.py): Ea (Arrhenius), C1 and C2
+# (WLF), sigma_s (Eyring).
+SHIFT_PARAMETERS = ("Ea", "C1", "C2", "sigma_s")
+SHIFT_LAW_PARAMETERS = {"arrhenius": ("Ea",), "wlf": ("C1", "C2"), "eyring": ("sigma_s",), "none": ()}
+PARAMETER_NAMES = ("E", "G", "tau_max", "sigma_inf", "tau_max_R", "alpha", *SHIFT_PARAMETERS)
 TENSILE_PARAMETERS = ("E", "G", "tau_max")
 RELAXATION_PARAMETERS = ("sigma_inf", "tau_max_R")
 # The spectrum's exponent, p_j ∝ tau_j^alpha (model/spectrum.py): ½ (eq. 12) unless a config gives
@@ -27,6 +31,8 @@ NONLINEAR = ("tau_max", "tau_max_R", SPECTRUM_EXPONENT)
 # (model.Basis); the time constants set the spectrum and are fitted in log space.
 LINEAR_COLUMN = {"E": 0, "G": 1, "sigma_inf": 2}
 TIME_CONSTANTS = ("tau_max", "tau_max_R")
+# the parameters optimisers move in log space (they span decades)
+LOG_COORDINATES = (*TIME_CONSTANTS, "sigma_s")
 
 # The noise parameters of one test: the measurement noise and the model discrepancy's amplitude
 # and correlation length (docs/model-error.md).
@@ -50,6 +56,10 @@ QUANTITIES = {
     "sigma_inf": Quantity("MPa", "σ<sub>∞</sub>", r"$\sigma_\infty$"),
     "tau_max_R": Quantity("s", "τ<sup>R</sup><sub>max</sub>", r"$\tau^R_{max}$"),
     "alpha": Quantity("-", "α", r"$\alpha$"),
+    "Ea": Quantity("kJ/mol", "E<sub>a</sub>", r"$E_a$"),
+    "C1": Quantity("-", "C<sub>1</sub>", r"$C_1$"),
+    "C2": Quantity("K", "C<sub>2</sub>", r"$C_2$"),
+    "sigma_s": Quantity("MPa", "σ<sub>s</sub>", r"$\sigma_s$"),
     "sigma0": Quantity("MPa", "σ<sub>0</sub>", r"$\sigma_0$"),
     "disc_amplitude": Quantity("MPa", "δ amplitude", r"$a_\delta$"),
     "disc_length": Quantity("s", "δ length", r"$\ell_\delta$"),

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import Field, ValidationInfo, field_validator, model_validator
+from pydantic import Field, ValidationInfo, field_validator, model_serializer, model_validator
 
 from bayes_dnlr.config.base import Strict, Whole
 
@@ -82,6 +82,14 @@ class ToeBand(Strict):
 UNIT_ROLES = ("time", "force", "stress", "eps11", "eps22", "strain", "extension")
 
 
+class TemperatureColumn(Strict):
+    """A temperature read per row: the column (a header name, or a number counted from 1) and its
+    unit (null: the file's units row or header name, else °C)."""
+
+    column: str | Annotated[Whole, Field(ge=1)]
+    unit: Literal["°C", "C", "degC", "K"] | None = None
+
+
 class DataConfig(Strict):
     file: str
     columns: Columns
@@ -116,9 +124,42 @@ class DataConfig(Strict):
     gauge_length: float | None = Field(default=None, gt=0, description="L0 in mm, for an extension column")
     toe: Literal["none", "compensate"] | ToeBand = "none"
     initial_state: Literal["first-sample", "ramp-from-zero"] | None = None
+    temperature: float | str | TemperatureColumn | None = Field(
+        default=None, description="the test's temperature: °C, or a column (a header name, or "
+                                  "{column: name or number, unit: °C or K}) read per row")
     reduce: Literal["auto", "none"] | Whole = Field(
         default="auto", description="average consecutive rows in bins: auto (long files, to at most "
                                     "20000 points), none (every row), or the rows per bin")
+
+    @field_validator("temperature")
+    @classmethod
+    def _temperature(cls, v: float | str | TemperatureColumn | None
+                     ) -> float | TemperatureColumn | None:
+        if isinstance(v, str):
+            if not v.strip():
+                raise ValueError("expected °C (a number) or a column name, got an empty text")
+            return TemperatureColumn(column=v)
+        if isinstance(v, float | int) and not v > -273.15:
+            raise ValueError(f"expected a temperature in °C above -273.15, got {v}")
+        return v
+
+    @model_serializer(mode="wrap")
+    def _without_no_temperature(self, handler):
+        """No ``temperature`` key when none is given: a config without one dumps (and digests) as
+        before the key existed."""
+        out = handler(self)
+        if self.temperature is None and isinstance(out, dict):
+            out.pop("temperature", None)
+        return out
+
+    @property
+    def temperature_column(self) -> TemperatureColumn | None:
+        """The temperature's column, when it is read per row."""
+        return self.temperature if isinstance(self.temperature, TemperatureColumn) else None
+
+    @property
+    def has_temperature(self) -> bool:
+        return self.temperature is not None
 
     @field_validator("reduce")
     @classmethod

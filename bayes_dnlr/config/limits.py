@@ -11,8 +11,11 @@ no measurement of a polymer):
 - times (tau_max, tau_max_R, a correlation length): <= 1e12 s (about 32 000 years);
 - the spectrum's exponent alpha: |x| <= 10 (p_j ∝ tau_j^10 over 6 decades already puts all the
   weight on the slowest modes);
-- tau_max and tau_max_R (eq. 12-14 take their logarithm): a fixed value > 0 and a prior that does
-  not reach below 0 (``low >= 0``; the posterior is -inf at 0), E a fixed value > 0;
+- the shift's (model/shift.py): Ea <= 1e5 kJ/mol, C1 <= 1e4, C2 <= 1e5 K (a_T would overflow at
+  any temperature step a test can have), sigma_s like a stress;
+- tau_max, tau_max_R (eq. 12-14 take their logarithm) and sigma_s (a_σ = x/sinh x, x = |σ|/sigma_s):
+  a fixed value > 0 and a prior that does not reach below 0 (``low >= 0``; the posterior is -inf
+  at 0), E and C2 a fixed value > 0;
 - the chain (walkers x max_steps x sampled parameters, float64, held in memory while sampling and
   written to chains.h5) must fit in half of this machine's memory.
 """
@@ -33,17 +36,18 @@ if TYPE_CHECKING:
 MAX_STRESS = 1.0e7      # MPa
 MAX_TIME = 1.0e12       # s
 MAX_EXPONENT = 10.0                 # the spectrum's exponent alpha (dimensionless)
-LIMITS = {"MPa": MAX_STRESS, "s": MAX_TIME, "-": MAX_EXPONENT}
-POSITIVE = ("tau_max", "tau_max_R")          # the spectrum's logarithm (eq. 12)
-POSITIVE_FIXED = ("E", "tau_max", "tau_max_R")
+LIMITS = {"MPa": MAX_STRESS, "s": MAX_TIME, "-": MAX_EXPONENT, "kJ/mol": 1.0e5, "K": 1.0e5}
+NAME_LIMITS = {"C1": 1.0e4}         # dimensionless, but not an exponent of the spectrum
+POSITIVE = ("tau_max", "tau_max_R", "sigma_s")   # the spectrum's logarithm (eq. 12), x/sinh x
+POSITIVE_FIXED = ("E", "tau_max", "tau_max_R", "sigma_s", "C2")
 SPEC_NUMBERS = ("value", "low", "high", "mean", "sd", "median", "scale")
 MEMORY_SHARE = 0.5      # of the physical memory the chain may take
 # float64, and the growing buffer doubles (inference/mcmc/ensemble.py, _Growing)
 CHAIN_BYTES_PER_VALUE = 8 * 2
 
 
-def _magnitude(spec, key: str, unit: str) -> str | None:
-    limit = LIMITS[unit]
+def _magnitude(spec, key: str, unit: str, limit: float | None = None) -> str | None:
+    limit = LIMITS[unit] if limit is None else limit
     for k in SPEC_NUMBERS:
         v = getattr(spec, k, None)
         if v is not None and abs(v) > limit:
@@ -55,7 +59,7 @@ def _magnitude(spec, key: str, unit: str) -> str | None:
 
 def _parameter(name: str, spec: ParameterSpec) -> str | None:
     key = f"parameters.{name}"
-    bad = _magnitude(spec, key, UNITS[name])
+    bad = _magnitude(spec, key, UNITS[name], NAME_LIMITS.get(name))
     if bad:
         return bad
     if spec.fixed:
@@ -63,9 +67,10 @@ def _parameter(name: str, spec: ParameterSpec) -> str | None:
             return f"{key}.value: must be > 0 {UNITS[name]}, got {spec.value:g}"
         return None
     if name in POSITIVE and not spec.bounds()[0] >= 0:
-        return (f"{key}: the prior reaches {spec.bounds()[0]:g} s, but {name} must be > 0 "
-                f"(the spectrum takes its logarithm, eq. 12): give low >= 0 (log-uniform with low > 0 "
-                f"is the usual choice)")
+        why = ("a_σ = x/sinh x with x = |σ|/sigma_s" if name == "sigma_s"
+               else "the spectrum takes its logarithm, eq. 12")
+        return (f"{key}: the prior reaches {spec.bounds()[0]:g} {UNITS[name]}, but {name} must be > 0 "
+                f"({why}): give low >= 0 (log-uniform with low > 0 is the usual choice)")
     return None
 
 

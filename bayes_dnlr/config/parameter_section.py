@@ -6,14 +6,62 @@ from __future__ import annotations
 import math
 from typing import Any, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, model_serializer, model_validator
 
 from bayes_dnlr.config.base import Strict, Whole
+from bayes_dnlr.vocabulary import SHIFT_LAW_PARAMETERS
+
+
+class ShiftConfig(Strict):
+    """The shift factor of the relaxation times (model/shift.py; docs/theory.md): each mode relaxes
+    in reduced time dψ = dt/(a_T a_σ), its time at the reference state (reference_temperature,
+    σ -> 0)."""
+
+    temperature: Literal["arrhenius", "wlf", "none"] = Field(
+        default="none", description="a_T: Arrhenius (parameter Ea, kJ/mol) or WLF (C1, C2)")
+    reference_temperature: float | None = Field(
+        default=None, gt=-273.15, description="°C: where a_T = 1 and tau_max is quoted")
+    stress: Literal["eyring", "none"] = Field(
+        default="none", description="a_σ = x/sinh x, x = |σ|/sigma_s (parameter sigma_s, MPa)")
+    driving: Literal["stress", "peak", "overstress"] = Field(
+        default="stress", description="the stress that drives a_σ: the true stress, the largest so "
+                                      "far, or the overstress σ − σ^r")
+
+    @model_validator(mode="after")
+    def _complete(self) -> ShiftConfig:
+        if self.temperature != "none" and self.reference_temperature is None:
+            raise ValueError(f"temperature: {self.temperature} needs reference_temperature (°C, "
+                             "where a_T = 1 and tau_max is quoted)")
+        if self.temperature == "none" and self.reference_temperature is not None:
+            raise ValueError("reference_temperature needs a temperature law (temperature: arrhenius "
+                             "or wlf)")
+        if self.stress == "none" and "driving" in self.model_fields_set:
+            raise ValueError("driving needs stress: eyring")
+        return self
+
+    @property
+    def is_none(self) -> bool:
+        return self.temperature == "none" and self.stress == "none"
+
+    @property
+    def parameters(self) -> tuple[str, ...]:
+        """The shift's parameters (Ea; C1, C2; sigma_s)."""
+        return SHIFT_LAW_PARAMETERS[self.temperature] + SHIFT_LAW_PARAMETERS[self.stress]
 
 
 class ModelConfig(Strict):
     modes: Whole = Field(default=50, ge=1, le=1000)
     decades: float = Field(default=6.0, gt=0, le=20)
+    shift: ShiftConfig = Field(default_factory=ShiftConfig)
+
+    @model_serializer(mode="wrap")
+    def _without_no_shift(self, handler):
+        """No ``shift`` key when there is no shift: a config without one dumps (and digests, so a
+        run's identity) as before the key existed."""
+        out = handler(self)
+        if self.shift.is_none and isinstance(out, dict):
+            out.pop("shift", None)
+        return out
 
 
 PriorKind = Literal["uniform", "log-uniform", "normal", "log-normal", "half-normal"]
@@ -90,6 +138,13 @@ DEFAULT_PRIORS: dict[str, dict[str, Any]] = {
     "tau_max": {"prior": "log-uniform", "low": 0.01, "high": 1.0e4},
     "sigma_inf": {"prior": "uniform", "low": 0.0, "high": 500.0},
     "tau_max_R": {"prior": "log-uniform", "low": 0.01, "high": 1.0e5},
+    # the shift factor's (model.shift): an activation energy of polymers' relaxations (tens to a
+    # few hundred kJ/mol), WLF constants about the universal 17.4 and 51.6 K, an Eyring stress
+    # from a fraction of a MPa (strongly nonlinear) to 1000 MPa (no stress shift at all)
+    "Ea": {"prior": "uniform", "low": 10.0, "high": 1000.0},
+    "C1": {"prior": "uniform", "low": 1.0, "high": 100.0},
+    "C2": {"prior": "uniform", "low": 10.0, "high": 1000.0},
+    "sigma_s": {"prior": "log-uniform", "low": 0.1, "high": 1000.0},
 }
 # The spectrum's exponent (p_j ∝ tau_j^alpha) is ½, Cunat's universal spectrum (eq. 12), unless
 # parameters.alpha is given; this is the prior the docs propose to marginalise it

@@ -5,10 +5,17 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field, field_validator, model_validator
+import numpy as np
+from pydantic import Field, field_validator, model_serializer, model_validator
 
 from bayes_dnlr.config.base import Strict, Whole
-from bayes_dnlr.vocabulary import PARAMETER_NAMES, RELAXATION_PARAMETERS, TENSILE_PARAMETERS
+from bayes_dnlr.config.parameter_section import ShiftConfig
+from bayes_dnlr.vocabulary import (
+    PARAMETER_NAMES,
+    RELAXATION_PARAMETERS,
+    SHIFT_PARAMETERS,
+    TENSILE_PARAMETERS,
+)
 
 
 class SamplerConfig(Strict):
@@ -87,6 +94,13 @@ class TruthNoise(Strict):
     correlated: TruthCorrelated | None = None
 
 
+class TruthTemperature(Strict):
+    """A temperature that drifts during the test: start + rate·t (°C, t in s from the first sample)."""
+
+    start: float = Field(gt=-273.15, description="°C at t = 0")
+    rate: float = Field(description="°C/s")
+
+
 class TruthConfig(Strict):
     """Known parameters and test protocol for ``simulate`` (a synthetic test)."""
 
@@ -102,6 +116,11 @@ class TruthConfig(Strict):
     noise: TruthNoise = Field(default_factory=TruthNoise)
     model_form: TruthModelForm | None = Field(
         default=None, description="data from a richer model than the fitted one (docs/model-form.md)")
+    shift: ShiftConfig = Field(
+        default_factory=ShiftConfig, description="the generating model's shift factor (model/shift.py); "
+                                                 "its parameters go in params")
+    temperature: float | TruthTemperature | None = Field(
+        default=None, description="°C: the test's temperature, or {start, rate} drifting in time")
     seed: Whole = Field(default=0, ge=0, lt=2**32)
     layout: Literal["plain", "bluehill", "zwick"] = Field(
         default="plain", description="plain CSV; bluehill: Instron-like metadata block, units row, "
@@ -118,6 +137,40 @@ class TruthConfig(Strict):
         if missing:
             raise ValueError(f"missing {missing}")
         return v
+
+    @model_serializer(mode="wrap")
+    def _without_no_shift(self, handler):
+        """No ``shift`` or ``temperature`` key when unused: the truth dumps as before they existed."""
+        out = handler(self)
+        if isinstance(out, dict):
+            if self.shift.is_none:
+                out.pop("shift", None)
+            if self.temperature is None:
+                out.pop("temperature", None)
+        return out
+
+    @model_validator(mode="after")
+    def _shifted(self) -> TruthConfig:
+        missing = [k for k in self.shift.parameters if k not in self.params]
+        if missing:
+            raise ValueError(f"params: truth.shift needs {missing}")
+        unused = [k for k in SHIFT_PARAMETERS if k in self.params and k not in self.shift.parameters]
+        if unused:
+            raise ValueError(f"params: {unused} belong to a shift truth.shift does not have")
+        if self.shift.temperature != "none" and self.temperature is None:
+            raise ValueError(f"shift.temperature: {self.shift.temperature} needs truth.temperature (°C)")
+        if self.model_form is not None and not self.shift.is_none:
+            raise ValueError("model_form and shift: a richer model with a shift is not made; give one")
+        if isinstance(self.temperature, float | int) and not self.temperature > -273.15:
+            raise ValueError(f"temperature: expected °C above -273.15, got {self.temperature}")
+        return self
+
+    def temperature_at(self, time: np.ndarray) -> float | np.ndarray | None:
+        """The test's temperature (°C) at the times ``time``: the constant, or the drift."""
+        t = self.temperature
+        if t is None or isinstance(t, float | int):
+            return None if t is None else float(t)
+        return t.start + t.rate * (np.asarray(time, dtype=float) - float(np.asarray(time)[0]))
 
     @model_validator(mode="after")
     def _sampling(self) -> TruthConfig:

@@ -25,6 +25,7 @@ from bayes_dnlr.config.yamlio import dump_yaml
 from bayes_dnlr.vocabulary import (
     PARAMETER_NAMES,
     RELAXATION_PARAMETERS,
+    SHIFT_PARAMETERS,
     SPECTRUM_PARAMETERS,
     TENSILE_PARAMETERS,
 )
@@ -130,10 +131,44 @@ class Config(Strict):
                 raise ValueError(f"parameters {extra} need a relaxation hold: set {where} "
                                  "(auto or a time)")
         wanted += [k for k in SPECTRUM_PARAMETERS if self.parameters.get(k) is not None]
+        shift = self.model.shift
+        unused = [k for k in SHIFT_PARAMETERS if k in self.parameters and k not in shift.parameters]
+        if unused:
+            law = {"Ea": "temperature: arrhenius", "C1": "temperature: wlf",
+                   "C2": "temperature: wlf", "sigma_s": "stress: eyring"}[unused[0]]
+            raise ValueError(f"parameters.{unused[0]} belongs to a shift the model does not have: "
+                             f"set model.shift.{law}, or remove it")
+        wanted += list(shift.parameters)
         filled = {k: self.parameters.get(k) or ParameterSpec(**DEFAULT_PRIORS[k]) for k in wanted}
         self.parameters = filled
         if not self.free_parameters:
             raise ValueError("every parameter is fixed: nothing to identify")
+        return self
+
+    @model_validator(mode="after")
+    def _temperatures(self) -> Config:
+        """A temperature shift needs every test's temperature; its parameters need two of them."""
+        law = self.model.shift.temperature
+        if law == "none":
+            return self
+        data = ([(f"tests[{i}].data.temperature", t.data) for i, t in enumerate(self.tests)]
+                if self.tests is not None else [("data.temperature", self.data)])
+        missing = [key for key, d in data if not d.has_temperature]
+        if missing:
+            raise ValueError(f"model.shift.temperature: {law} needs the test's temperature: set "
+                             f"{missing[0]} (°C, or a column read per row)")
+        constants = {d.temperature for _, d in data if d.temperature_column is None}
+        if len(constants) == 1 and all(d.temperature_column is None for _, d in data):
+            free = [k for k in self.model.shift.parameters
+                    if k in ("Ea", "C1", "C2") and not self.parameters[k].fixed]
+            if free:
+                t = next(iter(constants))
+                raise ValueError(
+                    f"parameters.{free[0]}: every test is at {t:g} °C, where the temperature shift "
+                    f"only rescales tau_max (a_T multiplies it): the data cannot identify "
+                    f"{' and '.join(free)}. Fix {'them' if len(free) > 1 else 'it'} "
+                    f"(parameters.{free[0]}: {{value: ...}}), or add tests at other temperatures "
+                    "(tests:), or read the temperature per row")
         return self
 
     @property

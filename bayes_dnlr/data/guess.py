@@ -28,6 +28,7 @@ from bayes_dnlr.data.numbers import parse_cell
 from bayes_dnlr.data.ramp import Hold, find_hold
 from bayes_dnlr.data.reading import HEAD_LINES, Source, read_bytes
 from bayes_dnlr.data.sniff import Layout, signature_groups, sniff, specimen_groups, split
+from bayes_dnlr.data.temperature import first_implausible
 from bayes_dnlr.units import lookup, split_name
 
 SAMPLE_ROWS = 4000          # rows read (evenly spread over the file) to guess from the values
@@ -42,6 +43,7 @@ GAUGE_MM = (5.0, 1000.0)    # a plausible gauge length, mm
 # name patterns (lower case, unit and specimen index removed), in order: the first match gives the role
 NAME_ROLES: tuple[tuple[str, re.Pattern[str]], ...] = tuple((r, re.compile(p)) for r, p in (
     ("index", r"^(index|#|no\.?|nr\.?|point|points|sample|row|n)$"),
+    ("temperature", r"^temp|temperat|^tmean$|^t_?(c|k|degc)$"),
     ("time", r"^t$|^t[_ ]|\btime\b|zeit|temps|tiempo|^sec"),
     ("eps22", r"transverse|lateral|width|quer|eps_?22|\be22\b|poisson|^e_?yy"),
     ("extension", r"extension|elongation|displacement|crosshead|traverse|stroke|position|\bweg\b|verl"),
@@ -50,7 +52,7 @@ NAME_ROLES: tuple[tuple[str, re.Pattern[str]], ...] = tuple((r, re.compile(p)) f
     ("strain", r"strain|dehnung|eps|deform|^e$|^e11|ε|hencky|^e_?xx"),
 ))
 KIND_ROLE = {"time": "time", "force": "force", "stress": "stress", "strain": "strain",
-             "length": "extension"}
+             "length": "extension", "temperature": "temperature"}
 TRUE_NAME = re.compile(r"true|wahr|vraie|cauchy")
 HENCKY_NAME = re.compile(r"true|hencky|log")
 NOMINAL_NAME = re.compile(r"eng|nominal|tensile strain")
@@ -120,6 +122,7 @@ class Guess:
     extension_of_strain: str | None = None   # the extension column that the strain mirrors
     hold: Hold | None = None
     stress_measure: Fact | None = None    # 'engineering' when a name says the only stress is one
+    temperature: Pick | None = None       # a temperature column (its name or unit says so)
     overruled: list[str] = field(default_factory=list)  # names a confirmed relation contradicts
 
 
@@ -268,6 +271,7 @@ def guess_columns(path: Path) -> Guess:
             c.name, c.unit = None, None
         named, g.by_name = {}, False
     _pick_time(g, named)
+    _pick_temperature(g, named)
     found = _relations(g, named)
     named = _overrule(g, named, found)
     _pick_by_relations(g, named, found)
@@ -294,6 +298,18 @@ def _pick_time(g: Guess, named: dict) -> None:
                                + (f" ({index[0].label} counts rows: an index)" if index else ""))
 
 
+def _pick_temperature(g: Guess, named: dict) -> None:
+    """A column whose name or unit says temperature and whose values are one (°C, or K by its
+    unit): ``data.temperature``, never another role."""
+    for c, how in named.get("temperature", []):
+        unit = c.unit.strip().strip("()[]").strip().lower() if c.unit else ""
+        values = _finite(c.values) + (-273.15 if unit in ("k", "kelvin") else 0.0)
+        if values.size >= 3 and first_implausible(values) is None:
+            others = [o for o, _ in named["temperature"] if o is not c]
+            g.temperature = Pick("temperature", c, how, others)
+            return
+
+
 def _time_values(g: Guess) -> np.ndarray:
     t = g.picks.get("time")
     return t.column.values if t is not None else np.arange(len(g.columns[0].values), dtype=float)
@@ -304,9 +320,11 @@ def _label(g: Guess):
 
 
 def _relations(g: Guess, named: dict) -> list[rel.Relation]:
-    """Every relation among the group's columns but the time and the row indices (the names do not
-    restrict them: a relation is found whatever the header says)."""
+    """Every relation among the group's columns but the time, a temperature and the row indices (the
+    names do not restrict them: a relation is found whatever the header says)."""
     skip = {g.picks["time"].column.number - 1} if "time" in g.picks else set()
+    if g.temperature is not None:
+        skip.add(g.temperature.column.number - 1)
     skip |= {c.number - 1 for c in g.columns if _is_index(c.values)}
     return rel.find([c.values for c in g.columns], _time_values(g), skip)
 
@@ -427,6 +445,8 @@ def _pick_by_names(g: Guess, named: dict) -> None:
 def _pick_by_values(g: Guess) -> None:
     p = g.picks
     used = {x.column.number for x in p.values()}
+    if g.temperature is not None:
+        used.add(g.temperature.column.number)
     t = _time_values(g)
     free = [c for c in g.columns if c.number not in used and _finite(c.values).size >= 3
             and not _is_index(c.values)]

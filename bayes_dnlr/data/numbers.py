@@ -88,3 +88,14 @@ def why_not_a_number(text: str, decimal: str = ".") -> str:
                 " (decimal point in a file with decimal commas? set data.decimal: '.' if the file uses "
                 "points)")
     return ""
+
+
+SHOWN_CELL = 80             # characters of a cell an error message quotes
+
+
+def shown_cell(text: str) -> str:
+    """A cell as an error message quotes it: whole when short, else its start and its length (a
+    cell of megabytes would bury the message)."""
+    if len(text) <= SHOWN_CELL:
+        return repr(text)
+    return f"{text[:SHOWN_CELL]!r}... ({len(text):,} characters)"

@@ -23,7 +23,7 @@ import numpy as np
 
 from bayes_dnlr.config import DataConfig
 from bayes_dnlr.data.errors import DataError
-from bayes_dnlr.data.numbers import MISSING, parse_cell, why_not_a_number
+from bayes_dnlr.data.numbers import MISSING, parse_cell, shown_cell, why_not_a_number
 from bayes_dnlr.data.sniff import (
     HEAD_LINES,
     Layout,
@@ -33,9 +33,11 @@ from bayes_dnlr.data.sniff import (
     specimen_groups,
     split,
 )
+from bayes_dnlr.data.temperature import column_in_celsius
 from bayes_dnlr.units import PACKAGE_UNIT, ROLE_KIND, factor, lookup, split_name
 
 ROLES = ("time", "force", "eps11", "eps22", "stress", "strain", "extension")
+TEMPERATURE = "temperature"     # the role of a temperature column (data.temperature)
 STRAIN_ROLES = ("eps11", "eps22", "strain")
 MIN_ROWS = 3
 # beyond these magnitudes (package units) a cell is not a measurement but a corrupt value
@@ -206,7 +208,15 @@ def _check_utf8(raw: bytes, path: Path) -> None:
 # --------------------------------------------------------------------------- columns
 
 def _mapped(d: DataConfig) -> dict[str, str | int]:
-    return {r: getattr(d.columns, r) for r in ROLES if getattr(d.columns, r) is not None}
+    out = {r: getattr(d.columns, r) for r in ROLES if getattr(d.columns, r) is not None}
+    if d.temperature_column is not None:
+        out[TEMPERATURE] = d.temperature_column.column
+    return out
+
+
+def _key(role: str) -> str:
+    """The config key that maps a role to its column."""
+    return "data.temperature" if role == TEMPERATURE else f"data.columns.{role}"
 
 
 def _looks_numeric(cells: list[str]) -> bool:
@@ -261,7 +271,7 @@ def _column_index(layout: Layout, mapped: dict[str, str | int], group: tuple[int
             if v > width:
                 where = (f"specimen {d.specimen}'s group has {width} columns" if d.specimen
                          else f"the rows have {layout.n_fields} columns")
-                raise DataError(f"{path}, line {layout.data_line}: column {v} (data.columns.{role}) "
+                raise DataError(f"{path}, line {layout.data_line}: column {v} ({_key(role)}) "
                                 f"does not exist: {where}")
             index[role] = first + v - 1
             # a header that is not as long as the rows does not name the columns by position
@@ -270,7 +280,7 @@ def _column_index(layout: Layout, mapped: dict[str, str | int], group: tuple[int
             continue
         if header is None:
             raise DataError(
-                f"{path}, line {line}: column '{v}' (data.columns.{role}) is not in the header: the "
+                f"{path}, line {line}: column '{v}' ({_key(role)}) is not in the header: the "
                 f"file has no header row (the first line looks like numbers): give the columns by "
                 f"number (counted from 1, e.g. data.columns: {{{role}: 1}}); with format: plain, "
                 f"data.header: false")
@@ -284,7 +294,7 @@ def _column_index(layout: Layout, mapped: dict[str, str | int], group: tuple[int
             hint = (" (the first line looks like numbers: give the columns by number with "
                     "data.header: false)" if _looks_numeric(header) else "")
             raise DataError(
-                f"{path}, line {line}: column '{v}' (data.columns.{role}) is not in the header; "
+                f"{path}, line {line}: column '{v}' ({_key(role)}) is not in the header; "
                 f"the header has: {', '.join(shown_cell(h) for h in group_names)}{hint}")
         if len(hits) > 1:
             cols = ", ".join(str(first + i + 1) for i in hits)
@@ -292,7 +302,7 @@ def _column_index(layout: Layout, mapped: dict[str, str | int], group: tuple[int
             more = (f": the file holds {-(-len(header) // width_hint)} specimens side by side (groups of "
                     f"{width_hint} columns); choose one with data.specimen" if width_hint and not d.specimen
                     else ": rename one")
-            raise DataError(f"{path}, line {line}: column '{v}' (data.columns.{role}) appears "
+            raise DataError(f"{path}, line {line}: column '{v}' ({_key(role)}) appears "
                             f"{len(hits)} times in the header (columns {cols}){more}")
         index[role] = first + hits[0]
         names[role] = group_names[hits[0]]
@@ -303,17 +313,6 @@ def _column_index(layout: Layout, mapped: dict[str, str | int], group: tuple[int
                         f"(delimiter {layout.delimiter_text()}): the names cannot be matched to the "
                         f"columns safely; give the columns by number, or fix the header")
     return index, names
-
-
-SHOWN_CELL = 80             # characters of a cell an error message quotes
-
-
-def shown_cell(text: str) -> str:
-    """A cell as an error message quotes it: whole when short, else its start and its length (a
-    cell of megabytes would bury the message)."""
-    if len(text) <= SHOWN_CELL:
-        return repr(text)
-    return f"{text[:SHOWN_CELL]!r}... ({len(text):,} characters)"
 
 
 # --------------------------------------------------------------------------- rows
@@ -536,6 +535,16 @@ def _apply_units(table: Table, d: DataConfig) -> None:
     layout = table.layout
     converted = []
     for role, values in table.values.items():
+        if role == TEMPERATURE:
+            given = d.temperature_column.unit if d.temperature_column is not None else None
+            c = table.columns[role]
+            unit = given or (layout.units[c] if layout and c < len(layout.units) else None)
+            table.values[role], note = column_in_celsius(
+                values, unit, "data.temperature.unit" if given else "the file", table.names[role],
+                table.path, lambda i: table.where(i, TEMPERATURE),
+                lambda i: shown_cell(table.cell(i, TEMPERATURE)))
+            converted += [note] if note else []
+            continue
         kind = ROLE_KIND[role]
         c = table.columns[role]
         file_unit = layout.units[c] if layout and c < len(layout.units) else None
@@ -573,6 +582,8 @@ def _apply_units(table: Table, d: DataConfig) -> None:
     if converted:
         table.notes.append("units: " + "; ".join(converted))
     for role, values in table.values.items():
+        if role == TEMPERATURE:
+            continue
         limit = PLAUSIBLE[ROLE_KIND[role]]
         big = np.flatnonzero(np.abs(values) > limit)
         if big.size:
@@ -581,3 +592,4 @@ def _apply_units(table: Table, d: DataConfig) -> None:
             raise DataError(f"{table.where(i, role)} ({role}): cell {shown_cell(table.cell(i, role))} "
                             f"is not a plausible {kind} (|value| > {limit:g} {PACKAGE_UNIT[kind]}): a "
                             f"corrupt or misplaced value")
+

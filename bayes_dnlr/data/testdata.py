@@ -81,6 +81,7 @@ class TestData:
     virtual_start: int = 0        # leading model-only samples (an unloaded start), never in the window
     lines: np.ndarray | None = None  # the file line of each sample (0 for a model-only sample)
     rows_per_point: int = 1       # data.reduce: each sample the mean of this many consecutive rows
+    temperature: float | np.ndarray | None = None   # °C: data.temperature, one value or one per sample
     # the smoothed strain to keep in the run folder's cache once the folder exists (``keep_smoothing``)
     unkept_smoothing: UnkeptSmoothing | None = field(default=None, repr=False, compare=False)
     # where the test unloads and reloads (data/cycles.py), indices of these arrays; computed once
@@ -254,6 +255,7 @@ def load_test(cfg: Config, cache: Path | None = None) -> TestData:
     time, more = _time(cfg, table, strain, strain_role)
     notes += more
     values = dict(table.values)
+    temperature = values.pop("temperature", None)
     lines = np.asarray(table.lines)
 
     # the state before the first sample (toe compensation, an unloaded start)
@@ -264,6 +266,7 @@ def load_test(cfg: Config, cache: Path | None = None) -> TestData:
         k = start.cut
         time, strain, lines = time[k:], strain[k:] - start.shift, lines[k:]
         values = {r: v[k:] for r, v in values.items()}
+        temperature = None if temperature is None else temperature[k:]
         eps22 = None if eps22 is None else eps22[k:]
         nominal = np.expm1(strain)
     virtual = 0
@@ -274,6 +277,7 @@ def load_test(cfg: Config, cache: Path | None = None) -> TestData:
         nominal = np.concatenate(([0.0], nominal))
         lines = np.concatenate(([0], lines))
         values = {r: _prepend(v, 0.0, 1) for r, v in values.items()}
+        temperature = None if temperature is None else _prepend(temperature, temperature[0], 1)
         eps22 = _prepend(eps22, 0.0, 1)
     if "time" in values and virtual:
         values["time"] = time
@@ -307,6 +311,7 @@ def load_test(cfg: Config, cache: Path | None = None) -> TestData:
         nom_stress = None if nom_stress is None else reduction.bin_means(nom_stress, cuts)
         eps22 = None if eps22 is None else reduction.bin_means(eps22, cuts)
         values = {r: reduction.bin_means(v, cuts) for r, v in values.items()}
+        temperature = None if temperature is None else reduction.bin_means(temperature, cuts)
         lines = np.asarray(lines)[cuts[:-1]]
     window = window_mask(time[virtual:], strain[virtual:], d.window, path=path, key="data.window")
     window = np.concatenate((np.zeros(virtual, bool), window))
@@ -330,13 +335,37 @@ def load_test(cfg: Config, cache: Path | None = None) -> TestData:
                                table.names[strain_role])
         if warn:
             notes.append(warn)
+    temperature, more = _temperature(cfg, temperature)
+    notes += more
     test = TestData(
         path=path, sha256=file_sha256(path), time=time, strain=strain, strain_input=strain_input,
         stress=stress, nominal_strain=nominal, nominal_stress=nom_stress, window=window,
         relaxation_start=rs, strain_rate=rate, observable=d.observable, notes=tuple(notes),
         force=values.get("force"), transverse_strain=eps22, area0=d.area0, virtual_start=virtual,
-        lines=lines, rows_per_point=k, unkept_smoothing=unkept, turns=turns)
+        lines=lines, rows_per_point=k, unkept_smoothing=unkept, turns=turns,
+        temperature=temperature)
     return test
+
+
+def _temperature(cfg: Config, column: np.ndarray | None) -> tuple[float | np.ndarray | None, list[str]]:
+    """The test's temperature (°C): data.temperature's value, or its column per sample; a note of
+    what it is and whether the model uses it (model.shift.temperature)."""
+    d = cfg.data
+    if not d.has_temperature:
+        return None, []
+    value: float | np.ndarray = float(d.temperature) if column is None else column
+    if column is None:
+        what = f"temperature: {value:g} °C (data.temperature)"
+    else:
+        what = (f"temperature: per row, {float(np.min(column)):.4g} to {float(np.max(column)):.4g} °C "
+                f"(mean {float(np.mean(column)):.4g}; data.temperature)")
+    law = cfg.model.shift.temperature
+    if law == "none":
+        what += ("; the model has no temperature shift (model.shift.temperature: none), so its "
+                 "spectrum is the one at this temperature")
+    else:
+        what += f"; the spectrum is shifted to {cfg.model.shift.reference_temperature:g} °C ({law})"
+    return value, [what]
 
 
 def _hints(cfg: Config, table: Table, nominal: np.ndarray, time: np.ndarray, strain: np.ndarray,

@@ -33,10 +33,10 @@ from bayes_dnlr.inference.mcmc import ess
 from bayes_dnlr.inference.modulus_window import ResolvedWindow
 from bayes_dnlr.model.modulus import SMALL_STRAIN_SLOPE, relaxation_modulus, spectrum_weights
 from bayes_dnlr.model.spectrum import tau_scale
-from bayes_dnlr.vocabulary import SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT
+from bayes_dnlr.vocabulary import LOG_COORDINATES, SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT
 
 MODULUS_PARAMETERS = ("E", "G", "tau_max", SPECTRUM_EXPONENT)   # what E(t) depends on
-LOG_PARAMETERS = ("tau_max", "tau_max_R")   # drawn in log space, as the sampler draws them
+LOG_PARAMETERS = LOG_COORDINATES   # drawn in log space, as the fit moves them (sigma_s too)
 HDI_PROB = 0.9
 ALPHA_STEP = 1.0e-4      # finite-difference step of d E(t)/d alpha
 FIT_DRAWS = 400          # Laplace draws of a fit: the sd of E(t) to 3.5 %, its HDI to a few %
@@ -110,7 +110,9 @@ def fit_source(estimate: Mapping[str, float], covariance: np.ndarray | None, nam
     z = np.random.default_rng(seed).standard_normal((n, len(names))) @ root.T
     centre = np.where(logs, np.log(np.where(logs, mean, 1.0)), mean)
     x = centre + z
-    x[:, logs] = np.exp(x[:, logs])
+    # a parameter the fit cannot identify (sigma_s at its box's end, sd 1e4 times its value) draws
+    # ln values beyond a float's range: kept finite and positive, as the model needs them
+    x[:, logs] = np.exp(np.clip(x[:, logs], -700.0, 700.0))
     return Source("fit", {k: x[:, i] for i, k in enumerate(names)},
                   {k: float(v) for k, v in fixed.items() if k not in names}, bool(converged), None,
                   bool(under_model_error), {"prior": NO_PRIOR})

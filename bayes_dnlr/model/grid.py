@@ -19,7 +19,7 @@ Grid data (``DNLR.kernel_args``, a ``Grid`` named tuple built by ``grid_arrays``
     levels     float64 (n_t+n_r,) the level step lengths Δ_L, tensile levels first
     p, shape   float64 (N,)      the weights p_j at the exponent alpha0 = ½ and the spectrum shape
     log_shape                    tau_j/tau_max and its ln (eq. 12-14); other exponents alpha
-    alpha0                       (p_j ∝ tau_j^alpha) are computed per call (``_weights``)
+    alpha0                       (p_j ∝ tau_j^alpha) are computed per call (``mode_weights``)
     n_tensile, n_levels_t, n_levels_r, exact_t, exact_r, h0, d_min_t, d_min_r: the tensile step
                                  count, level counts and kinds per phase, h_0 and the shortest
                                  step of each phase
@@ -33,7 +33,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from bayes_dnlr.model.kernel import DE, DH, DT, H1, IDT, RHO
+from bayes_dnlr.model.kernel import DE, DH, DT, H1, IDT, RHO, X_RELAXED
+from bayes_dnlr.model.reduced_time import EYRING_END, EYRING_STEP, LATTICE_BITS
 
 LEVEL_SPACING = 0.005   # ln(Δ_L+1/Δ_L) of quantized levels: |ρ|/Δ_L <= 0.0025, |ρ/tau| <= 0.0025 x
 LEVEL_RANGE = 2.0       # only steps up to 2x the shortest of their phase get a level: active modes
@@ -60,6 +61,11 @@ class Grid(NamedTuple):
     h0: float               # ε_HT at the first sample
     d_min_t: float          # shortest step of each phase (1.0 for an empty phase)
     d_min_r: float
+    log_dt: np.ndarray      # (q-1,): ln Δ of each step, for the shifted model's reduced steps
+    lattice_a: np.ndarray   # (K, n): the decay lattice of the shifted model (``decay_lattice``)
+    lattice_om: np.ndarray
+    lattice_step: float     # its spacing h in ln x
+    eyring: np.ndarray      # (k, 2): ln(x/sinh x) and its slope at x = k·EYRING_STEP (``eyring_table``)
 
 
 def step_levels(steps: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
@@ -89,6 +95,51 @@ def step_levels(steps: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
 
 
 
+LATTICE_POINTS = 1 << LATTICE_BITS    # K = 256, lattice points per spacing of two modes' ln tau
+LATTICE_SLOW_END = 1e-9  # the lattice reaches down to this x; slower modes take 1 - a = x - x²/2
+_LATTICES: dict[tuple[int, float], tuple[np.ndarray, np.ndarray, float]] = {}
+
+
+def decay_lattice(shape: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """The decays of the shifted model (kernel ``_shift_phase``) on a lattice in ln x: with
+    h = ln(tau_{j+1}/tau_j)/K and x_k = X_RELAXED e^{-k h}, k = K n + κ, the tables
+    (a, 1 - a)[κ, n] = (e^{-x_k}, 1 - e^{-x_k}) for n up to the slow end. A step whose reduced
+    length places mode j at k_j places mode j + 1 at k_j + K: the modes of a step read one row κ,
+    contiguously. Built once per spectrum shape (modes, decades) and shared by every grid."""
+    n = shape.size
+    ln_ratio = float(np.log(shape[1] / shape[0])) if n > 1 else 1.0
+    key = (n, ln_ratio)
+    hit = _LATTICES.get(key)
+    if hit is not None:
+        return hit
+    h = ln_ratio / LATTICE_POINTS
+    cols = int(np.ceil(np.log(X_RELAXED / LATTICE_SLOW_END) / ln_ratio)) + 1
+    k = LATTICE_POINTS * np.arange(cols)[None, :] + np.arange(LATTICE_POINTS)[:, None]
+    x = X_RELAXED * np.exp(-k * h)
+    hit = (np.ascontiguousarray(np.exp(-x)), np.ascontiguousarray(-np.expm1(-x)), h)
+    _LATTICES[key] = hit
+    return hit
+
+
+def eyring_table() -> np.ndarray:
+    """ln(x/sinh x) and its derivative 1/x - coth x at the nodes k·EYRING_STEP up to EYRING_END
+    (and one node past it), for the kernel's cubic Hermite interpolation (``_log_eyring``)."""
+    global _EYRING
+    if _EYRING is None:
+        from bayes_dnlr.model.shift import log_stress_shift
+
+        x = np.arange(int(round(EYRING_END / EYRING_STEP)) + 2) * EYRING_STEP
+        slope = np.zeros_like(x)
+        big = x > 1e-3
+        slope[big] = 1.0 / x[big] - 1.0 / np.tanh(x[big])
+        slope[~big] = -x[~big] / 3.0 + x[~big] ** 3 / 45.0
+        _EYRING = np.ascontiguousarray(np.column_stack([log_stress_shift(x, 1.0), slope]))
+    return _EYRING
+
+
+_EYRING: np.ndarray | None = None
+
+
 def grid_arrays(time: np.ndarray, strain: np.ndarray, h: np.ndarray, n_tensile: int,
                 p: np.ndarray, shape: np.ndarray, alpha0: float = 0.5) -> Grid:
     """The parameter-free ``Grid`` of ``stress_into`` and ``integrate`` (module docstring); p are
@@ -104,6 +155,7 @@ def grid_arrays(time: np.ndarray, strain: np.ndarray, h: np.ndarray, n_tensile: 
     lev_t, idx_t, rho_t, exact_t = step_levels(dt[:n_tensile])
     lev_r, idx_r, rho_r, exact_r = step_levels(dt[n_tensile:])
     fg[:, RHO] = np.concatenate([rho_t, rho_r])
+    lattice = decay_lattice(np.ascontiguousarray(shape, dtype=float))
     return Grid(
         steps=fg, level=np.concatenate([idx_t, idx_r]).astype(np.int64),
         levels=np.concatenate([lev_t, lev_r]), p=np.ascontiguousarray(p, dtype=float),
@@ -113,4 +165,6 @@ def grid_arrays(time: np.ndarray, strain: np.ndarray, h: np.ndarray, n_tensile: 
         n_levels_t=int(lev_t.size), n_levels_r=int(lev_r.size), exact_t=bool(exact_t),
         exact_r=bool(exact_r), h0=float(h[0]),
         d_min_t=float(dt[:n_tensile].min()) if n_tensile > 0 else 1.0,
-        d_min_r=float(dt[n_tensile:].min()) if n_tensile < n_steps else 1.0)
+        d_min_r=float(dt[n_tensile:].min()) if n_tensile < n_steps else 1.0,
+        log_dt=np.log(dt), lattice_a=lattice[0], lattice_om=lattice[1], lattice_step=lattice[2],
+        eyring=eyring_table())

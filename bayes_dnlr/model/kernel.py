@@ -23,19 +23,19 @@ are grouped once per grid into *levels* (model/grid.py): exact levels share thei
 once per call; a step on a quantized level Δ_L + ρ takes a = a_L·exp(-ρ/tau) by a short
 polynomial; the few others a full exp.
 
-exp is computed by ``_decay``, an inlined polynomial (Cody-Waite reduction, degree-12 Estrin,
+exp is computed by ``decay``, an inlined polynomial (Cody-Waite reduction, degree-12 Estrin,
 2 ulp) that the compiler vectorises over modes (llvmlite has no SVML: a libm exp costs 10-15 ns).
 The same routines serve ``integrate`` and ``stress_into``, so both agree to rounding.
 
 The grid (``DNLR.kernel_args``) is a ``grid.Grid`` named tuple; its step table's columns are DT,
 IDT, DE, DH, H1, RHO below. Its weights p_j are those of eq. 12 (alpha0 = ½); other exponents
-alpha (p_j ∝ tau_j^alpha) are computed per call (``_weights``).
+alpha (p_j ∝ tau_j^alpha) are computed per call (``mode_weights``).
 
 The derivatives with respect to ln(tau_max) and ln(tau_max_R) are carried forward-mode in
 ``integrate`` (exact): d a/d ln tau = x a, d φ/d ln tau = φ - a.
 
-All njit functions stay in this one module: numba's on-disk cache does not notice changes in a
-helper imported from another module (inference/posterior/fused.py: ``numba_cache.depend_on``).
+numba's on-disk cache does not notice changes in a helper imported from another module: modules
+whose njit functions call these (reduced_time.py, fused.py) key them on this file (``depend_on``).
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ TINY = 1.0e-200         # states below this are flushed to zero (denormals are s
 DT, IDT, DE, DH, H1, RHO = 0, 1, 2, 3, 4, 5    # the columns of Grid.steps (model/grid.py)
 
 # no "contract" (FMA): compiled and cache-loaded code fused differently, so first runs were 1 ulp off
-_FASTMATH = {"reassoc", "nsz"}
+FASTMATH = {"reassoc", "nsz"}
 
 _LOG2E = 1.4426950408889634
 _LN2_HI = 6.93147180369123816490e-01    # 0x3fe62e42fee00000: n·_LN2_HI is exact
@@ -71,8 +71,8 @@ _TAB_EXACT = 1      # (a_L, p tau (1 - a_L)/Δ_L): stress on exact levels
 _TAB_QUANT = 2      # (a_L, p tau (1 - a_L), p tau a_L): stress on quantized levels
 
 
-@njit(cache=True, fastmath=_FASTMATH, inline="always")
-def _decay(x):
+@njit(cache=True, fastmath=FASTMATH, inline="always")
+def decay(x):
     """(exp(-x), 1 - exp(-x)) for 0 <= x <= 40, to 2 and 4 ulp, branch-free (vectorises).
 
     x = n ln2 - r, |r| <= ln2/2; Q(r) = expm1(r)/r, degree 12 by Estrin; exp(-x) = 2^-n (1 + r Q),
@@ -93,7 +93,7 @@ def _decay(x):
     return a, om
 
 
-@njit(cache=True, fastmath=_FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def _rho_powers(rho):
     """Coefficients of 1 - exp(-ρ/tau) = Σ_{m=1..6} c_m (1/tau)^m, c_m = -(-ρ)^m/m!."""
     c1 = rho
@@ -105,7 +105,7 @@ def _rho_powers(rho):
     return c1, c2, c3, c4, c5, c6
 
 
-@njit(cache=True, fastmath=_FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def _one_minus_exp_small(it, c1, c2, c3, c4, c5, c6):
     """1 - exp(-z), z = ρ·it, by Horner in it with the step's coefficients (``_rho_powers``).
 
@@ -115,12 +115,12 @@ def _one_minus_exp_small(it, c1, c2, c3, c4, c5, c6):
     return it * (c1 + it * (c2 + it * (c3 + it * (c4 + it * (c5 + it * c6)))))
 
 
-@njit(cache=True, fastmath=_FASTMATH, inline="always")
-def _flush(v):
+@njit(cache=True, fastmath=FASTMATH, inline="always")
+def flush_tiny(v):
     return v if abs(v) > TINY else 0.0
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@njit(cache=True, fastmath=FASTMATH)
 def _level_tables(lev, itau, ptau, kind):
     """Decays of every level for the active modes, x = min(Δ_L/tau_k, X_RELAXED): three (levels,
     modes) tables whose content depends on ``kind`` (_TAB_DECAY, _TAB_EXACT, _TAB_QUANT)."""
@@ -132,7 +132,7 @@ def _level_tables(lev, itau, ptau, kind):
     for m in range(nl):
         d = lev[m]
         for k in range(nk):
-            a, om = _decay(min(d * itau[k], X_RELAXED))
+            a, om = decay(min(d * itau[k], X_RELAXED))
             t1[m, k] = a
             t2[m, k] = om
         if kind == _TAB_EXACT:
@@ -161,8 +161,8 @@ class PhaseTables(NamedTuple):
     t3: np.ndarray
 
 
-@njit(cache=True, fastmath=_FASTMATH)
-def _weights(grid, alpha):
+@njit(cache=True, fastmath=FASTMATH)
+def mode_weights(grid, alpha):
     """p_j = (tau_j/tau_max)^alpha / Σ_k (tau_k/tau_max)^alpha (eq. 12 with the exponent alpha):
     the grid's own p at its exponent alpha0 (so that results at ½ are the paper's bit for bit),
     else computed, the largest term scaled to 1 (no overflow for any alpha)."""
@@ -182,7 +182,7 @@ def _weights(grid, alpha):
     return w
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@njit(cache=True, fastmath=FASTMATH)
 def _phase_tables(grid, p, tau_max, relaxation, for_stress):
     """Relaxed-mode count, active spectrum and level tables of one phase (relaxation: False
     tensile, True relaxation; for_stress: False gives the _TAB_DECAY tables of integrate, True
@@ -221,7 +221,7 @@ _BLOCK = 32     # steps whose decays integrate computes in one call
 _FLAGS, _STEP0 = np.array([False, True]), np.zeros(1, np.int64)  # run-time, not literal: docs/performance.md
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@njit(cache=True, fastmath=FASTMATH)
 def _block_decays(i0, i1, grid, itau, ta, tom, a_out, om_out):
     """(a, 1 - a) of steps i0..i1-1 (rows 0.. of a_out, om_out) for the active modes: from the
     step's level m (tables a_L, 1 - a_L, with the ρ correction) or by a full exp (m < 0)."""
@@ -244,14 +244,14 @@ def _block_decays(i0, i1, grid, itau, ta, tom, a_out, om_out):
         else:
             d = fg[i, DT]
             for k in range(itau.size):
-                a, om = _decay(min(d * itau[k], X_RELAXED))
+                a, om = decay(min(d * itau[k], X_RELAXED))
                 a_out[b, k] = a
                 om_out[b, k] = om
 
 
 # ---------------------------------------------------------------- one parameter set: the stress
 
-@njit(cache=True, fastmath=_FASTMATH)
+@njit(cache=True, fastmath=FASTMATH)
 def _stress_phase(grid, i0, i1, exact, tabs, e_mod, g_h, s_base, D, out):
     """Advance the active states D over steps i0..i1-1 and write out[i+1]:
     w = E Δε - g_h Δh, σ = g_h h1 + s_base + spt w/Δ + Σ D, with D <- a D + b w per mode.
@@ -299,7 +299,7 @@ def _stress_phase(grid, i0, i1, exact, tabs, e_mod, g_h, s_base, D, out):
                 s2 += v
                 v = ta[m3, k] * v + tb[m3, k] * w3
                 s3 += v
-                D[k] = _flush(v)
+                D[k] = flush_tiny(v)
             out[i + 1] = g_h * fg[i, H1] + s_base + spt * w0 * fg[i, IDT] + s0
             out[i + 2] = g_h * fg[i + 1, H1] + s_base + spt * w1 * fg[i + 1, IDT] + s1
             out[i + 3] = g_h * fg[i + 2, H1] + s_base + spt * w2 * fg[i + 2, IDT] + s2
@@ -313,7 +313,7 @@ def _stress_phase(grid, i0, i1, exact, tabs, e_mod, g_h, s_base, D, out):
         flush = (j & 3) == 0
         if exact:
             for k in range(nk):
-                v = _flush(ta[m, k] * D[k] + tb[m, k] * w)
+                v = flush_tiny(ta[m, k] * D[k] + tb[m, k] * w)
                 D[k] = v
                 s += v
         elif m >= 0:
@@ -322,7 +322,7 @@ def _stress_phase(grid, i0, i1, exact, tabs, e_mod, g_h, s_base, D, out):
                 for k in range(nk):
                     u = _one_minus_exp_small(itau[k], c1, c2, c3, c4, c5, c6)
                     a_l = ta[m, k]
-                    v = _flush((a_l - a_l * u) * D[k] + (tb[m, k] + tc[m, k] * u) * wi)
+                    v = flush_tiny((a_l - a_l * u) * D[k] + (tb[m, k] + tc[m, k] * u) * wi)
                     D[k] = v
                     s += v
             else:
@@ -335,14 +335,14 @@ def _stress_phase(grid, i0, i1, exact, tabs, e_mod, g_h, s_base, D, out):
         else:
             d = fg[j, DT]
             for k in range(nk):
-                a, om = _decay(min(d * itau[k], X_RELAXED))
-                v = _flush(a * D[k] + ptau[k] * om * wi)
+                a, om = decay(min(d * itau[k], X_RELAXED))
+                v = flush_tiny(a * D[k] + ptau[k] * om * wi)
                 D[k] = v
                 s += v
         out[j + 1] = g_h * fg[j, H1] + s_base + spt * wi + s
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@njit(cache=True, fastmath=FASTMATH)
 def stress_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, grid, out):
     """True stress of one parameter set at every sample, written into ``out`` (q,). Returns True,
     or False (``out`` filled with NaN) when tau_max, or tau_max_R with a relaxation phase, is not
@@ -368,7 +368,7 @@ def stress_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, grid, out):
             alpha > -np.inf and alpha < np.inf):
         out[:] = np.nan
         return False
-    p = _weights(grid, alpha)
+    p = mode_weights(grid, alpha)
     out[0] = G * grid.h0
     D = np.zeros(n)
     j0t = 0
@@ -394,7 +394,7 @@ def stress_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, grid, out):
     return True
 
 
-@njit(cache=True, fastmath=_FASTMATH, parallel=True)
+@njit(cache=True, fastmath=FASTMATH, parallel=True)
 def stress_batch_into(theta, grid, out):
     """``stress_into`` for every row of theta (k, 6) = (E, G, sigma_inf, tau_max, tau_max_R, alpha),
     rows of ``out`` (k, q), in parallel over rows (numba threads). Returns the number of rows
@@ -410,7 +410,7 @@ def stress_batch_into(theta, grid, out):
 
 # ------------------------------------------------ unit responses and their derivatives (basis)
 
-@njit(cache=True, fastmath=_FASTMATH)
+@njit(cache=True, fastmath=FASTMATH)
 def _integrate_phase(grid, tabs, relaxation, i0, i1, p, cw, states, want_grad, out, g_own,
                      g_other, g_alpha, av, omv):
     """Advance the unit-response states of the active modes over steps i0..i1-1 of one phase and
@@ -467,18 +467,18 @@ def _integrate_phase(grid, tabs, relaxation, i0, i1, p, cw, states, want_grad, o
                 a = av[b, k]
                 x_a = d * itau[k] * a
                 pdphi = ptau[k] * omv[b, k] * idt - pk[k] * a
-                dA[k] = _flush(a * dA[k] + x_a * A[k] + pdphi * de)
+                dA[k] = flush_tiny(a * dA[k] + x_a * A[k] + pdphi * de)
                 ga += dA[k]
                 if relaxation:
-                    dB[k] = _flush(a * dB[k] + x_a * B[k])
-                    dC[k] = _flush(a * dC[k] + x_a * (C[k] - pk[k]))
-                    fA[k] = _flush(a * fA[k])
-                    fB[k] = _flush(a * fB[k])
+                    dB[k] = flush_tiny(a * dB[k] + x_a * B[k])
+                    dC[k] = flush_tiny(a * dC[k] + x_a * (C[k] - pk[k]))
+                    fA[k] = flush_tiny(a * fA[k])
+                    fB[k] = flush_tiny(a * fB[k])
                     gc += dC[k]
                     oa += fA[k]
                     ob += fB[k]
                 else:
-                    dB[k] = _flush(a * dB[k] + x_a * (B[k] - pk[k] * h0) - pdphi * dh)
+                    dB[k] = flush_tiny(a * dB[k] + x_a * (B[k] - pk[k] * h0) - pdphi * dh)
                 gb += dB[k]
             g_own[i + 1, 0] = ga
             g_own[i + 1, 1] = gb
@@ -490,9 +490,9 @@ def _integrate_phase(grid, tabs, relaxation, i0, i1, p, cw, states, want_grad, o
             for k in range(nk):
                 a = av[b, k]
                 oma = omv[b, k]
-                A[k] = _flush(a * A[k] + ptau[k] * oma * idt * de)
-                B[k] = _flush(a * B[k])
-                C[k] = _flush(a * C[k] + pk[k] * oma)
+                A[k] = flush_tiny(a * A[k] + ptau[k] * oma * idt * de)
+                B[k] = flush_tiny(a * B[k])
+                C[k] = flush_tiny(a * C[k] + pk[k] * oma)
                 sa += A[k]
                 sb += B[k]
                 sc += C[k]
@@ -500,8 +500,8 @@ def _integrate_phase(grid, tabs, relaxation, i0, i1, p, cw, states, want_grad, o
             for k in range(nk):
                 a = av[b, k]
                 c = ptau[k] * omv[b, k] * idt
-                A[k] = _flush(a * A[k] + c * de)
-                B[k] = _flush(a * B[k] + pk[k] * (h1 - a * h0) - c * dh)
+                A[k] = flush_tiny(a * A[k] + c * de)
+                B[k] = flush_tiny(a * B[k] + pk[k] * (h1 - a * h0) - c * dh)
                 sa += A[k]
                 sb += B[k]
         out[i + 1, 0] = sa
@@ -527,7 +527,7 @@ def _integrate_phase(grid, tabs, relaxation, i0, i1, p, cw, states, want_grad, o
             g_alpha[i + 1, 2] = cc
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@njit(cache=True, fastmath=FASTMATH)
 def integrate(tau_max, tau_max_R, alpha, grid, want_grad, out, grad_t, grad_r, grad_a):
     """Integrate all modes over the whole record; write ΣA, ΣB, ΣC per sample into ``out`` (q, 3).
 
@@ -536,7 +536,7 @@ def integrate(tau_max, tau_max_R, alpha, grid, want_grad, out, grad_t, grad_r, g
     constants must be finite and positive, alpha finite (checked by the caller).
     """
     fg = grid.steps
-    p = _weights(grid, alpha)
+    p = mode_weights(grid, alpha)
     shape = grid.shape
     n = p.size
     n_steps = fg.shape[0]

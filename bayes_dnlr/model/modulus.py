@@ -9,6 +9,10 @@ p_j G ε_HT(Δε) ≈ 3 p_j G Δε (eq. 7: ε_HT = e^{2ε} − e^{−ε} ≈ 3ε
 so E(0) = E, the instantaneous modulus, and E(∞) = 3G. A constant-rate ramp's slope at strain ε is
 close to E(ε/ε̇): a curve sampled every Δt over a duration T measures E(t) for t between a few Δt and
 T, while E is E(t) extrapolated to t → 0 through the spectrum's fast end.
+
+With a shift factor (model/shift.py) tau_max is the reference state's: E(t) at a temperature T is
+the same curve with every tau_j multiplied by a_T(T) (``shift_factor``), and with a stress shift
+it is the small-strain limit σ → 0, where a_σ = 1.
 """
 
 from __future__ import annotations
@@ -23,12 +27,17 @@ SMALL_STRAIN_SLOPE = 3.0     # dε_HT/dε at ε = 0 (eq. 7)
 
 def relaxation_modulus(t: np.ndarray | float, E: np.ndarray | float, G: np.ndarray | float,
                        tau_max: np.ndarray | float, alpha: np.ndarray | float = UNIVERSAL_EXPONENT,
-                       modes: int = 50, decades: float = 6.0) -> np.ndarray:
+                       modes: int = 50, decades: float = 6.0,
+                       shift_factor: np.ndarray | float = 1.0) -> np.ndarray:
     """E(t) (MPa) at the times ``t`` (s) for one parameter set or many.
 
     E, G, tau_max and alpha broadcast against each other (shape (k,) for k draws, or scalars);
     the result has shape (k, len(t)), or (len(t),) when every parameter is a scalar.
+    ``shift_factor``: a_T at the temperature wanted (model/shift.py ``temperature_shift``), which
+    multiplies tau_max (the reference temperature's); 1 there.
     """
+    if np.any(np.asarray(shift_factor) != 1.0):
+        tau_max = np.asarray(tau_max, dtype=float) * np.asarray(shift_factor, dtype=float)
     scalar = all(np.ndim(v) == 0 for v in (E, G, tau_max, alpha))
     times = np.atleast_1d(np.asarray(t, dtype=float))
     E, G, tau, a = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, dtype=float))

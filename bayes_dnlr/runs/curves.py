@@ -35,12 +35,21 @@ class Curves:
 
 
 def _model(run: RunResults):
+    from bayes_dnlr.inference.test_model import shift_of, temperature_of
     from bayes_dnlr.model import cached_model
 
     t = run.test
     n = t.model_end
     return cached_model(t.time[:n], t.strain_input[:n], run.cfg.model.modes, run.cfg.model.decades,
-                        t.relaxation_start), n
+                        t.relaxation_start, shift_of(run.cfg), temperature_of(run.cfg, t, n)), n
+
+
+def _curve(model, p: dict[str, float]) -> np.ndarray:
+    """The model's stress at the parameters ``p``: through the basis (linear in E, G, σ_inf), or
+    the shifted model's own integration."""
+    if model.is_shifted:
+        return model.stress(p)
+    return _stress(_basis(model, p).values, p)
 
 
 def _stress(basis_values: np.ndarray, p: dict[str, float]) -> np.ndarray:
@@ -63,6 +72,13 @@ def _model_names(model) -> list[str]:
 
 def sensitivities(model, params: dict[str, float], names: list[str]) -> dict[str, np.ndarray]:
     """Normalised sensitivities X̃_j = β_j ∂σ/∂β_j (eq. 37), MPa, on the model grid."""
+    if model.is_shifted:
+        from bayes_dnlr.vocabulary import LOG_COORDINATES
+
+        present = [n for n in names if n in params]
+        J = model.jacobian(params, present)
+        return {n: J[:, i] if n in LOG_COORDINATES else params[n] * J[:, i]
+                for i, n in enumerate(present)}
     b = _basis(model, params, grad=True)
     out = {}
     for n in names:
@@ -96,10 +112,10 @@ def model_curves(run: RunResults, n_draws: int = N_DRAWS, seed: int = 0) -> Curv
     if all(k in point for k in model.parameter_names()):
         gn = run.gn()
         if gn is not None:
-            c.gn_curve = _stress(_basis(model, point).values, point)
+            c.gn_curve = _curve(model, point)
             white = {**fixed, **gn["estimate"]}
             c.white_curve = (c.gn_curve if all(white.get(k) == point.get(k) for k in _model_names(model))
-                             else _stress(_basis(model, white).values, white))
+                             else _curve(model, white))
         c.sensitivities = sensitivities(model, point, [k for k in _model_names(model)
                                                        if k in run.model_names])
     if run.draws is not None and all(k in run.draws or k in fixed for k in model.parameter_names()):

@@ -23,6 +23,7 @@ from bayes_dnlr.data.checks import LOADED_START
 from bayes_dnlr.data.cycles import Turns, turning_points
 from bayes_dnlr.data.guess import FRACTION_MAX, Guess, Pick, guess_columns
 from bayes_dnlr.data.hints import peak_window
+from bayes_dnlr.data.temperature import in_file_name, in_metadata
 from bayes_dnlr.diskio import storage_error
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.numbers import fmt
@@ -202,6 +203,7 @@ def build_config(data: Path, out: Path) -> tuple[dict[str, Any], list[Edit], lis
     strain_h = (_hencky(strain.column.values, factor, measure) if "strain" in columns and factor is not None
                 else None)
     _window(guess, dr, load, strain, strain_h)
+    _temperature(guess, dr)
     raw = {"name": run_name(out.parent.name), "data": dr.data, "noise": {"sigma0": "residuals"}}
     return raw, dr.edits, dr.found, dr.comments, dr.column_notes
 
@@ -330,6 +332,37 @@ def _window(guess: Guess, dr: _Draft, load: Pick, strain: Pick, strain_h: np.nda
     dr.data["window"] = window
     dr.comments["window"] = why
     dr.edits.append(Edit("check", "data.window", window, _window_why(why)))
+
+
+def _temperature(guess: Guess, dr: _Draft) -> None:
+    """data.temperature: a temperature column (its name or unit says so), else a temperature in
+    the file's metadata or name (data/temperature.py), which the user checks."""
+    shift = "model.shift.temperature shifts the spectrum to a reference temperature (docs/config.md)"
+    t = guess.temperature
+    if t is not None:
+        ref = _column_ref(t, guess)
+        unit = (t.column.unit or "").strip().strip("()[]").strip()
+        kelvin = unit.lower() in ("k", "kelvin")
+        dr.data["temperature"] = {"column": ref, "unit": "K"} if kelvin and not t.column.unit_read else ref
+        v = t.column.values[np.isfinite(t.column.values)] - (273.15 if kelvin else 0.0)
+        dr.comments["temperature"] = (f"read per row from {t.column.label} ({t.how}), "
+                                      f"{float(v.min()):.4g} to {float(v.max()):.4g} °C; {shift}")
+        dr.found.append(f"temperature: {t.column.label} ({t.how}), {float(v.min()):.4g} to "
+                        f"{float(v.max()):.4g} °C, read per row")
+        return
+    first, last = guess.layout.metadata or (0, -1)
+    lines = guess.path.read_text(errors="replace").splitlines()[first - 1:last] if first else []
+    hit, where = in_metadata(lines), "metadata"
+    if hit is None:
+        hit, where = in_file_name(guess.path.stem), "name"
+    if hit is None:
+        return
+    value, text = hit
+    dr.data["temperature"] = value
+    dr.comments["temperature"] = f"°C, from the file's {where} ({text!r}); {shift}"
+    dr.found.append(f"temperature: {value:g} °C, from the file's {where} ({text!r})")
+    dr.edits.append(Edit("check", "data.temperature", value,
+                         f"read from the file's {where} ({text!r}): the test's temperature in °C?"))
 
 
 def config_text(raw: dict[str, Any], comments: dict[str, str], source: Path,

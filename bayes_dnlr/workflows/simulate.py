@@ -34,6 +34,7 @@ import numpy as np
 from bayes_dnlr.config import Config, ConfigError, TruthConfig
 from bayes_dnlr.data import DataError, nominal_from_hencky
 from bayes_dnlr.data.numbers import parse_cell
+from bayes_dnlr.model.shift import Shift
 from bayes_dnlr.units import factor
 from bayes_dnlr.workflows.truth_forms import generate
 
@@ -320,6 +321,31 @@ def _columns(cfg: Config, truth: TruthConfig, p: Protocol, stress: np.ndarray,
     return out
 
 
+def _temperature_column(cfg: Config, truth: TruthConfig, time: np.ndarray
+                        ) -> list[tuple[str, str, np.ndarray]]:
+    """The temperature column that ``data.temperature`` names (°C, or K by its unit), when the
+    truth has a temperature."""
+    col = cfg.data.temperature_column
+    if col is None or truth.temperature is None:
+        return []
+    t = np.broadcast_to(truth.temperature_at(time), time.shape).astype(float)
+    return [("temperature", str(col.column), t + 273.15 if col.unit == "K" else t)]
+
+
+def _temperature_notes(cfg: Config, truth: TruthConfig) -> list[str]:
+    """What the fit will not know of the truth's temperature."""
+    d = cfg.data
+    if truth.temperature is None:
+        return ["data.temperature names a column, but the truth has no temperature: not written"] if (
+            d.temperature_column is not None) else []
+    if not d.has_temperature:
+        return ["the truth has a temperature, but data.temperature is not set: the fit will not "
+                "know it"]
+    if d.temperature_column is None and truth.temperature_at(np.zeros(1)) != d.temperature:
+        return [f"data.temperature ({d.temperature:g} °C) is not the truth's"]
+    return []
+
+
 def _unit(cfg: Config, layout: str, role: str) -> str | None:
     """The unit a column is written in: data.units, data.strain_unit, else the layout's."""
     d = cfg.data
@@ -371,6 +397,11 @@ def _csv_bytes(cfg: Config, columns: list[tuple[str, str, np.ndarray]], layout: 
     scaled = []
     units = []
     for role, _, values in columns:
+        if role == "temperature":      # written in its own unit (_temperature_column)
+            col = cfg.data.temperature_column
+            scaled.append(values)
+            units.append(None if layout == "plain" else (col.unit or "°C"))
+            continue
         unit = _unit(cfg, layout, role)
         f = 1.0 if unit is None else factor(role, unit)
         scaled.append(values / f)
@@ -449,10 +480,14 @@ def simulate_test(cfg: Config, overwrite: bool = False) -> SimulationResult:
     kind = None if truth.model_form is None else truth.model_form.kind
     strength = "mild" if truth.model_form is None else truth.model_form.strength
 
+    shift = Shift(truth.shift.temperature, truth.shift.reference_temperature, truth.shift.stress,
+                  truth.shift.driving)
+
     def made(time: np.ndarray, strain: np.ndarray, relaxation_start: float | None):
         if kind is None:
             return simulate(time, strain, truth.params, modes=cfg.model.modes,
-                            decades=cfg.model.decades, relaxation_start=relaxation_start), None
+                            decades=cfg.model.decades, relaxation_start=relaxation_start,
+                            shift=shift, temperature=truth.temperature_at(time)), None
         form = generate(time, strain, truth.params, relaxation_start, kind, strength,
                         cfg.model.modes, cfg.model.decades)
         return form.stress, form.measured_strain
@@ -463,10 +498,12 @@ def simulate_test(cfg: Config, overwrite: bool = False) -> SimulationResult:
         p = cyclic_protocol(truth, rng, lambda t, e: made(t, e, None)[0])
     stress, measured = made(p.time, p.strain, p.relaxation_start)
     columns = _columns(cfg, truth, p, stress, rng, measured)
+    columns += _temperature_column(cfg, truth, p.time)
     source = cfg.source if cfg.source is not None else "the config"
     data = _csv_bytes(cfg, columns, truth.layout)
     delimiter = cfg.data.delimiter or LAYOUTS[truth.layout]["delimiter"]
     status, notes = _write(cfg.data_path, data, overwrite, source, truth.layout, delimiter)
+    notes += _temperature_notes(cfg, truth)
     rs = cfg.data.relaxation_start
     if isinstance(rs, float) and p.relaxation_start is not None and not np.isclose(rs, p.relaxation_start):
         notes.append(f"data.relaxation_start is {rs:g} s but the hold starts at {p.relaxation_start:g} s")

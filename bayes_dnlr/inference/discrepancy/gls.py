@@ -51,7 +51,6 @@ from bayes_dnlr.inference.lsq.sensitivity import (
     alpha_score,
     bound_side,
     correlation,
-    derivative,
     relative_errors,
     standard_deviations,
 )
@@ -242,7 +241,7 @@ def discrepancy_analysis(cfg: Config, test, problem: LsqProblem, beta_white: np.
     whitened = residual_diagnostics(whiten(core["r_window"]), 1.0, "whitened")
     score = None
     if SPECTRUM_EXPONENT not in names and "E" in names:      # the spectrum exponent held at ½
-        x_alpha = derivative(problem.basis(params), params, SPECTRUM_EXPONENT)[problem.mask]
+        x_alpha = problem.column(params, SPECTRUM_EXPONENT)
         score = alpha_score(whiten(problem.jacobian(params)), whiten(x_alpha), whiten(core["r_window"]),
                             1.0)
     gain = (per["matern32"]["log_posterior"] - per["exp"]["log_posterior"]) if len(per) == 2 else None

@@ -41,7 +41,6 @@ from bayes_dnlr.inference.lsq.sensitivity import (
     analyse_holding,
     bound_side,
     bound_warning,
-    derivative,
     hold_words,
     identifiability_warnings,
     unidentified,
@@ -439,7 +438,7 @@ def _spectrum_dependence(problem: LsqProblem, params: Mapping[str, float], names
         return None
     other = [j for j, k in enumerate(names) if k != "alpha"]
     alpha = params.get("alpha", UNIVERSAL_EXPONENT)
-    x_alpha = derivative(problem.basis(params), params, "alpha")[problem.mask]
+    x_alpha = problem.column(params, "alpha")
     out = alpha_dependence(X[:, other], [names[j] for j in other], values[other], x_alpha,
                            alpha, "alpha" in names)
     if "alpha" not in names:

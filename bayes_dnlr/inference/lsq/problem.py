@@ -22,9 +22,12 @@ from bayes_dnlr.config import Config
 from bayes_dnlr.errors import BayesDnlrError
 from bayes_dnlr.inference.lsq.bounded import bounded_lstsq
 from bayes_dnlr.inference.lsq.sensitivity import derivative, log_sensitivity
+from bayes_dnlr.inference.test_model import shift_of, temperature_of
 from bayes_dnlr.model import DNLR, Basis
+from bayes_dnlr.model.shift import NO_SHIFT, Shift
 from bayes_dnlr.vocabulary import (
     LINEAR_COLUMN,
+    LOG_COORDINATES,
     NONLINEAR,
     PARAMETER_NAMES,
     TIME_CONSTANTS,
@@ -48,18 +51,26 @@ class LogCoordinates:
 
 
 class LsqProblem(LogCoordinates):
-    """Residuals y^m - y(β) on the window (eq. 19), the criterion (eq. 20) and its Jacobian (eq. 22)."""
+    """Residuals y^m - y(β) on the window (eq. 19), the criterion (eq. 20) and its Jacobian (eq. 22).
+
+    With a shift factor (``shift``; model/shift.py) the model is not linear in E, G and
+    sigma_inf: no variable projection (every free parameter is nonlinear) and the Jacobian by the
+    model's central differences (``DNLR.jacobian``), sigma_s in log coordinates.
+    """
 
     def __init__(self, time: np.ndarray, strain_input: np.ndarray, stress: np.ndarray,
                  window: np.ndarray, relaxation_start: float | None, names: Sequence[str],
                  fixed: Mapping[str, float], bounds: Mapping[str, tuple[float, float]],
-                 modes: int = 50, decades: float = 6.0) -> None:
+                 modes: int = 50, decades: float = 6.0, shift: Shift = NO_SHIFT,
+                 temperature: float | np.ndarray | None = None) -> None:
         window = np.asarray(window, dtype=bool)
         if not window.any():
             raise BayesDnlrError("the identification window holds no sample (check data.window)")
         end = int(np.flatnonzero(window)[-1]) + 1
+        if temperature is not None and np.ndim(temperature) > 0:
+            temperature = np.asarray(temperature)[:end]
         self.model = DNLR(np.asarray(time)[:end], np.asarray(strain_input)[:end], modes, decades,
-                          relaxation_start)
+                          relaxation_start, shift, temperature)
         self.mask = window[:end]
         self.y = np.asarray(stress, dtype=float)[:end][self.mask]
         self.names = list(names)
@@ -71,9 +82,15 @@ class LsqProblem(LogCoordinates):
             raise BayesDnlrError(
                 f"parameters {relax} act only in the relaxation phase, which starts after the "
                 "identification window ends: fix them (value: ...) or widen data.window")
-        self.linear = [k for k in self.names if k in LINEAR_COLUMN]
-        self.nonlinear = [k for k in self.names if k in NONLINEAR]
-        self.is_log = np.array([k in TIME_CONSTANTS for k in self.names])
+        self.shifted = self.model.is_shifted
+        if self.shifted:
+            self.linear: list[str] = []
+            self.nonlinear = list(self.names)
+            self.is_log = np.array([k in LOG_COORDINATES for k in self.names])
+        else:
+            self.linear = [k for k in self.names if k in LINEAR_COLUMN]
+            self.nonlinear = [k for k in self.names if k in NONLINEAR]
+            self.is_log = np.array([k in TIME_CONSTANTS for k in self.names])
         lo = np.array([bounds[k][0] for k in self.names], dtype=float)
         hi = np.array([bounds[k][1] for k in self.names], dtype=float)
         self.lower, self.upper = lo, hi
@@ -81,6 +98,7 @@ class LsqProblem(LogCoordinates):
             self.u_lower = np.where(self.is_log, np.log(np.maximum(lo, 0.0)), lo)
             self.u_upper = np.where(self.is_log, np.log(hi), hi)
         self._cache: tuple[tuple[float, float | None, float], Basis] | None = None
+        self._stress_cache: tuple[tuple[float, ...], np.ndarray] | None = None
         self.evaluations = 0
         self.whiten: Callable[[np.ndarray], np.ndarray] | None = None   # W = L⁻¹, or None (white)
 
@@ -91,7 +109,7 @@ class LsqProblem(LogCoordinates):
         names = cfg.free_parameters
         return cls(test.time, test.strain_input, test.stress, test.window, test.relaxation_start,
                    names, cfg.fixed_values, {k: cfg.parameters[k].bounds() for k in names},
-                   cfg.model.modes, cfg.model.decades)
+                   cfg.model.modes, cfg.model.decades, shift_of(cfg), temperature_of(cfg, test))
 
     # ---- layout
     @property
@@ -125,6 +143,12 @@ class LsqProblem(LogCoordinates):
 
     def predict(self, params: Mapping[str, float]) -> np.ndarray:
         """Model stress on the window."""
+        if self.shifted:
+            key = tuple(float(params[k]) for k in self.all_names)
+            if self._stress_cache is None or self._stress_cache[0] != key:
+                self._stress_cache = (key, self.model.stress(params)[self.mask])
+                self.evaluations += 1
+            return self._stress_cache[1]
         v = self.basis(params).values[self.mask]
         y = params["E"] * v[:, 0] + params["G"] * v[:, 1]
         if "sigma_inf" in params:
@@ -149,6 +173,9 @@ class LsqProblem(LogCoordinates):
 
     def jacobian_u(self, params: Mapping[str, float]) -> np.ndarray:
         """∂y/∂u on the window: X for E, G, sigma_inf and alpha, τ ∂y/∂τ for the time constants."""
+        if self.shifted:
+            self.evaluations += 2 * len(self.names)
+            return self._w(self.model.jacobian(params, self.names)[self.mask])
         b = self.basis(params)
         cols = []
         for k in self.names:
@@ -163,6 +190,16 @@ class LsqProblem(LogCoordinates):
         J = self.jacobian_u(params)
         beta = self.vector(params)
         return np.where(self.is_log[None, :], J / np.where(self.is_log, beta, 1.0)[None, :], J)
+
+    def column(self, params: Mapping[str, float], name: str) -> np.ndarray:
+        """∂y/∂β of one parameter on the window (not whitened), free or not (the spectrum
+        exponent's, for its dependence and score test)."""
+        if self.shifted:
+            if name == "alpha" and name not in params:
+                params = {**params, name: UNIVERSAL_EXPONENT}     # eq. 12's ½ unless given
+            c = self.model.jacobian(params, [name])[self.mask, 0]
+            return c / params[name] if name in LOG_COORDINATES else c
+        return derivative(self.basis(params), params, name)[self.mask]
 
     # ---- variable projection
     def linear_system(self, params: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:

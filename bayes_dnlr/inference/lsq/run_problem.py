@@ -15,7 +15,13 @@ import numpy as np
 from bayes_dnlr.inference.layout import Layout
 from bayes_dnlr.inference.lsq.bounded import bounded_lstsq
 from bayes_dnlr.inference.lsq.problem import LogCoordinates, LsqProblem
-from bayes_dnlr.vocabulary import LINEAR_COLUMN, NONLINEAR, TIME_CONSTANTS, base_name
+from bayes_dnlr.vocabulary import (
+    LINEAR_COLUMN,
+    LOG_COORDINATES,
+    NONLINEAR,
+    TIME_CONSTANTS,
+    base_name,
+)
 
 
 class RunProblem(LogCoordinates):
@@ -32,9 +38,15 @@ class RunProblem(LogCoordinates):
         self.layout = layout
         self.names = list(layout.names)
         self.weights = {t: float(weights[t]) for t in self.blocks}
-        self.linear = [k for k in self.names if base_name(k) in LINEAR_COLUMN]
-        self.nonlinear = [k for k in self.names if base_name(k) in NONLINEAR]
-        self.is_log = np.array([base_name(k) in TIME_CONSTANTS for k in self.names])
+        if any(b.shifted for b in self.blocks.values()):
+            # the shifted model (LsqProblem): no variable projection, sigma_s in log coordinates
+            self.linear: list[str] = []
+            self.nonlinear = list(self.names)
+            self.is_log = np.array([base_name(k) in LOG_COORDINATES for k in self.names])
+        else:
+            self.linear = [k for k in self.names if base_name(k) in LINEAR_COLUMN]
+            self.nonlinear = [k for k in self.names if base_name(k) in NONLINEAR]
+            self.is_log = np.array([base_name(k) in TIME_CONSTANTS for k in self.names])
         self.lower = np.array([bounds[k][0] for k in self.names], dtype=float)
         self.upper = np.array([bounds[k][1] for k in self.names], dtype=float)
         with np.errstate(divide="ignore"):

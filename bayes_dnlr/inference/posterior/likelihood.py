@@ -31,12 +31,13 @@ from bayes_dnlr.data import TestData
 from bayes_dnlr.inference.discrepancy.axis import Axis, test_axis
 from bayes_dnlr.inference.discrepancy.hyper import AMPLITUDE, LENGTH, gp, is_white
 from bayes_dnlr.inference.posterior import fused as fused_kernel
+from bayes_dnlr.inference.test_model import model_of
 from bayes_dnlr.model import DNLR
+from bayes_dnlr.model.shift import DRIVING_CODE
 from bayes_dnlr.vocabulary import (
     DISCREPANCY_PARAMETERS,
     SPECTRUM_EXPONENT,
     UNIVERSAL_EXPONENT,
-    pack_theta,
 )
 
 _LOG_2PI = math.log(2.0 * math.pi)
@@ -44,9 +45,7 @@ _LOG_2PI = math.log(2.0 * math.pi)
 
 def build_model(cfg: Config, test: TestData) -> DNLR:
     """The DNLR model on the test's strain history, from the first sample to the window's end."""
-    end = test.model_end
-    return DNLR(test.time[:end], test.strain_input[:end], modes=cfg.model.modes,
-                decades=cfg.model.decades, relaxation_start=test.relaxation_start)
+    return model_of(cfg, test)
 
 
 def window_rows(test: TestData) -> slice | np.ndarray:
@@ -136,6 +135,8 @@ class TestLikelihood:
     def predict(self, theta: np.ndarray) -> np.ndarray:
         """Model stress on the window, (k, n), for physical parameters theta (k, ndim)."""
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        if self.model.is_shifted:
+            return self._shifted_stress(theta)
         out = np.empty((theta.shape[0], self.n))
         for i, (e, g, t, s, tr, a) in enumerate(zip(*self._linear_and_times(theta), strict=True)):
             out[i] = self._stress(e, g, t, s, tr, a)
@@ -149,6 +150,18 @@ class TestLikelihood:
             s = tr = np.zeros(theta.shape[0])
         return e, g, t, s, tr, self._col(theta, SPECTRUM_EXPONENT)
 
+    def _shifted_stress(self, theta: np.ndarray) -> np.ndarray:
+        """The shifted model's stress on the window (k, n) (no basis: model/dnlr.py), NaN rows
+        where it is not defined."""
+        used = [*self.model.parameter_names(), SPECTRUM_EXPONENT]
+        k = theta.shape[0]
+        sets, ln_at = self.model.kernel_rows(
+            lambda name: self._col(theta, name) if name in used else None, k)
+        out = np.empty((k, self.model.n_points))
+        with np.errstate(all="ignore"):
+            self.model.stress_rows_into(sets, ln_at, out)
+        return out[:, self.rows]
+
     def _stress(self, e: float, g: float, t: float, s: float, tr: float, a: float) -> np.ndarray:
         b = self.model.basis(t, tr if self.has_relaxation else None, alpha=a).values[self.rows]
         if self.has_relaxation:
@@ -159,6 +172,8 @@ class TestLikelihood:
         """y - model (k, n) for physical parameters theta (k, ndim); rows of non-finite models hold
         NaN."""
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        if self.model.is_shifted:
+            return self.y[None, :] - self._shifted_stress(theta)
         out = np.empty((theta.shape[0], self.n))
         cols = self._linear_and_times(theta)
         for i in range(theta.shape[0]):
@@ -176,8 +191,8 @@ class TestLikelihood:
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         k = theta.shape[0]
         used = [*self.model.parameter_names(), SPECTRUM_EXPONENT]    # alpha: ½ unless free
-        sets = pack_theta(lambda name: self._col(theta, name) if name in used else None, k,
-                          self.has_relaxation)
+        sets, ln_at = self.model.kernel_rows(
+            lambda name: self._col(theta, name) if name in used else None, k)
         sig = np.ascontiguousarray(self._col(theta, "sigma0"), dtype=float)
         if self.discrepancy is not None:
             amp = np.ascontiguousarray(self._col(theta, AMPLITUDE), dtype=float)
@@ -185,9 +200,10 @@ class TestLikelihood:
         else:
             amp = length = sig
         out = np.empty(k)
+        shifted = None if ln_at is None else (ln_at, DRIVING_CODE[self.model.shift.driving])
         fused_kernel.evaluate(sets, sig, amp, length, self.model.kernel_args, self._y_axis,
                               self._idx, self._x, self._kind, self._gap, self._V,
-                              self.discrepancy is not None, out)
+                              self.discrepancy is not None, out, shifted)
         return out
 
     def log_likelihood_reference(self, theta: np.ndarray) -> np.ndarray:
@@ -198,6 +214,13 @@ class TestLikelihood:
         if self.discrepancy is not None:
             return self._log_likelihood_gp(theta, sig)
         out = np.full(theta.shape[0], -np.inf)
+        if self.model.is_shifted:
+            R = self.residuals(theta)
+            for i in range(theta.shape[0]):
+                rss = float(R[i] @ R[i])
+                if sig[i] > 0 and np.isfinite(sig[i]) and math.isfinite(rss):
+                    out[i] = -0.5 * rss / sig[i] ** 2 - self.n * (math.log(sig[i]) + 0.5 * _LOG_2PI)
+            return out
         cols = self._linear_and_times(theta)
         for i in range(theta.shape[0]):
             if not (sig[i] > 0 and np.isfinite(sig[i])):

@@ -20,11 +20,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from bayes_dnlr.config import ConfigError
 from bayes_dnlr.inference.discrepancy import gp
 from bayes_dnlr.inference.discrepancy.axis import make_axis
 from bayes_dnlr.inference.lsq.sensitivity import correlation, covariance, sensitivity_matrix
 from bayes_dnlr.model import DNLR
-from bayes_dnlr.vocabulary import RELAXATION_PARAMETERS, UNIVERSAL_EXPONENT
+from bayes_dnlr.model.shift import NO_SHIFT, Shift
+from bayes_dnlr.vocabulary import LOG_COORDINATES, RELAXATION_PARAMETERS, UNIVERSAL_EXPONENT
 from bayes_dnlr.workflows.design.candidates import Candidate, planned_protocol, window_mask
 
 
@@ -121,9 +123,27 @@ def _sandwich(delta: np.ndarray, axis, X: np.ndarray, noise: NoiseDraw, draws: D
     return 0.5 * (total + total.T)
 
 
+def _sensitivities(model: DNLR, theta: dict[str, float], names: list[str], mask: np.ndarray,
+                   relaxation: bool) -> np.ndarray:
+    """X (eq. 22) on the window: exact from the basis, or for the shifted model by its central
+    differences (``DNLR.jacobian``, in ln of the LOG_COORDINATES)."""
+    if model.is_shifted:
+        J = model.jacobian(theta, names)[mask]
+        scale = np.array([theta[k] if k in LOG_COORDINATES else 1.0 for k in names])
+        return J / scale[None, :]
+    basis = model.basis(theta["tau_max"], theta.get("tau_max_R") if relaxation else None, grad=True,
+                        alpha=theta.get("alpha", UNIVERSAL_EXPONENT))
+    return sensitivity_matrix(basis, theta, names, mask)
+
+
 def predict(candidate: Candidate, draws: Draws, free: Sequence[str], modes: int, decades: float,
-            max_duration: float | None = None, max_points: int | None = None) -> Prediction:
-    """The predicted sd, Err, ρ, Δ̃, D and A of ``candidate`` averaged over ``draws``."""
+            max_duration: float | None = None, max_points: int | None = None,
+            shift: Shift = NO_SHIFT) -> Prediction:
+    """The predicted sd, Err, ρ, Δ̃, D and A of ``candidate`` averaged over ``draws`` (``shift``:
+    a stress shift of the model; a planned test has no temperature, so no temperature shift)."""
+    if shift.temperature != "none":
+        raise ConfigError("model.shift.temperature: design plans tests without a temperature, so a "
+                          "temperature shift cannot be predicted; leave it out (a stress shift can)")
     pred = Prediction(candidate, total_points=candidate.total_points)
     pred.feasible = ((max_duration is None or candidate.duration <= max_duration * (1 + 1e-12))
                      and (max_points is None or candidate.total_points <= max_points))
@@ -135,7 +155,8 @@ def predict(candidate: Candidate, draws: Draws, free: Sequence[str], modes: int,
     end = int(np.flatnonzero(mask)[-1]) + 1
     switch = prot.relaxation_start
     relaxation = switch is not None and prot.time[end - 1] > switch
-    model = DNLR(prot.time[:end], prot.strain[:end], modes, decades, switch if relaxation else None)
+    model = DNLR(prot.time[:end], prot.strain[:end], modes, decades, switch if relaxation else None,
+                 shift)
     mask = mask[:end]
     names, pred.note = free_names(candidate, free, relaxation)
     pred.names, pred.n_points = names, int(mask.sum())
@@ -152,9 +173,7 @@ def predict(candidate: Candidate, draws: Draws, free: Sequence[str], modes: int,
     p = len(names)
     cov_sum, rel_sum, logdet = np.zeros((p, p)), np.zeros((p, p)), []
     for theta, noise in zip(draws.params, draws.noise, strict=True):
-        basis = model.basis(theta["tau_max"], theta.get("tau_max_R") if relaxation else None, grad=True,
-                            alpha=theta.get("alpha", UNIVERSAL_EXPONENT))
-        X = sensitivity_matrix(basis, theta, names, mask)
+        X = _sensitivities(model, theta, names, mask, relaxation)
         values = np.array([theta[k] for k in names])
         try:
             if noise.amplitude > 0:

@@ -21,6 +21,7 @@ from bayes_dnlr.config import ConfigError
 from bayes_dnlr.csvcells import safe_cell
 from bayes_dnlr.digests import digest, file_sha256
 from bayes_dnlr.errors import BayesDnlrError, DamagedFileError, RunError
+from bayes_dnlr.inference.test_model import shift_of
 from bayes_dnlr.numbers import fmt, share
 from bayes_dnlr.readback import read_json
 from bayes_dnlr.runs.folder import jsonable, write_atomic, write_json
@@ -311,7 +312,8 @@ def run_design(cfg: DesignConfig, *, overwrite: bool = False, write: bool = True
         raise ConfigError(f"{cfg.source or 'design'}: criterion: {cfg.criterion} asks about {name}, which "
                           f"is not free (free: {', '.join(free)})")
     k = cfg.constraints
-    preds = [predict(c, draws, free, cfg.model.modes, cfg.model.decades, k.max_duration, k.max_points)
+    preds = [predict(c, draws, free, cfg.model.modes, cfg.model.decades, k.max_duration, k.max_points,
+                     shift_of(cfg))
              for c in expand(cfg)]
     ok = [p for p in preds if p.feasible and math.isfinite(p.value(cfg.criterion))]
     if not ok:
