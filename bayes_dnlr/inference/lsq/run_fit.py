@@ -66,6 +66,8 @@ class RunFit:
     wall_time_s: float = 0.0
     plain: bool = False                    # one test, plain names: fit.json is that test's fit
     identifiability: dict[str, Any] | None = None   # parameters held: no test identifies them
+    references: dict[str, Any] | None = None        # fit.json's reference_moduli and reference_data
+    reference_lines: list[str] = field(default_factory=list)   # their lines of the console table
 
     @classmethod
     def of_one_test(cls, fit: FitResult) -> RunFit:
@@ -96,9 +98,10 @@ class RunFit:
             single = self.only
             single.config_digest, single.config_sections = self.config_digest, self.config_sections
             single.data_sha256, single.wall_time_s = self.data_sha256, self.wall_time_s
-            return single.to_dict()
+            return {**single.to_dict(), **jsonable(self.references or {})}
         return jsonable({
-            "name": self.name, "joint": True, "parameters": self.names, "per_test": self.per_test,
+            **(self.references or {}), "name": self.name, "joint": True, "parameters": self.names,
+            "per_test": self.per_test,
             "estimate": self.estimate, "sd": self.sd, "err": self.err,
             "units": {k: unit(k) for k in self.names},
             "covariance": self.covariance, "correlation": self.correlation,
@@ -121,6 +124,9 @@ class RunFit:
 
     def table(self) -> str:
         """The console table of the fit."""
+        return "\n".join([self._table(), *self.reference_lines])
+
+    def _table(self) -> str:
         if self.plain:
             return self.only.table()
         d = self.discrepancy
