@@ -232,9 +232,11 @@ def write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Converg
         summary["noise"]["projection"] = jsonable(offsets)
         summary["noise"]["verdict"] = verdict(summary["noise"])
     priors = build_target(cfg, test, FitRecord.from_dict(fit, cfg.test_names), run).priors
-    references = summary_references(cfg, names, draws, layout.plain, fit)
+    references, reference_curve = summary_references(cfg, names, draws, layout.plain, fit)
     if references is not None:
         summary["reference_moduli"] = jsonable(references)
+    if reference_curve is not None:
+        summary["reference_curve"] = jsonable(reference_curve)
     checks, modulus, curve = run_checks(cfg, test, layout, draws, names, priors, fit, summary, sigma0)
     summary["checks"] = jsonable(checks)
     summary["modulus_at"] = jsonable(modulus)

@@ -51,6 +51,8 @@ from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, pm
 from bayes_dnlr.vocabulary import TIME_CONSTANTS, Z90, base_name
 
 MAX_DRAWS = 20000          # the posterior's prediction from at most this many kept draws (evenly spread)
+CURVE_DRAWS = 400          # the report's E'(ω), E''(ω) curve: draws and frequencies
+CURVE_POINTS = 100
 SPEC_KEYS = ("method", "value", "sd", "frequency", "time", "temperature", "use", "note")   # always
 OPTIONAL_KEYS = ("relative_sd", "test", "file")                                          # when given
 
@@ -112,6 +114,8 @@ def entry(ref: Reference, pred: compare.Prediction | None, e_stats: Mapping[str,
     kind, words = regime(ref, point or {"tau_max": math.nan}, decades) if point else ("none", "")
     out.update(at=ref.where() if ref.predictable else "E (no time scale)", regime=kind,
                regime_words=words, notes=list(ref.notes), held_out=ref.use == "check")
+    if ref.reading:
+        out["reading"] = list(ref.reading)
     e_mean = (e_stats or {}).get("mean")
     i = ref.headline
     value = float(ref.value[i])
@@ -322,15 +326,36 @@ def _linear_entry(ref: Reference, names: list[str], estimate: Mapping[str, float
     return entry(ref, compare.linearized(g, X, covariance, how), e_stats, point, cfg.model.decades)
 
 
+def entries_from_fit(cfg: Config, fit: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The linearized entries of the config's references from a fit.json as written (its analysis
+    under model error when it found evidence of it, else the white one), without fitting again: for
+    a report whose config's references are not those of its outputs."""
+    refs = references_of(cfg)
+    names = list(fit.get("parameters") or [])
+    if not refs or not names or fit.get("covariance") is None:
+        return []
+    disc = fit.get("discrepancy") or {}
+    evident = bool(disc.get("estimate") and disc.get("covariance") is not None and disc.get("evidence", True))
+    src, how = (disc, "generalized") if evident else (fit, "white")
+    held = {k: float(v["value"]) for k, v in ((fit.get("identifiability") or {}).get("held") or {}).items()}
+    fixed = {**cfg.fixed_values, **held, **{k: float(v) for k, v in (fit.get("fixed") or {}).items()}}
+    name_of = name_function(cfg, not fit.get("joint"))
+    return [_linear_entry(ref, names, {k: float(v) for k, v in src["estimate"].items()},
+                          np.asarray(src["covariance"], dtype=float), how, name_of, fixed, cfg)
+            for ref in refs]
+
+
 # ---------------------------------------------------------------- sample
 
 def summary_references(cfg: Config, names: list[str], draws: np.ndarray, plain: bool,
-                       fit: Mapping[str, Any] | None = None) -> list[dict[str, Any]] | None:
+                       fit: Mapping[str, Any] | None = None
+                       ) -> tuple[list[dict[str, Any]] | None, dict[str, Any] | None]:
     """summary.json ``reference_moduli``: every reference's prediction from the kept draws
-    (steps, walkers, ndim), at most MAX_DRAWS of them; None without references."""
+    (steps, walkers, ndim), at most MAX_DRAWS of them; and ``reference_curve``, E'(ω) and E''(ω)
+    quantiles for the report's figure. (None, None) without references."""
     refs = references_of(cfg)
     if not refs:
-        return None
+        return None, None
     name_of = name_function(cfg, plain)
     flat = draws.reshape(-1, draws.shape[-1])
     if flat.shape[0] > MAX_DRAWS:
@@ -339,6 +364,7 @@ def summary_references(cfg: Config, names: list[str], draws: np.ndarray, plain: 
                                                or {}).items()}
     fixed = {**cfg.fixed_values, **held}
     out = []
+    first_cols = None
     for ref in refs:
         cols: dict[str, Any] = {}
         for k, g in parameter_map(ref, names, name_of).items():
@@ -353,8 +379,39 @@ def summary_references(cfg: Config, names: list[str], draws: np.ndarray, plain: 
         pred = None
         if ref.predictable and {"E", "tau_max"} <= set(cols):
             pred = compare.from_draws(predict(ref, cols, cfg.model.modes, cfg.model.decades))
+            first_cols = first_cols or cols
         out.append(entry(ref, pred, e_stats, point, cfg.model.decades))
-    return out
+    curve = None if first_cols is None else _curve(refs, first_cols, cfg)
+    return out, curve
+
+
+def _curve(refs: Sequence[Reference], cols: Mapping[str, Any], cfg: Config) -> dict[str, Any]:
+    """E'(ω), E''(ω) quantiles (5, 50, 95 %) over CURVE_DRAWS draws on CURVE_POINTS frequencies from
+    well below the references' and the spectrum's to where every mode is frozen; E's median and
+    90 % HDI: what the report draws (it computes no model)."""
+    from bayes_dnlr.model.modulus import FROZEN, complex_modulus
+
+    n = max(np.size(v) for v in cols.values())
+    pick = np.linspace(0, n - 1, min(CURVE_DRAWS, n)).astype(int)
+    sub = {k: (np.asarray(v)[pick] if np.ndim(v) else v) for k, v in cols.items()}
+    tau = float(np.median(sub["tau_max"]))
+    freq = [float(f) for r in refs for q, f in zip(r.quantity, r.at, strict=True)
+            if q in ("storage", "loss")]
+    freq += [1.0 / (2 * np.pi * float(t)) for r in refs for q, t in zip(r.quantity, r.at, strict=True)
+             if q == "relaxation"]
+    low = min([0.1 / (2 * np.pi * tau), *(0.3 * f for f in freq)])
+    frozen = FROZEN / (2 * np.pi * tau * 10.0 ** (-cfg.model.decades))
+    high = max([3.0 * frozen, *(3.0 * f for f in freq)])
+    grid = np.geomspace(low, high, CURVE_POINTS)
+    storage, loss = complex_modulus(grid, sub["E"], sub.get("G", 0.0), sub["tau_max"],
+                                    sub.get("alpha", 0.5), cfg.model.modes, cfg.model.decades)
+    qs = np.quantile(np.atleast_2d(storage), [0.05, 0.5, 0.95], axis=0)
+    ql = np.quantile(np.atleast_2d(loss), [0.05, 0.5, 0.95], axis=0)
+    e = np.asarray(cols["E"], dtype=float).ravel()
+    lo, hi = compare.from_draws(e[:, None]).hdi[0]
+    return {"frequency": grid.tolist(), "storage": qs.tolist(), "loss": ql.tolist(),
+            "E_median": float(np.median(e)), "E_hdi_90": [float(lo), float(hi)],
+            "frozen_above": float(frozen)}
 
 
 def reference_check(entries: Sequence[Mapping[str, Any]] | None) -> dict[str, Any] | None:

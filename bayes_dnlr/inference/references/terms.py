@@ -54,8 +54,9 @@ class Reference:
     shift: np.ndarray            # (m,) a_T of each element's temperature (1: the tests')
     temperature: np.ndarray      # (m,) °C, NaN when not given
     spec: Any = field(repr=False, default=None)     # the config entry
-    notes: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)     # what to say about it (its temperature)
     sweep: bool = False
+    reading: list[str] = field(default_factory=list)   # how a sweep's file was read
 
     @property
     def m(self) -> int:
@@ -195,7 +196,7 @@ def _reference(cfg, index: int, label: str, spec, base: Path) -> Reference:
                 np.full(value.size, np.nan if spec.temperature is None else float(spec.temperature)))
         sd = (np.full(value.size, float(spec.sd)) if spec.sd is not None
               else float(spec.relative_sd) * np.abs(value))
-        notes = list(sweep.notes)
+        reading = list(sweep.notes)
     else:
         quantity = np.array([STORAGE if spec.frequency is not None else RELAXATION
                              if spec.time is not None else "none"])
@@ -205,11 +206,11 @@ def _reference(cfg, index: int, label: str, spec, base: Path) -> Reference:
         s = spec.value_sd()
         sd = np.array([np.nan if s is None else s])
         temp = np.array([np.nan if spec.temperature is None else float(spec.temperature)])
-        notes = []
+        reading = []
     shift, words = temperature_shift(cfg, temp, label, spec.use)
     return Reference(index=index, label=label, method=spec.method, use=spec.use, quantity=quantity,
                      at=at, value=value, sd=sd, test=spec.test, shift=shift, temperature=temp,
-                     spec=spec, notes=notes + words, sweep=spec.is_sweep)
+                     spec=spec, notes=words, sweep=spec.is_sweep, reading=reading)
 
 
 # ---------------------------------------------------------------- the model's prediction
