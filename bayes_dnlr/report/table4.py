@@ -71,16 +71,12 @@ def configured_labels(cfg) -> list[str]:
 
 def _first_time(run: RunResults, test: str) -> dict[str, Any] | None:
     """E(t) at the first of the test's times: summary.json's (posterior), else fit.json's."""
-    plain = run.layout.plain
-    rows = modulus_entries(run.summary or {}).get("" if plain else test) or []
-    if rows:
-        return {**rows[0], "how": "posterior"}
-    fit = run.fit or {}
-    block = fit.get("modulus_at") if plain else ((fit.get("single_fits") or {}).get(test) or {}).get(
-        "modulus_at")
-    block = block or {}
-    rows = block.get("model_error") or block.get("white") or []
-    return {**rows[0], "how": "least squares"} if rows else None
+    key = "" if run.layout.plain else test
+    for src, how in ((run.summary, "posterior"), (run.fit, "least squares")):
+        rows = modulus_entries(src or {}).get(key) or []
+        if rows:
+            return {**rows[0], "how": how}
+    return None
 
 
 def _pct(x: float | None) -> str:
