@@ -79,7 +79,7 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
     # threads on a busy machine, 0.1 ms with one)
     with threadpool_limits(limits=1, user_api="blas"):
         result = fit_run(cfg, test.tests, plain=test.plain)
-        fit_references(cfg, result)          # the data references in the analyses, first
+        fit_references(cfg, result, test.tests)   # the data references in the analyses, first
         for name, single in result.singles.items():
             found = fit_rows(cfg.for_test(name), test.tests[name], single.to_dict(),
                              "" if test.plain else f"{name}: ")

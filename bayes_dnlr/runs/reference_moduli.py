@@ -167,7 +167,13 @@ def check_words(ref: Reference, rec: Mapping[str, Any], ag: compare.Agreement,
         text = (f"{who}, {role}: {ref.where()} = {fmt(float(ref.value[0]))}{sd_text} MPa, the model "
                 f"{pm(p['mean'], p['sd'])} MPa ({rec['discrepancy_pct']:+.1f} %, z = "
                 f"{ag.z[0]:+.1f})")
-    if ag.fired:
+    if ag.fired and ref.use == "data":
+        text += (f": the model does not describe it beside the tensile data (beyond the "
+                 f"{100 * (1 - compare.CHECK_P):.0f} % level): E is a compromise between the two, "
+                 "not a measurement. The model's spectrum cannot follow both (its shape, a second "
+                 "process), or the reference is not of this material or its conditions. Sample the "
+                 "spectrum's exponent (parameters.alpha), or hold the reference out (use: check)")
+    elif ag.fired:
         text += (f": they disagree beyond the {100 * (1 - compare.CHECK_P):.0f} % interval of their "
                  "combined uncertainty. The model's spectrum does not reach this time scale as the "
                  "material does (another spectrum shape, a second process), or the reference is not "
@@ -218,6 +224,89 @@ def _conditioned(refs, names, estimate, cov_u, fisher_u, cfg, name_of, fixed) ->
                      bounds, name_of, fixed, cfg.model.modes, cfg.model.decades)
 
 
+def _exact(cfg: Config, base, weight: float, refs, start: Conditioned, name_of, fixed,
+           meat_u: np.ndarray | None) -> Conditioned:
+    """The tests' problem ``base`` (white, or whitened) with the references' rows, minimised from
+    ``start`` (the quadratic form's optimum): the exact estimate; its covariance the stacked
+    analysis' (eq. 32), or with the tests' sandwich (``meat_u`` M = A V A in u)
+    A'⁻¹ (M + Jᵀ W J) A'⁻¹, A' the working model's information with the references."""
+    from bayes_dnlr.inference.lsq.optimize import run_minimiser
+    from bayes_dnlr.inference.references.problem import WithReferences
+
+    problem = WithReferences(base, refs, weight, name_of, fixed, cfg.model.modes, cfg.model.decades)
+    names = list(problem.names)
+    beta0 = np.clip([start.estimate[k] for k in names], problem.lower, problem.upper)
+    opt = run_minimiser(problem, cfg.fit.method, beta0, cfg.fit.max_iterations)
+    params = problem.params(opt.beta)
+    J = problem.jacobian_u(params)
+    info = J.T @ J                          # A' in u: the tests' rows and the references'
+    inv = np.linalg.inv(info)
+    if meat_u is not None:
+        rows = J[-problem.sd.size:]
+        cov_u = inv @ (meat_u + rows.T @ rows) @ inv
+    else:
+        cov_u = inv
+    cov_u = 0.5 * (cov_u + cov_u.T)
+    jac = np.where(problem.is_log, problem.vector(params), 1.0)
+    return Conditioned(names, {**dict(fixed), **{k: float(params[k]) for k in names}}, cov_u,
+                       cov_u * jac[:, None] * jac[None, :], info, int(opt.iterations), bool(opt.converged))
+
+
+def _held(cfg: Config, single) -> Config:
+    return cfg.with_holds({k: float(v["value"]) for k, v in
+                           ((single.identifiability or {}).get("held") or {}).items()})
+
+
+def _white(cfg: Config, result, tests, data, name_of, fixed) -> Conditioned:
+    """The white analysis with the data references: the stacked least squares, exact, from the
+    optimum of the tests' quadratic form with them (without the tests' data: that optimum)."""
+    from bayes_dnlr.inference.lsq.problem import LsqProblem
+    from bayes_dnlr.inference.lsq.run_fit import joint_white_problem
+
+    names = list(result.names)
+    start = _conditioned(data, names, result.estimate, physical_to_u(
+        result.covariance, [result.estimate[k] for k in names], _is_log(names)), None, cfg, name_of, fixed)
+    if not tests:
+        return start
+    if result.plain:
+        (test,) = tests.values()
+        base, weight = LsqProblem.for_config(_held(cfg, result.only), test), 1.0 / result.only.sigma0
+    else:
+        base, weight = joint_white_problem(cfg, tests, result.singles, result.identifiability)[0], 1.0
+    return _exact(cfg, base, weight, data, start, name_of, fixed, None)
+
+
+def _generalized(cfg: Config, result, tests, data, disc, name_of, fixed) -> Conditioned:
+    """The analysis under model error with the data references. One test whose estimate is the
+    generalized least squares (``target: generalized``): exact, the test whitened by the working
+    (exp) covariance at its hyperparameters, the kernels' sandwich carried over; otherwise (several
+    tests, ``target: l2``) the quadratic form about the tests' optimum (condition.py)."""
+    names = list(result.names)
+    proj = disc.get("projection") or {}
+    if proj.get("covariance_u") is not None and proj.get("sampled_covariance_u") is not None:
+        V = np.asarray(proj["covariance_u"], dtype=float)
+        A = np.linalg.inv(np.asarray(proj["sampled_covariance_u"], dtype=float))
+    else:
+        V = physical_to_u(np.asarray(disc["covariance"], dtype=float),
+                          [disc["estimate"][k] for k in names], _is_log(names))
+        A = None
+    start = _conditioned(data, names, disc["estimate"], V, A, cfg, name_of, fixed)
+    if not tests or not result.plain or A is None or disc.get("target", "generalized") != "generalized":
+        return start
+    from bayes_dnlr.inference.discrepancy.axis import test_axis
+    from bayes_dnlr.inference.discrepancy.hyper import Hyper, whitener
+    from bayes_dnlr.inference.lsq.problem import LsqProblem
+
+    (test,) = tests.values()
+    view = _held(cfg, result.only)
+    base = LsqProblem.for_config(view, test)
+    h = disc["hyperparameters"]
+    base.whiten = whitener(test_axis(view.noise.discrepancy, test, base.mask),
+                           Hyper(float(h["sigma0"]), float(h["amplitude"]), float(h["length"])),
+                           disc.get("kernel", "exp"))
+    return _exact(cfg, base, 1.0, data, start, name_of, fixed, A @ V @ A)
+
+
 def _update(block: dict[str, Any] | Any, c: Conditioned, attr: bool) -> None:
     """Write a conditioned analysis into a FitResult / RunFit (``attr``) or a discrepancy block."""
     rec = _analysis_record(c.names, c.estimate, c.covariance)
@@ -229,9 +318,11 @@ def _update(block: dict[str, Any] | Any, c: Conditioned, attr: bool) -> None:
             block[k] = v
 
 
-def fit_references(cfg: Config, result) -> None:
+def fit_references(cfg: Config, result, tests: Mapping[str, Any] | None = None) -> None:
     """Put the references into a ``RunFit`` (``result``, changed in place): the data references
-    into its analyses, every reference's linearized prediction into ``result.references``."""
+    into its analyses (``tests``: name -> TestData, for the exact stacked least squares; without
+    them the quadratic form of the tests' analysis), every reference's linearized prediction into
+    ``result.references``."""
     refs = references_of(cfg)
     if not refs:
         return
@@ -248,46 +339,42 @@ def fit_references(cfg: Config, result) -> None:
     extra: dict[str, Any] = {}
     if data:
         without = {"white": _analysis_record(names, result.estimate, result.covariance)}
-        white = _conditioned(data, names, result.estimate, physical_to_u(
-            result.covariance, [result.estimate[k] for k in names], _is_log(names)), None, cfg,
-            name_of, fixed)
+        white = _white(cfg, result, tests, data, name_of, fixed)
         for target in ((single, result) if plain else (result,)):
             _update(target, white, attr=True)
         done = {"white": white}
         if disc and disc.get("estimate") and disc.get("covariance") is not None:
             without["model_error"] = _analysis_record(names, disc["estimate"], np.asarray(disc["covariance"]))
+            c = _generalized(cfg, result, tests, data, disc, name_of, fixed)
             proj = disc.get("projection") or {}
             if proj.get("covariance_u") is not None and proj.get("sampled_covariance_u") is not None:
-                sampled = np.asarray(proj["sampled_covariance_u"], dtype=float)
-                c = _conditioned(data, names, disc["estimate"], np.asarray(proj["covariance_u"], dtype=float),
-                                 np.linalg.inv(sampled), cfg, name_of, fixed)
                 inv = np.linalg.inv(c.fisher_u)
                 jac = np.where(_is_log(names), [c.estimate[k] for k in names], 1.0)
                 star = inv * jac[:, None] * jac[None, :]
                 proj.update(covariance_u=c.covariance_u, sampled_covariance_u=inv, covariance_star=star,
                             sd_sampled=dict(zip(names, map(float, np.sqrt(np.diag(star))), strict=True)))
-            else:
-                cov = np.asarray(disc["covariance"], dtype=float)
-                c = _conditioned(data, names, disc["estimate"], physical_to_u(
-                    cov, [disc["estimate"][k] for k in names], _is_log(names)), None, cfg, name_of, fixed)
             _update(disc, c, attr=False)
             if proj.get("sd_sampled"):
                 proj["widening"] = {k: disc["sd"][k] / proj["sd_sampled"][k] if proj["sd_sampled"][k] > 0
                                     else math.nan for k in names}
-            done["model_error"] = c
+            if evident:
+                done["model_error"] = c
         e = "E" if "E" in names else next((n for n in names if base_name(n) == "E"), None)
         after = {"white": _analysis_record(names, result.estimate, result.covariance)}
         if "model_error" in done:
             after["model_error"] = _analysis_record(names, disc["estimate"], np.asarray(disc["covariance"]))
         extra["reference_data"] = {
             "references": [r.label for r in data],
-            "how": ("the tests through their own linearized analysis (eq. 32, the quadratic form of "
-                    "their criterion about their optimum), the references through their exact "
-                    "prediction; Gauss-Newton (inference/references/condition.py)"),
-            "note": ("estimate, sd, err, covariance, correlation and delta_tilde of fit.json (and of its "
-                     "discrepancy block) hold the references; the residuals, sigma0, the discrepancy's "
-                     "hyperparameters, spectrum_exponent and modulus_at are the tests' alone"),
-            "without": without,
+            "how": ("the tests' least squares with the references' rows (inference/references/"
+                    "problem.py), from the optimum of the tests' quadratic form with them "
+                    "(condition.py); under model error the test whitened by the working covariance, "
+                    "the kernels' sandwich carried over (several tests, or target l2: the quadratic "
+                    "form)"),
+            "note": ("estimate, sd, err, covariance, correlation and delta_tilde of fit.json (and of "
+                     "its discrepancy block), and modulus_at, hold the references; the residuals, "
+                     "sigma0, the discrepancy's hyperparameters and spectrum_exponent are the tests' "
+                     "alone"),
+            "without": {k: v for k, v in without.items() if k in done},
             "E": {k: _moved(without[k], after[k], e) for k in after if e is not None},
             "iterations": {k: v.iterations for k, v in done.items()},
             "converged": {k: v.converged for k, v in done.items()},
@@ -415,16 +502,16 @@ def _curve(refs: Sequence[Reference], cols: Mapping[str, Any], cfg: Config) -> d
 
 
 def reference_check(entries: Sequence[Mapping[str, Any]] | None) -> dict[str, Any] | None:
-    """summary.json ``checks.reference_moduli``: the held-out references' checks; ``ok`` false when
-    one fires (it withdraws trust in E's interval, runs/verdict.py)."""
-    held = [e for e in entries or [] if e.get("use") == "check" and e.get("check")
-            and e["check"].get("fired") is not None]
-    if not held:
+    """summary.json ``checks.reference_moduli``: each reference against the posterior's prediction,
+    held out (``use: check``) or in the data (``use: data``: does the model describe it beside the
+    tests?); ``ok`` false when one fires (it withdraws trust in E's interval, runs/verdict.py)."""
+    checked = [e for e in entries or [] if e.get("check") and e["check"].get("fired") is not None]
+    if not checked:
         return None
-    return {"ok": not any(e["check"]["fired"] for e in held),
-            "entries": [{"label": e["label"], "method": e["method"], "at": e["at"], "z": e.get("z"),
-                         "p_value": e["check"]["p_value"], "fired": e["check"]["fired"],
-                         "words": e["check"]["words"]} for e in held]}
+    return {"ok": not any(e["check"]["fired"] for e in checked),
+            "entries": [{"label": e["label"], "method": e["method"], "use": e["use"], "at": e["at"],
+                         "z": e.get("z"), "p_value": e["check"]["p_value"], "fired": e["check"]["fired"],
+                         "words": e["check"]["words"]} for e in checked]}
 
 
 # ---------------------------------------------------------------- words
