@@ -42,7 +42,7 @@ def references_of(run: RunResults) -> tuple[list[dict[str, Any]], str]:
             return list(refs), how
     if not expected:
         return [], ""
-    from bayes_dnlr.runs.reference_moduli import entries_from_fit
+    from bayes_dnlr.runs.reference_fit import entries_from_fit
 
     try:
         refs = entries_from_fit(run.cfg, run.fit or {})

@@ -23,7 +23,7 @@ from bayes_dnlr.runs.netcdf import PosteriorDraws
 from bayes_dnlr.runs.noise_summary import noise_summary, residual_warnings, verdict
 from bayes_dnlr.runs.outputs import Posterior, gauss_newton_block, summarize, write_outputs
 from bayes_dnlr.runs.records import FitRecord
-from bayes_dnlr.runs.reference_moduli import summary_references
+from bayes_dnlr.runs.reference_posterior import summary_references
 from bayes_dnlr.runs.target import build_target
 
 

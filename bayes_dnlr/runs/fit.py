@@ -27,7 +27,7 @@ from bayes_dnlr.runs.identity import fit_is_current
 from bayes_dnlr.runs.layout import FIT_FILE
 from bayes_dnlr.runs.modulus_block import fit_rows
 from bayes_dnlr.runs.modulus_view import console_lines
-from bayes_dnlr.runs.reference_moduli import fit_references
+from bayes_dnlr.runs.reference_fit import fit_references
 from bayes_dnlr.runs.testset import load_tests, sections
 
 # fit_is_current lives with the other staleness checks (runs/identity.py), where the report reads it

@@ -104,7 +104,8 @@ def test_the_posterior_predicts_every_reference_and_the_check_enters_the_verdict
     assert dma["check"]["held_out"] is False
     checks = s["checks"]
     assert checks["reference_moduli"]["ok"] is False
-    assert [x["label"] for x in checks["reference_moduli"]["entries"]] == ["pulse-echo", "pe-wrong"]
+    assert [(x["label"], x["fired"]) for x in checks["reference_moduli"]["entries"]] == [
+        ("pulse-echo", False), ("pe-wrong", True), ("dma", False)]
     assert checks["trust_interval"] is False
     assert any(p.startswith("Pe-wrong (pulse-echo") and "disagree" in p for p in checks["verdict_points"])
     # use: data: the posterior holds the sweep; it agrees with the linearized analysis with it

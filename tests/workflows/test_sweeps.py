@@ -82,3 +82,30 @@ def test_a_per_test_spectrum_needs_the_reference_s_test(tmp_path):
     assert nano["test"] == "fast" and nano["prediction"]["mean"] > 2500
     assert result["reference_data"]["references"] == ["nanoindentation"]
     assert result["sd"]["E"] < result["reference_data"]["without"]["white"]["sd"]["E"]
+
+
+def test_the_shipped_table_4_example_is_what_simulate_makes(tmp_path):
+    """runs/hdpe-a-table4: the tensile test and the DMA sweep from one truth, and its point values
+    within their sd of the truth's moduli at their frequencies, as its comments say."""
+    from pathlib import Path
+
+    from bayes_dnlr.config import parse_config
+    from bayes_dnlr.workflows.simulate import simulate_test
+
+    src = Path(__file__).resolve().parents[2] / "runs" / "hdpe-a-table4" / "config.yaml"
+    raw = yaml.safe_load(src.read_text())
+    copy = parse_config(raw, source=tmp_path / "config.yaml")
+    simulate_test(copy)
+    simulate_references(copy)
+    for name in ("hdpe-a-table4.csv", "dma-sweep.txt"):
+        old, new = (src.parent / name).read_text(), (tmp_path / name).read_text()
+        assert old.splitlines()[:2] == new.splitlines()[:2]
+        np.testing.assert_allclose(np.genfromtxt(src.parent / name, delimiter="\t" if "dma" in name else ",",
+                                                 skip_header=8 if "dma" in name else 1),
+                                   np.genfromtxt(tmp_path / name, delimiter="\t" if "dma" in name else ",",
+                                                 skip_header=8 if "dma" in name else 1), rtol=1e-8)
+    truth = raw["truth"]["params"]
+    for entry in raw["reference_moduli"]:
+        if entry.get("frequency"):
+            true = complex_modulus(entry["frequency"], truth, None)[0][0]
+            assert abs(entry["value"] - true) < entry["sd"]

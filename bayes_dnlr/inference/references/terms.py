@@ -16,7 +16,6 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -147,18 +146,7 @@ def temperature_shift(cfg, temperature: np.ndarray, label: str, use: str
                    "(the model has no shift factor), so part of a disagreement may be the temperature"]
 
 
-# ---------------------------------------------------------------- building
-
-def build_references(cfg, base: Path | None = None) -> list[Reference]:
-    """The run's references (its ``reference_moduli:`` and the values of ``crosscheck:``), their
-    sweeps read (data/dma.py), in config order."""
-    from bayes_dnlr.config.reference_section import label_references
-
-    entries = list(cfg.reference_moduli or []) + crosscheck_entries(cfg)
-    labels = label_references(entries)
-    base = cfg.base_dir if base is None else base
-    return [_reference(cfg, i, labels[i], e, base) for i, e in enumerate(entries)]
-
+# ---------------------------------------------------------------- the config's references
 
 def crosscheck_entries(cfg) -> list:
     """The moduli of a ``crosscheck:`` section (eq. 38-44) as ``reference_moduli`` entries to check:
@@ -176,41 +164,6 @@ def crosscheck_entries(cfg) -> list:
                                     note=f"crosscheck: {v.detail}" + (
                                         f"; at the paper's {frequency_text(freq)}" if freq else "")))
     return out
-
-
-def _reference(cfg, index: int, label: str, spec, base: Path) -> Reference:
-    if spec.is_sweep:
-        from bayes_dnlr.data.dma import read_sweep
-
-        path = Path(spec.file)
-        sweep = read_sweep(path if path.is_absolute() else base / path, spec.columns, spec.units)
-        f = np.asarray(sweep.frequency, dtype=float)
-        parts = [(STORAGE, f, np.asarray(sweep.storage, dtype=float))]
-        if sweep.loss is not None:
-            parts.append((LOSS, f, np.asarray(sweep.loss, dtype=float)))
-        quantity = np.concatenate([np.full(x.size, q) for q, x, _ in parts])
-        at = np.concatenate([x for _, x, _ in parts])
-        value = np.concatenate([v for _, _, v in parts])
-        temp = (np.tile(np.asarray(sweep.temperature, dtype=float), len(parts))
-                if sweep.temperature is not None else
-                np.full(value.size, np.nan if spec.temperature is None else float(spec.temperature)))
-        sd = (np.full(value.size, float(spec.sd)) if spec.sd is not None
-              else float(spec.relative_sd) * np.abs(value))
-        reading = list(sweep.notes)
-    else:
-        quantity = np.array([STORAGE if spec.frequency is not None else RELAXATION
-                             if spec.time is not None else "none"])
-        at = np.array([spec.frequency if spec.frequency is not None else spec.time
-                       if spec.time is not None else np.nan], dtype=float)
-        value = np.array([spec.value], dtype=float)
-        s = spec.value_sd()
-        sd = np.array([np.nan if s is None else s])
-        temp = np.array([np.nan if spec.temperature is None else float(spec.temperature)])
-        reading = []
-    shift, words = temperature_shift(cfg, temp, label, spec.use)
-    return Reference(index=index, label=label, method=spec.method, use=spec.use, quantity=quantity,
-                     at=at, value=value, sd=sd, test=spec.test, shift=shift, temperature=temp,
-                     spec=spec, notes=words, sweep=spec.is_sweep, reading=reading)
 
 
 # ---------------------------------------------------------------- the model's prediction
