@@ -145,3 +145,21 @@ def label_references(entries: list[ReferenceModulus]) -> list[str]:
                              "entries distinct names")
         labels.append(label)
     return labels
+
+
+def crosscheck_entries(cfg) -> list:
+    """The moduli of a ``crosscheck:`` section (eq. 38-44) as ``reference_moduli`` entries to check:
+    pulse-echo at the paper's 5 MHz, the CSM nanoindentation at its 45 Hz (paper section 5.1), the
+    manufacturer's value without a time scale."""
+    from bayes_dnlr.crosscheck import crosscheck_values
+    from bayes_dnlr.numbers import frequency_text
+
+    out = []
+    for v in crosscheck_values(cfg.crosscheck):
+        method = {"Pulse-echo": "pulse-echo", "Nanoindentation": "nanoindentation"}.get(v.technique,
+                                                                                       "manufacturer")
+        freq = {"pulse-echo": 5.0e6, "nanoindentation": 45.0}.get(method)
+        out.append(ReferenceModulus(method=method, value=v.modulus, sd=v.sd or None, frequency=freq,
+                                    note=f"crosscheck: {v.detail}" + (
+                                        f"; at the paper's {frequency_text(freq)}" if freq else "")))
+    return out

@@ -63,8 +63,7 @@ def _same_values(cfg, refs: Sequence[Mapping[str, Any]]) -> bool:
 
 def configured_labels(cfg) -> list[str]:
     """The labels of the config's references (``reference_moduli`` and ``crosscheck:``)."""
-    from bayes_dnlr.config.reference_section import label_references
-    from bayes_dnlr.inference.references.terms import crosscheck_entries
+    from bayes_dnlr.config.reference_section import crosscheck_entries, label_references
 
     return label_references(list(cfg.reference_moduli or []) + crosscheck_entries(cfg))
 

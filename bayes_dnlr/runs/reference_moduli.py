@@ -33,7 +33,6 @@ from bayes_dnlr.inference.references.terms import (
     RELAXATION,
     STORAGE,
     Reference,
-    crosscheck_entries,
     regime,
     temperature_shift,
 )
@@ -47,7 +46,7 @@ OPTIONAL_KEYS = ("relative_sd", "test", "file")                                 
 def build_references(cfg: Config, base: Path | None = None) -> list[Reference]:
     """The run's references (its ``reference_moduli:`` and the values of ``crosscheck:``), their
     sweeps read (data/dma.py), in config order."""
-    from bayes_dnlr.config.reference_section import label_references
+    from bayes_dnlr.config.reference_section import crosscheck_entries, label_references
 
     entries = list(cfg.reference_moduli or []) + crosscheck_entries(cfg)
     labels = label_references(entries)

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from bayes_dnlr.config import Config, ConfigError
-from bayes_dnlr.inference.references.terms import frequency_text
+from bayes_dnlr.numbers import frequency_text
 from bayes_dnlr.workflows.simulate import write_unless_same
 from bayes_dnlr.workflows.truth_forms import complex_modulus, relaxation_modulus
 

@@ -26,6 +26,7 @@ from bayes_dnlr.model.modulus import (
     fastest_mode_product,
     relaxation_modulus,
 )
+from bayes_dnlr.numbers import frequency_text
 from bayes_dnlr.vocabulary import SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT
 
 STORAGE, LOSS, RELAXATION = "storage", "loss", "relaxation"
@@ -84,14 +85,6 @@ class Reference:
         return ("E'" if q == STORAGE else "E''") + f"({frequency_text(x)})"
 
 
-def frequency_text(f: float) -> str:
-    """5e6 -> '5 MHz', 45 -> '45 Hz', 0.1 -> '0.1 Hz'."""
-    for scale, unit in ((1e9, "GHz"), (1e6, "MHz"), (1e3, "kHz")):
-        if f >= scale:
-            return f"{f / scale:.3g} {unit}"
-    return f"{f:.3g} Hz"
-
-
 # ---------------------------------------------------------------- the shift of a time scale
 
 def tests_temperature(cfg) -> float | None:
@@ -144,26 +137,6 @@ def temperature_shift(cfg, temperature: np.ndarray, label: str, use: str
             "model a temperature shift")
     return shift, [f"measured at {at}, the tests at {own:g} °C: predicted at the tests' temperature "
                    "(the model has no shift factor), so part of a disagreement may be the temperature"]
-
-
-# ---------------------------------------------------------------- the config's references
-
-def crosscheck_entries(cfg) -> list:
-    """The moduli of a ``crosscheck:`` section (eq. 38-44) as ``reference_moduli`` entries to check:
-    pulse-echo at the paper's 5 MHz, the CSM nanoindentation at its 45 Hz (paper section 5.1), the
-    manufacturer's value without a time scale."""
-    from bayes_dnlr.config.reference_section import ReferenceModulus
-    from bayes_dnlr.crosscheck import crosscheck_values
-
-    out = []
-    for v in crosscheck_values(cfg.crosscheck):
-        method = {"Pulse-echo": "pulse-echo", "Nanoindentation": "nanoindentation"}.get(v.technique,
-                                                                                       "manufacturer")
-        freq = {"pulse-echo": 5.0e6, "nanoindentation": 45.0}.get(method)
-        out.append(ReferenceModulus(method=method, value=v.modulus, sd=v.sd or None, frequency=freq,
-                                    note=f"crosscheck: {v.detail}" + (
-                                        f"; at the paper's {frequency_text(freq)}" if freq else "")))
-    return out
 
 
 # ---------------------------------------------------------------- the model's prediction
