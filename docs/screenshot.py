@@ -3,7 +3,7 @@ PNG screenshot.
 
     python docs/screenshot.py runs/hdpe-a-5e-3 [out.png] [--height 9000]
     python docs/screenshot.py runs/batch/batch.html [out.png]
-    python docs/screenshot.py runs/hdpe-a-table4 table4.png --part table4 --height 1600
+    python docs/screenshot.py runs/table4-hdpe-a table4.png --part table4 --height 1600
 
 ``--part ID`` shows one element of the page (by its id: ``table4``, or ``table4-<test>`` in a run with
 several tests) with the page's style, instead of the whole page.

@@ -85,19 +85,19 @@ def test_a_per_test_spectrum_needs_the_reference_s_test(tmp_path):
 
 
 def test_the_shipped_table_4_example_is_what_simulate_makes(tmp_path):
-    """runs/hdpe-a-table4: the tensile test and the DMA sweep from one truth, and its point values
+    """runs/table4-hdpe-a: the tensile test and the DMA sweep from one truth, and its point values
     within their sd of the truth's moduli at their frequencies, as its comments say."""
     from pathlib import Path
 
     from bayes_dnlr.config import parse_config
     from bayes_dnlr.workflows.simulate import simulate_test
 
-    src = Path(__file__).resolve().parents[2] / "runs" / "hdpe-a-table4" / "config.yaml"
+    src = Path(__file__).resolve().parents[2] / "runs" / "table4-hdpe-a" / "config.yaml"
     raw = yaml.safe_load(src.read_text())
     copy = parse_config(raw, source=tmp_path / "config.yaml")
     simulate_test(copy)
     simulate_references(copy)
-    for name in ("hdpe-a-table4.csv", "dma-sweep.txt"):
+    for name in ("table4-hdpe-a.csv", "dma-sweep.txt"):
         old, new = (src.parent / name).read_text(), (tmp_path / name).read_text()
         assert old.splitlines()[:2] == new.splitlines()[:2]
         np.testing.assert_allclose(np.genfromtxt(src.parent / name, delimiter="\t" if "dma" in name else ",",
