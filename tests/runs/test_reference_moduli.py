@@ -114,3 +114,17 @@ def test_the_posterior_predicts_every_reference_and_the_check_enters_the_verdict
     assert e["sd"] == pytest.approx(gn["sd"]["E"], rel=0.25)
     assert s["reference_curve"]["E_median"] == pytest.approx(e["mean"], rel=1e-3)
     assert "reference pe-wrong (check)" in post.table() and "DISAGREES" in post.table()
+
+
+def test_a_run_folder_elsewhere_reads_the_sweep_from_its_resolved_config(tmp_path):
+    path = run(tmp_path, [SWEEP])
+    raw = yaml.safe_load(path.read_text())
+    raw["output"] = {"dir": "../elsewhere"}
+    path.write_text(yaml.safe_dump(raw, sort_keys=False))
+    fit(load_config(path))
+    resolved = tmp_path / "elsewhere" / "config.yaml"
+    assert yaml.safe_load(resolved.read_text())["reference_moduli"][0]["file"] == "../r/sweep.csv"
+    from bayes_dnlr.runs.reference_moduli import references_of
+
+    (ref,) = references_of(load_config(resolved))
+    assert ref.m == 32
