@@ -10,7 +10,7 @@ DMA sweep are made from the same truth (workflows/truth_forms.py: the generating
 - DMA: E'(ω) and E''(ω) at 16 frequencies from 0.1 to 100 Hz, each × (1 + 0.01 z), relative_sd 0.01.
 
 Every replicate is fitted (``fit``: the linearized analyses, GLS under model error as ``sample``
-would use it) with:
+would use it; ``--posterior``: sampled, the posterior's 90 % HDI and checks) with:
 
 - ``alone``: the tensile test, the two references held out (``use: check``): E's coverage and width
   from the test alone, and how often each check fires (its power against a wrong spectrum, its false
@@ -64,10 +64,13 @@ def _e(result: dict[str, Any]) -> tuple[float, float, str]:
     return float(result["estimate"]["E"]), float(result["sd"]["E"]), "white"
 
 
-def _fit(base: dict[str, Any], folder: Path, name: str, refs: list[dict], extra: dict | None = None
-         ) -> dict[str, Any]:
+def _run(base: dict[str, Any], folder: Path, name: str, refs: list[dict], extra: dict | None,
+         posterior: bool) -> dict[str, Any]:
+    """The source's fit.json (``fit``) or, with ``posterior``, its summary.json (``sample``), read
+    into E, its sd and 90 % interval, and each reference's entry."""
     from bayes_dnlr.config import load_config
     from bayes_dnlr.runs.fit import fit
+    from bayes_dnlr.runs.sample import sample
     from bayes_dnlr.workflows.simulate import simulate_test
     from bayes_dnlr.workflows.sweeps import simulate_references
 
@@ -79,12 +82,21 @@ def _fit(base: dict[str, Any], folder: Path, name: str, refs: list[dict], extra:
     cfg = load_config(path)
     simulate_test(cfg)
     simulate_references(cfg)
-    return fit(cfg, write=False).to_dict()
+    if posterior:
+        s = sample(cfg, progress=False).summary
+        e = s["posterior"]["E"]
+        return {"E": e["mean"], "sd": e["sd"], "interval": e["hdi_90"], "how": "posterior",
+                "alpha": (s["posterior"].get("alpha") or {}).get("mean"),
+                "references": s.get("reference_moduli") or [], "steps": s["steps"]}
+    r = fit(cfg, write=False).to_dict()
+    e, sd, how = _e(r)
+    return {"E": e, "sd": sd, "interval": [e - Z90 * sd, e + Z90 * sd], "how": how,
+            "alpha": r["estimate"].get("alpha"), "references": r.get("reference_moduli") or []}
 
 
 def replicate(args: tuple) -> dict[str, Any]:
     """One replicate: its references and the fits of every source."""
-    folder, kind, strength, rep, alpha_free = args
+    folder, kind, strength, rep, alpha_free, posterior = args
     ms = _misspecification()
     from bayes_dnlr.workflows.truth_forms import complex_modulus
 
@@ -112,16 +124,17 @@ def replicate(args: tuple) -> dict[str, Any]:
     for source, (refs, extra) in runs.items():
         try:
             folder = source.replace("+", "with-").replace(", ", "-").replace(" ", "-")
-            r = _fit(base, work, folder, refs, extra)
+            r = _run(base, work, folder, refs, extra, posterior)
         except Exception as err:       # a failed fit is a result too: counted, not covered
             out["sources"][source] = {"error": f"{type(err).__name__}: {err}"}
             continue
-        e, sd, how = _e(r)
-        rec = {"E": e, "sd": sd, "how": how,
-               "covered": abs(e - out["truth_E"]) <= Z90 * sd}
-        if "alpha" in r.get("estimate", {}):
-            rec["alpha"] = float(r["estimate"]["alpha"])
-        for entry in r.get("reference_moduli") or []:     # held out (alone) or in the data
+        lo, hi = r["interval"]
+        rec = {"E": r["E"], "sd": r["sd"], "how": r["how"], "covered": lo <= out["truth_E"] <= hi}
+        if r.get("alpha") is not None:
+            rec["alpha"] = float(r["alpha"])
+        if r.get("steps"):
+            rec["steps"] = r["steps"]
+        for entry in r["references"]:     # held out (alone) or in the data
             check = entry.get("check") or {}
             rec[f"{entry['method']}_fired"] = check.get("fired")
             rec[f"{entry['method']}_z"] = entry.get("z")
@@ -182,6 +195,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--kinds", nargs="+", choices=list(ms.ALL_KINDS), default=None)
     ap.add_argument("--strength", default="mild")
     ap.add_argument("--alpha-free", action="store_true", help="also the sweep with alpha free")
+    ap.add_argument("--posterior", action="store_true",
+                    help="sample every source (summary.json: the posterior's interval and checks) "
+                         "instead of the linearized fit; slow")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--first", type=int, default=0)
     ap.add_argument("--out", type=Path, default=None, help="write every replicate's record (JSON)")
@@ -196,7 +212,7 @@ def main(argv: list[str] | None = None) -> int:
           f"{DMA_TRUTH['frequency_max']:g} Hz at {DMA_RELATIVE_SD:.0%}; jobs {args.jobs}")
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
-        work = [(tmp, k, args.strength, args.first + r, args.alpha_free) for k in kinds
+        work = [(tmp, k, args.strength, args.first + r, args.alpha_free, args.posterior) for k in kinds
                 for r in range(args.replicates)]
         if args.jobs <= 1:
             results = [replicate(w) for w in work]
