@@ -149,7 +149,12 @@ def table4(run: RunResults, test: str, view: RunResults, standards: Mapping[str,
                         "since): predicted here from fit.json's analysis, and not in the verdict until "
                         "`sample` rewrites summary.json from its chain (or `fit` and `sample` again when a "
                         "reference is in the data).")
-    moved = ((run.fit or {}).get("reference_data") or {}).get("E") or {}
+    data = (run.fit or {}).get("reference_data") or {}
+    for label, sens in (data.get("sensitivities") or {}).items():
+        cells = ", ".join(f"{k} {fmt(v, 3)}" for k, v in sens.items() if k != "at")
+        notes.append(f"Normalised sensitivities X̃ = β ∂g/∂β (eq. 37, MPa) of {label} at {sens.get('at')} in "
+                     f"the data, at the estimate with it: {cells}.")
+    moved = data.get("E") or {}
     for k, m in moved.items():
         if m:
             b, a = m["before"], m["after"]

@@ -276,7 +276,10 @@ def summary_lines(entries: Sequence[Mapping[str, Any]] | None) -> list[str]:
                        + (f" ({against:+.1f} % against E)" if against is not None else ""))
             continue
         check = e.get("check") or {}
-        state = ("DISAGREES" if check.get("fired") else "agrees") if check.get("fired") is not None else ""
+        fired = check.get("fired")
+        state = ("" if fired is None else
+                 ("NOT described beside the tests" if fired else "described") if e["use"] == "data" else
+                 ("DISAGREES" if fired else "agrees"))
         out.append(f"reference {e['label']} ({e['use']}): {e['at']} = {value} MPa, posterior "
                    f"{pm(p['mean'], p['sd'])} MPa (z {e['z']:+.2f}, {e['discrepancy_pct']:+.1f} %)"
                    + (f": {state}" if state else ""))
