@@ -124,8 +124,8 @@ def table4(run: RunResults, test: str, view: RunResults, standards: Mapping[str,
             name += f", sweep of {n // 2 if n else '?'} frequencies"
         scale = r["at"] + (" (every mode frozen: E)" if r.get("regime") == "frozen" else "")
         check = r.get("check") or {}
-        use = r["use"] + ("" if check.get("fired") is None else
-                          " ⚑" if check.get("fired") else ", agrees")
+        use = r["use"] + ("" if check.get("fired") is None else " ⚑" if check.get("fired") else
+                          ", described" if r["use"] == "data" else ", agrees")
         if check.get("fired"):
             fired.append(check.get("words", ""))
         vs_e = _pct(100 * (r["value"] - e_mean) / e_mean if e_mean else None)   # the E row's E
@@ -142,7 +142,8 @@ def table4(run: RunResults, test: str, view: RunResults, standards: Mapping[str,
              "reference against that prediction, their sd combined. 'vs model': (measured − model)/model; "
              "'vs E': (measured − E)/E, the paper's Table 4 (its discrepancies are against E^u_MBM). A "
              "reference to check (use: check) is held out; ⚑: it disagrees beyond the 99 % interval "
-             "of their combined uncertainty, and the verdict says so."]
+             "of their combined uncertainty, and the verdict says so; a reference in the data (use: "
+             "data) is 'described' when the model follows it beside the tensile data, ⚑ when it does not."]
     notes += [f"⚑ {w}" for w in fired]
     if "now" in how:
         notes.insert(0, "The config's references are not those of the run's outputs (added or changed "
