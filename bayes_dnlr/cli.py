@@ -76,8 +76,12 @@ def _run(path: str, command: str) -> Path:
 def cmd_simulate(args: argparse.Namespace) -> None:
     cfg = _config(args.config, "simulate")
     from bayes_dnlr.workflows.simulate import simulate_tests
+    from bayes_dnlr.workflows.sweeps import simulate_references
 
     print("\n".join(r.summary() for r in simulate_tests(cfg, overwrite=args.force)))
+    lines = simulate_references(cfg, overwrite=args.force)
+    if lines:
+        print("\n".join(lines))
 
 
 def _first_compile_note(quiet: bool) -> None:

@@ -108,3 +108,11 @@ def pct(x: float | None, digits: int = 2) -> str:
     if x is None or not math.isfinite(x):
         return "–"
     return f"{100 * x:.{digits}f} %" if abs(100 * x) < 1e4 else ">1e4 %"
+
+
+def frequency_text(f: float) -> str:
+    """5e6 -> '5 MHz', 45 -> '45 Hz', 0.1 -> '0.1 Hz'."""
+    for scale, unit in ((1e9, "GHz"), (1e6, "MHz"), (1e3, "kHz")):
+        if f >= scale:
+            return f"{f / scale:.3g} {unit}"
+    return f"{f:.3g} Hz"

@@ -3,7 +3,10 @@ units (s, N, MPa, mm, strain as a fraction)."""
 
 from __future__ import annotations
 
+import math
 import re
+
+import numpy as np
 
 # unit text (lower case, spaces removed) -> (kind, factor to the package's unit of that kind)
 _UNITS: dict[str, tuple[str, float]] = {
@@ -20,10 +23,13 @@ _UNITS: dict[str, tuple[str, float]] = {
     "microstrain": ("strain", 1e-6),
     "mm": ("length", 1.0), "m": ("length", 1e3), "µm": ("length", 1e-3), "um": ("length", 1e-3),
     "in": ("length", 25.4), "cm": ("length", 10.0),
-    # a temperature column (data.temperature): °C or kelvin, converted by an offset, not a factor
-    # (data/temperature.py)
+    # a DMA export (data/dma.py): frequency to Hz; a temperature (data.temperature, a DMA export)
+    # is converted by an offset, not a factor (``to_celsius``, data/temperature.py)
+    "hz": ("frequency", 1.0), "khz": ("frequency", 1e3),
+    "rad/s": ("frequency", 1.0 / (2.0 * math.pi)), "rads-1": ("frequency", 1.0 / (2.0 * math.pi)),
+    "rad·s⁻¹": ("frequency", 1.0 / (2.0 * math.pi)),
     "°c": ("temperature", 1.0), "ºc": ("temperature", 1.0), "degc": ("temperature", 1.0),
-    "k": ("temperature", 1.0),
+    "celsius": ("temperature", 1.0), "k": ("temperature", 1.0), "°f": ("temperature", 1.0),
 }
 ROLE_KIND = {"time": "time", "force": "force", "stress": "stress", "eps11": "strain", "eps22": "strain",
              "strain": "strain", "extension": "length"}
@@ -44,6 +50,8 @@ def lookup(unit: str) -> tuple[str, float] | None:
     u = unit.strip().strip("()[]").strip()
     if u == "MN":
         return ("force", 1e6)
+    if u in ("MHz", "mHz"):
+        return ("frequency", 1e6 if u == "MHz" else 1e-3)
     return _UNITS.get(normalise(unit))
 
 
@@ -84,3 +92,25 @@ def known_units(role: str) -> list[str]:
     """The unit texts accepted for a role (for error messages)."""
     kind = ROLE_KIND[role]
     return sorted({k for k, (kk, _) in _UNITS.items() if kk == kind})
+
+
+CELSIUS = ("°c", "ºc", "c", "degc", "deg c", "celsius")
+KELVIN = ("k", "kelvin")
+FAHRENHEIT = ("°f", "ºf", "degf", "fahrenheit")
+
+
+def to_celsius(values: np.ndarray, unit: str | None) -> np.ndarray:
+    """A temperature column in °C from its unit (°C, K or °F; None: °C). An offset, not a factor:
+    the one conversion of a temperature (data.temperature, a DMA export's column). Raises
+    ValueError for a unit that is not a temperature's."""
+    x = np.asarray(values, dtype=float)
+    if unit is None:
+        return x
+    u = unit.strip().strip("()[]").strip().lower()
+    if u in KELVIN:
+        return x - 273.15
+    if u in FAHRENHEIT:
+        return (x - 32.0) * 5.0 / 9.0
+    if u not in CELSIUS:
+        raise ValueError(f"the unit {unit!r} is not a temperature's (°C, K or °F)")
+    return x

@@ -14,6 +14,7 @@ from bayes_dnlr.config.data_section import DataConfig
 from bayes_dnlr.config.errors import ConfigError
 from bayes_dnlr.config.noise_section import NoiseConfig
 from bayes_dnlr.config.parameter_section import DEFAULT_PRIORS, ModelConfig, ParameterSpec
+from bayes_dnlr.config.reference_section import ReferenceModulus, label_references
 from bayes_dnlr.config.run_sections import (
     CrossCheckConfig,
     FitConfig,
@@ -69,6 +70,7 @@ class Config(Strict):
     fit: FitConfig = Field(default_factory=FitConfig)
     truth: TruthConfig | None = None
     crosscheck: CrossCheckConfig | None = None
+    reference_moduli: list[ReferenceModulus] | None = None
     output: OutputConfig = Field(default_factory=OutputConfig)
     # where the config was read from (not a YAML key)
     source: Path | None = Field(default=None, exclude=True)
@@ -117,6 +119,22 @@ class Config(Strict):
                 raise ValueError(f"parameters.{per[0]}.per: test needs several tests (a tests: list); "
                                  "with one test (data:) every parameter is that test's own")
         return self
+
+    @model_validator(mode="after")
+    def _references_of_this_run(self) -> Config:
+        if not self.reference_moduli:
+            return self
+        label_references(self.reference_moduli)
+        for i, r in enumerate(self.reference_moduli):
+            if r.test is not None and r.test not in self.test_names:
+                raise ValueError(f"reference_moduli[{i}].test: no test named {r.test!r}; the tests are "
+                                 f"{self.test_names}")
+        return self
+
+    @property
+    def reference_labels(self) -> list[str]:
+        """The label of each ``reference_moduli`` entry (its name, else its method, numbered)."""
+        return label_references(self.reference_moduli or [])
 
     @model_validator(mode="after")
     def _fill_parameters(self) -> Config:

@@ -11,24 +11,10 @@ from pathlib import Path
 import numpy as np
 
 from bayes_dnlr.data.errors import DataError
+from bayes_dnlr.units import CELSIUS, to_celsius
 
-CELSIUS = ("°c", "ºc", "c", "degc", "deg c", "celsius")
-KELVIN = ("k", "kelvin")
 ABSOLUTE_ZERO = -273.15     # °C
 HOTTEST = 1000.0            # °C: above this a column is no polymer test's temperature
-
-
-def to_celsius(values: np.ndarray, unit: str | None) -> tuple[np.ndarray, bool]:
-    """(the values in °C, whether they were converted from kelvin); ``unit`` None is °C. Raises
-    ValueError for a unit that is not a temperature's."""
-    if unit is None:
-        return values, False
-    u = unit.strip().strip("()[]").strip().lower()
-    if u in KELVIN:
-        return values + ABSOLUTE_ZERO, True
-    if u not in CELSIUS:
-        raise ValueError(f"the unit {unit!r} is not a temperature's")
-    return values, False
 
 
 def first_implausible(values: np.ndarray) -> int | None:
@@ -46,16 +32,17 @@ def column_in_celsius(values: np.ndarray, unit: str | None, source: str, name: s
     Errors name the column, or the cell (``where(i)``, ``cell(i)``), of a value that is no
     temperature."""
     try:
-        celsius, kelvin = to_celsius(values, unit)
+        celsius = to_celsius(values, unit)
     except ValueError as err:
         raise DataError(f"{path}: column '{name}' (data.temperature): {err}; set "
-                        f"data.temperature.unit (°C or K)") from None
+                        f"data.temperature.unit (°C, K or °F)") from None
     i = first_implausible(celsius)
     if i is not None:
         raise DataError(f"{where(i)} (data.temperature): cell {cell(i)} is not a temperature in °C "
                         f"(expected above {ABSOLUTE_ZERO:g} and below {HOTTEST:g}; in kelvin? set "
                         f"data.temperature.unit: K)")
-    return celsius, (f"'{name}' in K -> °C ({source})" if kelvin else None)
+    converted = unit is not None and unit.strip().strip("()[]").strip().lower() not in CELSIUS
+    return celsius, (f"'{name}' in {unit} -> °C ({source})" if converted else None)
 
 
 # a temperature in a file name or a metadata line: '_T40', 'T40C', 'T=23.5', '40C', '40 °C',

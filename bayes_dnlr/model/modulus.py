@@ -13,6 +13,11 @@ T, while E is E(t) extrapolated to t → 0 through the spectrum's fast end.
 With a shift factor (model/shift.py) tau_max is the reference state's: E(t) at a temperature T is
 the same curve with every tau_j multiplied by a_T(T) (``shift_factor``), and with a stress shift
 it is the small-strain limit σ → 0, where a_σ = 1.
+
+The same modes answer a small sinusoidal strain ε0 e^{iωt} (a DMA, the harmonic load of a CSM
+nanoindentation, an ultrasonic wave) with σ_j = p_j ε0 (3G + (E − 3G) iωτ_j/(1 + iωτ_j)) in the steady
+state (eq. 10 with the relaxed state's 3G): the complex modulus E*(ω) = E' + iE'' of
+``complex_modulus``, whose storage part rises from 3G to E as the modes freeze (ωτ_j ≫ 1).
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ from bayes_dnlr.model.spectrum import tau_scale, weights
 from bayes_dnlr.vocabulary import UNIVERSAL_EXPONENT
 
 SMALL_STRAIN_SLOPE = 3.0     # dε_HT/dε at ε = 0 (eq. 7)
+FROZEN = 10.0                # ω τ_1 at or above this: (ωτ)²/(1 + (ωτ)²) >= 0.99 for every mode
 
 
 def relaxation_modulus(t: np.ndarray | float, E: np.ndarray | float, G: np.ndarray | float,
@@ -49,6 +55,59 @@ def relaxation_modulus(t: np.ndarray | float, E: np.ndarray | float, G: np.ndarr
         fast[:, i] = np.sum(p * np.exp(-ti / (tau[:, None] * shape[None, :])), axis=1)
     out = SMALL_STRAIN_SLOPE * G[:, None] + (E - SMALL_STRAIN_SLOPE * G)[:, None] * fast
     return out[0] if scalar else out
+
+
+def complex_modulus(frequency: np.ndarray | float, E: np.ndarray | float, G: np.ndarray | float,
+                    tau_max: np.ndarray | float, alpha: np.ndarray | float = UNIVERSAL_EXPONENT,
+                    modes: int = 50, decades: float = 6.0,
+                    shift: np.ndarray | float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """(E'(ω), E''(ω)) in MPa at the frequencies ``frequency`` (Hz, ω = 2π f): the linear response
+    of the same modes as E(t) to a small sinusoidal strain ε0 e^{iωt} (module doc, eq. 10-14),
+
+        E*(ω) = 3G + (E − 3G) Σ_j p_j iωτ_j / (1 + iωτ_j),
+        E'  = 3G + (E − 3G) Σ_j p_j (ωτ_j)² / (1 + (ωτ_j)²),   E'' = (E − 3G) Σ_j p_j ωτ_j / (1 + (ωτ_j)²).
+
+    E'(0) = 3G, E'(∞) = E. ``shift`` multiplies every τ_j (a shift factor of the time scale, such as
+    a_T of another temperature; 1: the model's own). Shapes as ``relaxation_modulus``.
+    """
+    scalar = all(np.ndim(v) == 0 for v in (E, G, tau_max, alpha, shift))
+    omega = 2.0 * np.pi * np.atleast_1d(np.asarray(frequency, dtype=float))
+    E, G, tau, a, s = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, dtype=float))
+                                            for v in (E, G, tau_max, alpha, shift)))
+    shape = tau_scale(modes, decades)
+    p = spectrum_weights(a, modes, decades)                        # (k, modes)
+    storage = np.empty((E.size, omega.size))
+    loss = np.empty((E.size, omega.size))
+    for i, w in enumerate(omega):
+        x = w * (tau * s)[:, None] * shape[None, :]
+        d = 1.0 + x * x
+        storage[:, i] = np.sum(p * (x * x / d), axis=1)
+        loss[:, i] = np.sum(p * (x / d), axis=1)
+    delayed = (E - SMALL_STRAIN_SLOPE * G)[:, None]
+    e1 = SMALL_STRAIN_SLOPE * G[:, None] + delayed * storage
+    e2 = delayed * loss
+    return (e1[0], e2[0]) if scalar else (e1, e2)
+
+
+def storage_modulus(frequency: np.ndarray | float, E: np.ndarray | float, G: np.ndarray | float,
+                    tau_max: np.ndarray | float, alpha: np.ndarray | float = UNIVERSAL_EXPONENT,
+                    modes: int = 50, decades: float = 6.0, shift: np.ndarray | float = 1.0) -> np.ndarray:
+    """E'(ω) (MPa) at ``frequency`` (Hz): ``complex_modulus``'s real part."""
+    return complex_modulus(frequency, E, G, tau_max, alpha, modes, decades, shift)[0]
+
+
+def loss_modulus(frequency: np.ndarray | float, E: np.ndarray | float, G: np.ndarray | float,
+                 tau_max: np.ndarray | float, alpha: np.ndarray | float = UNIVERSAL_EXPONENT,
+                 modes: int = 50, decades: float = 6.0, shift: np.ndarray | float = 1.0) -> np.ndarray:
+    """E''(ω) (MPa) at ``frequency`` (Hz): ``complex_modulus``'s imaginary part."""
+    return complex_modulus(frequency, E, G, tau_max, alpha, modes, decades, shift)[1]
+
+
+def fastest_mode_product(frequency: float, tau_max: float, decades: float = 6.0,
+                         shift: float = 1.0) -> float:
+    """ω τ_1, the fastest mode's (τ_1 = τ_max 10^(−d), eq. 14): above FROZEN every mode is frozen
+    at this frequency and E'(ω) is E itself (each mode keeps more than 99 % of its weight)."""
+    return 2.0 * np.pi * float(frequency) * float(tau_max) * float(shift) * 10.0 ** (-float(decades))
 
 
 def spectrum_weights(alpha: np.ndarray, modes: int = 50, decades: float = 6.0) -> np.ndarray:

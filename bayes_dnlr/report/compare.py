@@ -33,6 +33,7 @@ from bayes_dnlr.errors import RunError
 from bayes_dnlr.fileset import publishing
 from bayes_dnlr.inference.analyses.agreement import P_AGREE, agreement
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pm
+from bayes_dnlr.report.table4 import across_runs, references_of
 from bayes_dnlr.report.tables import Table, deborah
 from bayes_dnlr.runs.folder import write_atomic
 from bayes_dnlr.runs.layout import SUMMARY_FILE
@@ -86,6 +87,7 @@ class Comparison:
     rate: Any = None            # inference.rate.RateAnalysis of the posteriors, when there are draws
     rate_note: str = ""         # why there is none, when the runs' rates cannot answer the question
     materials: dict[str, MaterialComparison] = field(default_factory=dict)   # several materials
+    table4: Table | None = None     # the paper's Table 4 across the runs (report/table4.py)
 
     def table(self) -> Table:
         """Table 3/5 layout: one column per run, one row per quantity."""
@@ -125,6 +127,8 @@ class Comparison:
 
     def markdown(self) -> str:
         parts = [self.table().markdown(), ""]
+        if self.table4 is not None:
+            parts += [self.table4.markdown(), ""]
         answers = self.materials or {"": MaterialComparison(self.consistency, self.rate, self.rate_note)}
         for material, m in answers.items():
             of = f" ({material})" if material else ""
@@ -211,6 +215,14 @@ def run_row(run: RunResults) -> dict[str, Any]:
     row["Et_trust"] = None if first is None else bool(first.get("trust"))
     fired = run_trust(run.summary)["checks_fired"]
     row["checks_fired"] = None if fired is None else ", ".join(fired)
+    for r in references_of(run)[0]:           # Table 4: each reference by its label
+        key = f"ref_{r['label']}"
+        row[f"{key}_value"] = r.get("value")
+        row[f"{key}_at"] = r.get("at")
+        row[f"{key}_model"] = (r.get("prediction") or {}).get("mean")
+        row[f"{key}_z"] = r.get("z")
+        row[f"{key}_vs_E_pct"] = r.get("discrepancy_to_E_pct")
+        row[f"{key}_check_fired"] = (r.get("check") or {}).get("fired")
     return row
 
 
@@ -349,9 +361,10 @@ def compare_runs(run_dirs: Sequence[Path | str], out_dir: Path | str | None = No
             notes.append(f"{run.name}: no posterior yet; Gauss-Newton values only.")
         runs.append(run)
     order = list(dict.fromkeys(r.cfg.material for r in runs))       # materials as first given
-    rows = sorted((run_row(r) for r in runs),
-                  key=lambda r: (order.index(r["material"]), r["strain_rate"] is None,
-                                 r["strain_rate"] or 0.0, r["run"]))
+    pairs = sorted(((run_row(r), r) for r in runs),
+                   key=lambda p: (order.index(p[0]["material"]), p[0]["strain_rate"] is None,
+                                  p[0]["strain_rate"] or 0.0, p[0]["run"]))
+    rows = [row for row, _ in pairs]
     if len(order) == 1:
         rate, rate_note = _rate_of_runs(runs)
         comp = Comparison(rows, consistency_of_e(rows), notes, rate=rate, rate_note=rate_note)
@@ -365,6 +378,7 @@ def compare_runs(run_dirs: Sequence[Path | str], out_dir: Path | str | None = No
             c = consistency_of_e([r for r in rows if r["material"] == material])
             c.modulus = consistency_of_modulus(mine)
             comp.materials[material or "no material given"] = MaterialComparison(c, m_rate, m_note)
+    comp.table4 = across_runs([run for _, run in pairs])
     out = Path(out_dir) if out_dir is not None else default_out_dir(run_dirs)
     md, cs = out / "compare.md", out / "compare.csv"
     with publishing(out, "compare", [md.name, cs.name]):        # the two tables as one set

@@ -18,7 +18,8 @@ REPORT_SET = [REPORT_FILE, f"{FIGURES_DIR}/*.png"]       # published together (b
 
 
 def report_inputs(run_dir: Path) -> list[Path]:
-    """The files report.html is built from: the run's configs, its data file(s) and results."""
+    """The files report.html is built from: the run's configs, its data file(s) (a DMA sweep of
+    ``reference_moduli`` included) and results."""
     from bayes_dnlr.config import load_config
 
     run_dir = Path(run_dir)
@@ -26,6 +27,7 @@ def report_inputs(run_dir: Path) -> list[Path]:
     try:
         cfg = load_config(find_config(run_dir))
         paths += [t.data_path for t in cfg.test_configs()]
+        paths += [cfg.base_dir / r.file for r in cfg.reference_moduli or [] if r.file]
     except Exception:  # noqa: BLE001 - an unreadable config: build_report will say what is wrong
         return []
     return [p for p in paths if p.is_file()]

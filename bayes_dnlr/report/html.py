@@ -118,7 +118,7 @@ SECTIONS = (
             title_of_tests="Model error of every test: the two analyses and the checks"),
     Section("sensitivities", "Sensitivities (eq. 37)", False, _per_test(ts.sensitivity_section)),
     Section("standards", "Standards, Deborah number and independent measurements", False,
-            _per_test(lambda p, _: ts.standards_section(p))),
+            _per_test(ts.standards_section)),
     Section("sampler", "Sampler diagnostics", False, _sampler),
 )
 
@@ -152,7 +152,7 @@ def _part(run: RunResults, test: str) -> ts.Part:
     curves, disc = report_curves(view, test) if view.test is not None else (None, None)
     part = ts.Part(test, view, curves, standard_results(view.test) if view.test is not None else None,
                    heading="" if plain else ts.rate_heading(test, view),
-                   suffix="" if plain else "-" + _slug(test), discrepancy=disc)
+                   suffix="" if plain else "-" + _slug(test), discrepancy=disc, run=run)
     if curves is not None and curves.gn_curve is not None:
         part.white_curve = run_white_curve(view, curves)
     return part

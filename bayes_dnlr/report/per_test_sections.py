@@ -22,6 +22,7 @@ from bayes_dnlr.report import tables as tb
 from bayes_dnlr.report import views
 from bayes_dnlr.report.figure_cache import drawn
 from bayes_dnlr.report.page_parts import bullets, img, para
+from bayes_dnlr.report.table4 import plot_points, references_of, table4, table4_plot
 from bayes_dnlr.runs.curves import N_DRAWS, Curves, Discrepancy
 from bayes_dnlr.runs.results import RunResults
 
@@ -38,6 +39,7 @@ class Part:
     suffix: str                          # figure names: fit{suffix}.png
     white_curve: np.ndarray | None = None
     discrepancy: Discrepancy | None = None
+    run: RunResults | None = None        # the whole run (its references are the run's)
 
     def figure(self, figdir: Path, base: str) -> Path:
         return figdir / f"{base}{self.suffix}.png"
@@ -114,15 +116,28 @@ def sensitivity_section(part: Part, figdir: Path) -> list[str]:
     return sec
 
 
-def standards_section(part: Part) -> list[str]:
-    """ISO 527-1 and ASTM D638 against E (Tables 1, 4), De_max (eq. 45), independent measurements."""
+def standards_section(part: Part, figdir: Path) -> list[str]:
+    """ISO 527-1 and ASTM D638 against E (Tables 1, 4), De_max (eq. 45), and Table 4: the
+    independent moduli (``reference_moduli``) beside the model's prediction at their time scales."""
     run = part.view
     sec = _head(part)
     sec.append(tb.standards_table(run, part.standards).html())
     sec.append(tb.deborah_table(run).html())
-    cc = tb.crosscheck_table(run, part.standards)
-    if cc is not None:
-        sec.append(cc.html())
+    whole = part.run or run
+    t4 = table4(whole, part.name, run, part.standards)
+    if t4 is not None:
+        sec.append(f'<div id="table4{part.suffix}">')
+        sec.append(t4.html())
+        refs, _ = references_of(whole)
+        curve = (whole.summary or {}).get("reference_curve")
+        if curve:
+            p = drawn(table4_plot, curve, plot_points(refs), part.figure(figdir, "table4"))
+            sec.append(img(p, "Table 4 as a figure", (
+                "The model's storage modulus E'(ω) (red) and loss modulus E''(ω) (blue) of the same "
+                "modes as E(t), posterior median and 90 % band, E with its 90 % HDI (grey), and the "
+                "references at their frequencies (an E(t) at f = 1/(2πt); open markers: E''). Right of "
+                "the dotted line every mode is frozen: E'(ω) is E.")))
+        sec.append("</div>")
     return sec
 
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bayes_dnlr.crosscheck import crosscheck_values, deborah_max
+from bayes_dnlr.crosscheck import deborah_max
 from bayes_dnlr.numbers import fmt, fmt_at, fmt_sd, interval, pct
 from bayes_dnlr.runs.records import TestFit
 from bayes_dnlr.runs.results import RunResults
@@ -421,35 +421,6 @@ def deborah_table(run: RunResults) -> Table:
                   "to 1e-2 1/s: the material's longest relaxation time is two decades below the test's "
                   "time scale."],
                  css="num")
-
-
-def crosscheck_table(run: RunResults, standards: dict | None = None) -> Table | None:
-    """Table 4 layout: each technique's modulus beside E_MBM with the discrepancy in % (None without
-    a crosscheck: section in the config)."""
-    vals = crosscheck_values(run.cfg.crosscheck)
-    if not vals:
-        return None
-    e_mean, e_sd, src = e_model(run)
-    rows = []
-    std = dict((run.summary or {}).get("standards") or {})
-    for key, label in (("iso527_1", "ISO 527-1"), ("astm_d638", "ASTM D638")):
-        v = std.get(key)
-        if v is None and standards and standards.get(key) is not None:
-            v = standards[key].modulus
-        if v is not None and e_mean:
-            rows.append([label, fmt(v), "", f"{(v - e_mean) / e_mean * 100:+.0f} %", "this tensile curve"])
-    rows.append([f"E model-based ({src})", fmt_at(e_mean, e_sd), fmt_sd(e_sd), "reference", "this run"])
-    for v in vals:
-        disc = "–" if not e_mean else f"{v.ratio_to(e_mean) * 100:+.1f} %"
-        agree = ""
-        if v.sd is not None and e_sd is not None and e_mean:
-            z = abs(v.modulus - e_mean) / math.hypot(v.sd, e_sd)
-            agree = f"; {z:.1f} combined sd from E" + (" ⚑" if z > 2 else "")
-        rows.append([v.technique, fmt_at(v.modulus, v.sd), fmt_sd(v.sd), disc, v.detail + agree])
-    return Table(["technique", "modulus (MPa)", "± sd (MPa)", "discrepancy to E", "detail"], rows,
-                 "Independent measurements of E (paper Table 4)",
-                 ["Discrepancy: (E_technique - E_model) / E_model, as in the paper's Table 4. ⚑: more than "
-                  "2 combined standard deviations apart."], css="num")
 
 
 def sampler_table(run: RunResults) -> Table | None:

@@ -23,6 +23,7 @@ from bayes_dnlr.runs.netcdf import PosteriorDraws
 from bayes_dnlr.runs.noise_summary import noise_summary, residual_warnings, verdict
 from bayes_dnlr.runs.outputs import Posterior, gauss_newton_block, summarize, write_outputs
 from bayes_dnlr.runs.records import FitRecord
+from bayes_dnlr.runs.reference_posterior import summary_references
 from bayes_dnlr.runs.target import build_target
 
 
@@ -39,12 +40,17 @@ def _standards(test) -> dict[str, float | None] | None:
 
 
 def stopping_settings(cfg: Config) -> dict[str, Any]:
-    """The settings a finished chain's outputs depend on beyond the chain itself: the stopping rule
-    and the times of E(t) (summary.json ``settings``; outputs made with others are rebuilt)."""
+    """The settings a finished chain's outputs depend on beyond the chain itself: the stopping rule,
+    the times of E(t) and the references (summary.json ``settings``; outputs made with others are
+    rebuilt)."""
     s = cfg.sampler
-    return {"burn_in_tau": s.burn_in_tau, "min_tau_multiple": s.min_tau_multiple,
-            "target_ess": s.target_ess, "max_steps": s.max_steps,
-            "modulus_at": cfg.output.modulus_at}
+    out = {"burn_in_tau": s.burn_in_tau, "min_tau_multiple": s.min_tau_multiple,
+           "target_ess": s.target_ess, "max_steps": s.max_steps,
+           "modulus_at": cfg.output.modulus_at}
+    if cfg.reference_moduli:      # the references to check: summary.json's predictions and verdict
+        out["reference_moduli"] = [r.model_dump(mode="json", exclude_none=True)
+                                   for r in cfg.reference_moduli]
+    return out
 
 
 def json_attr(v: Any) -> Any:
@@ -226,6 +232,11 @@ def write_result(cfg: Config, run: StoredRun, fit: dict[str, Any], conv: Converg
         summary["noise"]["projection"] = jsonable(offsets)
         summary["noise"]["verdict"] = verdict(summary["noise"])
     priors = build_target(cfg, test, FitRecord.from_dict(fit, cfg.test_names), run).priors
+    references, reference_curve = summary_references(cfg, names, draws, layout.plain, fit)
+    if references is not None:
+        summary["reference_moduli"] = jsonable(references)
+    if reference_curve is not None:
+        summary["reference_curve"] = jsonable(reference_curve)
     checks, modulus, curve = run_checks(cfg, test, layout, draws, names, priors, fit, summary, sigma0)
     summary["checks"] = jsonable(checks)
     summary["modulus_at"] = jsonable(modulus)

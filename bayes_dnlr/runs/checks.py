@@ -18,6 +18,8 @@
   (docs/model-form.md);
 - ``noise_model``: a posterior of the white likelihood (``noise.discrepancy: none``) on residuals
   that are not white (fit.json ``residuals.white``): its interval ignores the model error;
+- ``reference_moduli``: each reference held out (``use: check``) against the posterior's prediction
+  at its time scale (runs/reference_moduli.py): one that disagrees withdraws trust in E's interval;
 - ``adequate``: the model with its noise model describes the test (coverage and plausibility pass);
   ``trust_interval``: E's interval can be used as it is (adequate, and neither a bound nor the
   prior decides E); ``verdict``: the words, each sentence from one check, a failed one with what
@@ -36,6 +38,7 @@ from bayes_dnlr.inference.checks import bounds, physical, power_scaling, predict
 from bayes_dnlr.inference.layout import Layout
 from bayes_dnlr.inference.posterior.likelihood import window_rows
 from bayes_dnlr.runs.bands import Band, column, predictive_bands
+from bayes_dnlr.runs.reference_moduli import reference_check
 from bayes_dnlr.runs.testset import TestSet
 from bayes_dnlr.runs.verdict import SCORE_Z, SHIFT_SD, prior_shaped_e, verdict
 from bayes_dnlr.vocabulary import DISCREPANCY_PARAMETERS, PARAMETER_NAMES, base_name
@@ -300,6 +303,9 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
     }
     checks["prior_sources"] = prior_sources(draws, names, priors,
                                             list(prior_shaped_e(checks["prior_sensitivity"])))
+    references = reference_check(summary.get("reference_moduli"))
+    if references is not None:
+        checks["reference_moduli"] = references
     adequate, trust, head, points = verdict(checks, bool(summary.get("converged")), not layout.plain)
     modulus, curve = posterior_block(cfg, tests, layout, draws, names, bands, checks,
                                    _log_prior(draws, priors), bool(summary.get("converged")), fit)

@@ -27,6 +27,7 @@ from bayes_dnlr.runs.identity import fit_is_current
 from bayes_dnlr.runs.layout import FIT_FILE
 from bayes_dnlr.runs.modulus_block import fit_rows
 from bayes_dnlr.runs.modulus_view import console_lines
+from bayes_dnlr.runs.reference_fit import fit_references
 from bayes_dnlr.runs.testset import load_tests, sections
 
 # fit_is_current lives with the other staleness checks (runs/identity.py), where the report reads it
@@ -78,6 +79,7 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
     # threads on a busy machine, 0.1 ms with one)
     with threadpool_limits(limits=1, user_api="blas"):
         result = fit_run(cfg, test.tests, plain=test.plain)
+        fit_references(cfg, result, test.tests)   # the data references in the analyses, first
         for name, single in result.singles.items():
             found = fit_rows(cfg.for_test(name), test.tests[name], single.to_dict(),
                              "" if test.plain else f"{name}: ")

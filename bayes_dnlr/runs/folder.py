@@ -44,6 +44,10 @@ def resolved_config_text(cfg: Config) -> str:
     raw = cfg.as_dict()
     for section, view in zip(raw.get("tests") or [raw], cfg.test_configs(), strict=True):
         section["data"]["file"] = os.path.relpath(view.data_path, cfg.run_dir)
+    for entry in raw.get("reference_moduli") or []:          # a DMA sweep's file, likewise
+        if entry.get("file"):
+            path = Path(entry["file"])
+            entry["file"] = os.path.relpath(path if path.is_absolute() else cfg.base_dir / path, cfg.run_dir)
     raw["output"] = {"dir": "."}
     return dump_yaml(raw)
 

@@ -34,7 +34,7 @@ from bayes_dnlr.digests import digest, file_sha256
 from bayes_dnlr.errors import DamagedFileError
 from bayes_dnlr.readback import read_json
 from bayes_dnlr.runs.layout import CHAINS_FILE, FIT_FILE
-from bayes_dnlr.runs.testset import plain_names, sections
+from bayes_dnlr.runs.testset import REFERENCES, plain_names, sections
 
 FORM = 2                                           # the identity form this version writes
 CHAIN_SECTIONS = ("data", "model", "parameters", "noise")   # what the posterior depends on
@@ -56,9 +56,29 @@ def _without_path(section: str, value: Any) -> Any:
 
 
 def section_values(cfg: Config, secs: tuple[str, ...]) -> dict[str, Any]:
-    """The values of the sections ``secs`` after resolution, without the data file's path."""
+    """The values of the sections ``secs`` after resolution, without the data file's path; of
+    ``reference_moduli`` the entries in the data (``use: data``), a sweep's file by its content."""
     dumped = cfg.model_dump(mode="json")
-    return {s: _without_path(s, dumped.get(s)) for s in secs}
+    out = {s: _without_path(s, dumped.get(s)) for s in secs}
+    if REFERENCES in out:
+        out[REFERENCES] = _data_references(cfg, dumped.get(REFERENCES) or [])
+    return out
+
+
+def _data_references(cfg: Config, entries: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The ``use: data`` entries as a result depends on them: without their words (``note``) and a
+    sweep's path, with the sha256 of the sweep's file (a missing file: None)."""
+    out = []
+    for e in entries:
+        if e.get("use") != "data":
+            continue
+        e = {k: v for k, v in e.items() if k not in ("note", "truth")}
+        if e.get("file"):
+            path = Path(e.pop("file"))
+            path = path if path.is_absolute() else cfg.base_dir / path
+            e["sha256"] = file_sha256(path) if path.is_file() else None
+        out.append(e)
+    return out
 
 
 def config_digest(cfg: Config, secs: tuple[str, ...]) -> str:
@@ -347,6 +367,7 @@ def chain_stale_reason(attrs: Mapping[str, Any], cfg: Config, data_sha256: str, 
     if _form(record) >= FORM:
         now = chain_parts(cfg, data_sha256)
         changed = [k for k in now if stored.get(k) != now[k]]
+        changed += [REFERENCES] if REFERENCES in stored and REFERENCES not in now else []
         old = _stored_values(record)
         current = _current_values(cfg, secs, exclude_none=False)
         changed = [k for k in changed if k == DATA_FILE or not _only_new_defaults(old, current, cfg, k)]

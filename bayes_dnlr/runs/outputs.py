@@ -262,6 +262,9 @@ class Posterior:
         from bayes_dnlr.runs.modulus_view import console_lines
 
         lines += console_lines(s)
+        from bayes_dnlr.runs.reference_moduli import summary_lines
+
+        lines += summary_lines(s.get("reference_moduli"))
         warn = s.get("warnings") or []
         lines += [f"warning: {w}" for w in warn]
         lines.append(f"outputs: {self.run_dir}/{{{CHAINS_FILE}, {POSTERIOR_FILE}, {SUMMARY_FILE}}}")

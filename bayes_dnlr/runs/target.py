@@ -188,6 +188,19 @@ def model_error_target(resumed: bool, stored_target: str | None, fit: TestFit,
     return stored_target if resumed else proj.get("target", "generalized")
 
 
+def reference_terms(cfg: Config, layout: Layout) -> list:
+    """The likelihood of the references in the data (``reference_moduli`` with ``use: data``): one
+    term over the run's vector, or none."""
+    from bayes_dnlr.inference.references.terms import ReferenceLikelihood, data_references
+    from bayes_dnlr.runs.reference_moduli import references_of
+
+    refs = data_references(references_of(cfg))
+    if not refs:
+        return []
+    return [ReferenceLikelihood(refs, layout.names, layout.name, cfg.fixed_values, cfg.model.modes,
+                                cfg.model.decades)]
+
+
 def build_target(cfg: Config, tests: TestSet, fit: FitRecord, stored=None) -> Target:
     """The posterior of a run: shared and per-test model parameters, each test's own noise
     parameters. The walkers start at the run's least-squares estimate (generalized when a test has
@@ -226,7 +239,7 @@ def build_target(cfg: Config, tests: TestSet, fit: FitRecord, stored=None) -> Ta
         sig[t], src[t], disc_all[t] = s0, s0_src, _dump(disc_priors)
     layout = Layout.build({t: likes[t].names for t in names_of}, cfg.per_test_parameters, tests.plain)
     priors = _run_priors(layout, local_priors)
-    post = LogPosterior(likes, layout, priors)
+    post = LogPosterior(likes, layout, priors, reference_terms(cfg, layout))
     uses_disc = any(like.discrepancy is not None for like in likes.values())
     own_sigma = next(iter(likes.values())).sigma0 if tests.plain else None
     scale = (own_sigma / fit.sigma0 if not uses_disc and own_sigma is not None and fit.sigma0

@@ -16,11 +16,16 @@ from bayes_dnlr.digests import digest
 from bayes_dnlr.runs.layout import SMOOTHING_CACHE
 
 SECTIONS = ("data", "model", "parameters", "noise", "fit")
+REFERENCES = "reference_moduli"      # a result depends on the entries with use: data (identity.py)
 
 
 def sections(cfg: Config, base: tuple[str, ...] = SECTIONS) -> tuple[str, ...]:
-    """The config sections a result depends on: ``base``, and ``tests`` when the config has them."""
-    return (*base, "tests") if cfg.tests is not None else base
+    """The config sections a result depends on: ``base``, ``tests`` when the config has them, and
+    ``reference_moduli`` when some of its entries are data (``use: data``)."""
+    out = (*base, "tests") if cfg.tests is not None else base
+    if any(r.use == "data" for r in cfg.reference_moduli or []):
+        out = (*out, REFERENCES)
+    return out
 
 
 def plain_names(cfg: Config) -> bool:

@@ -133,7 +133,7 @@ def _model_form_words(test: str, c: dict, several: bool) -> tuple[bool, str | No
                    f"(score test, {c['likelihood']}){moves}: the model's form does not fit (a strain toe, "
                    "a second process, another spectrum shape) and E's interval does not carry it. "
                    "Sample the exponent (parameters.alpha, docs/model-form.md), fix the start of the "
-                   "curve, or check E against an independent measurement (crosscheck:).")
+                   "curve, or check E against an independent measurement (reference_moduli:).")
 
 
 def _bound_words(entries: list[dict]) -> tuple[bool, list[str]]:
@@ -292,6 +292,12 @@ def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[boo
         trust &= ok
         if text:
             words.append(text)
+    refs = checks.get("reference_moduli")
+    if refs:
+        for e in refs["entries"]:
+            if e["fired"]:
+                trust = False
+                words.append(e["words"] + ".")
     ok, bound_words = _bound_words(checks["bound_limited"])
     trust &= ok
     words += bound_words

@@ -372,10 +372,17 @@ def config_text(raw: dict[str, Any], comments: dict[str, str], source: Path,
 
 
 def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
-    """Write a starting config for the export ``data`` (module doc); never overwrites."""
+    """Write a starting config for the export ``data`` (module doc); never overwrites. A DMA
+    export gives the ``reference_moduli`` entry that reads it instead (workflows/init_sweep.py)."""
     data = Path(data)
     if not data.is_file():
         raise RunError(f"{data}: data file not found (init takes a test export, e.g. a CSV)")
+    from bayes_dnlr.data.dma import looks_like_sweep
+
+    if looks_like_sweep(data):          # a DMA export: a reference_moduli entry, not a config
+        from bayes_dnlr.workflows.init_sweep import init_sweep
+
+        return init_sweep(data, None if out is None else Path(out), run_name(data.stem))
     out = Path(out) if out is not None else Path("runs") / run_name(data.stem) / "config.yaml"
     if out.suffix not in (".yaml", ".yml"):
         raise RunError(f"{out}: --out names the config file to write, e.g. runs/name/config.yaml")

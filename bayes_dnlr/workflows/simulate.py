@@ -450,7 +450,7 @@ def _same_numbers(old: bytes, new: bytes, layout: str = "plain", delimiter: str 
     return x.shape == y.shape and bool(np.allclose(x, y, rtol=1e-8, atol=1e-12))
 
 
-def _write(path: Path, data: bytes, overwrite: bool, source: object, layout: str = "plain",
+def write_unless_same(path: Path, data: bytes, overwrite: bool, source: object, layout: str = "plain",
            delimiter: str = ",") -> tuple[str, list[str]]:
     """Write unless identical; never replace a different file without ``overwrite``."""
     if path.is_file():
@@ -502,7 +502,7 @@ def simulate_test(cfg: Config, overwrite: bool = False) -> SimulationResult:
     source = cfg.source if cfg.source is not None else "the config"
     data = _csv_bytes(cfg, columns, truth.layout)
     delimiter = cfg.data.delimiter or LAYOUTS[truth.layout]["delimiter"]
-    status, notes = _write(cfg.data_path, data, overwrite, source, truth.layout, delimiter)
+    status, notes = write_unless_same(cfg.data_path, data, overwrite, source, truth.layout, delimiter)
     notes += _temperature_notes(cfg, truth)
     rs = cfg.data.relaxation_start
     if isinstance(rs, float) and p.relaxation_start is not None and not np.isclose(rs, p.relaxation_start):

@@ -179,19 +179,10 @@ def generate(time: np.ndarray, strain: np.ndarray, params: Mapping[str, float],
     t = np.asarray(time, dtype=float)
     e = np.asarray(strain, dtype=float)
     value = strength_value(kind, strength) if kind is not None else 0.5
-    shape = 10.0 ** _log10_shape(modes, decades)
     relaxed = haward_thackray(e)
     measured = e.copy()
-    if kind is not None and kind.startswith("spectrum-"):
-        processes = (Process(1.0, spectrum_weights(kind, value, modes, decades), shape),)
-    else:
-        base = spectrum_weights("", 0.5, modes, decades)
-        processes = (Process(1.0, base, shape),)
-    if kind == "two-process":
-        if not 0.0 < value < 1.0:
-            raise ValueError(f"two-process: weight must lie in (0, 1), got {value}")
-        processes = (Process(1.0 - value, base, shape), Process(value, base, shape, SLOW_RATIO))
-    elif kind == "hardening-langevin":
+    processes = linear_processes(kind, strength, modes, decades)
+    if kind == "hardening-langevin":
         relaxed = relaxed * langevin_factor(e, value)
     elif kind == "strain-toe":
         if not value > 0:
@@ -204,24 +195,46 @@ def generate(time: np.ndarray, strain: np.ndarray, params: Mapping[str, float],
     return Generated(stress, measured)
 
 
-def relaxation_modulus(t: np.ndarray | float, params: Mapping[str, float], kind: str | None,
-                       strength: str | float = "mild", modes: int = 50,
-                       decades: float = 6.0) -> np.ndarray:
-    """The specimen's relaxation modulus E(t) under the model form ``kind`` (None: eq. 12):
-    3G + (E − 3G) Σ P_j exp(−t/τ_j) over every process's modes (model/modulus.py). The strain
-    kinds (toe, drift) change what the file reports, not the specimen, and the Langevin hardening
-    has the slope G at ε = 0, so their E(t) is the fitted model's form at the true parameters."""
-    times = np.atleast_1d(np.asarray(t, dtype=float))
+def linear_processes(kind: str | None, strength: str | float = "mild", modes: int = 50,
+                     decades: float = 6.0) -> tuple[Process, ...]:
+    """The processes of the specimen's linear response under the model form ``kind`` (None: eq.
+    12). The strain kinds (toe, drift) change what the file reports, not the specimen, and the
+    Langevin hardening has the slope G at ε = 0, so theirs are the fitted model's form."""
     value = strength_value(kind, strength) if kind is not None else 0.5
     shape = 10.0 ** _log10_shape(modes, decades)
     base = spectrum_weights("", 0.5, modes, decades)
     if kind is not None and kind.startswith("spectrum-"):
-        processes = (Process(1.0, spectrum_weights(kind, value, modes, decades), shape),)
-    elif kind == "two-process":
-        processes = (Process(1.0 - value, base, shape), Process(value, base, shape, SLOW_RATIO))
-    else:
-        processes = (Process(1.0, base, shape),)
+        return (Process(1.0, spectrum_weights(kind, value, modes, decades), shape),)
+    if kind == "two-process":
+        if not 0.0 < value < 1.0:
+            raise ValueError(f"two-process: weight must lie in (0, 1), got {value}")
+        return (Process(1.0 - value, base, shape), Process(value, base, shape, SLOW_RATIO))
+    return (Process(1.0, base, shape),)
+
+
+def relaxation_modulus(t: np.ndarray | float, params: Mapping[str, float], kind: str | None,
+                       strength: str | float = "mild", modes: int = 50,
+                       decades: float = 6.0) -> np.ndarray:
+    """The specimen's relaxation modulus E(t) under the model form ``kind`` (None: eq. 12):
+    3G + (E − 3G) Σ P_j exp(−t/τ_j) over every process's modes (model/modulus.py)."""
+    times = np.atleast_1d(np.asarray(t, dtype=float))
     E, G, tau = float(params["E"]), float(params["G"]), float(params["tau_max"])
     fast = sum(pr.share * np.exp(-times[:, None] / (tau * pr.ratio * pr.shape[None, :])) @ pr.weights
-               for pr in processes)
+               for pr in linear_processes(kind, strength, modes, decades))
     return 3.0 * G + (E - 3.0 * G) * fast
+
+
+def complex_modulus(frequency: np.ndarray | float, params: Mapping[str, float], kind: str | None,
+                    strength: str | float = "mild", modes: int = 50,
+                    decades: float = 6.0) -> tuple[np.ndarray, np.ndarray]:
+    """The specimen's (E'(ω), E''(ω)) at ``frequency`` (Hz) under the model form ``kind``: the
+    steady response of every process's modes to a small sinusoidal strain (model/modulus.py)."""
+    omega = 2.0 * np.pi * np.atleast_1d(np.asarray(frequency, dtype=float))
+    E, G, tau = float(params["E"]), float(params["G"]), float(params["tau_max"])
+    storage = np.zeros(omega.size)
+    loss = np.zeros(omega.size)
+    for pr in linear_processes(kind, strength, modes, decades):
+        x = omega[:, None] * (tau * pr.ratio * pr.shape[None, :])
+        storage += pr.share * (x * x / (1.0 + x * x)) @ pr.weights
+        loss += pr.share * (x / (1.0 + x * x)) @ pr.weights
+    return 3.0 * G + (E - 3.0 * G) * storage, (E - 3.0 * G) * loss

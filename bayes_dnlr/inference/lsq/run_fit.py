@@ -66,6 +66,8 @@ class RunFit:
     wall_time_s: float = 0.0
     plain: bool = False                    # one test, plain names: fit.json is that test's fit
     identifiability: dict[str, Any] | None = None   # parameters held: no test identifies them
+    references: dict[str, Any] | None = None        # fit.json's reference_moduli and reference_data
+    reference_lines: list[str] = field(default_factory=list)   # their lines of the console table
 
     @classmethod
     def of_one_test(cls, fit: FitResult) -> RunFit:
@@ -96,9 +98,10 @@ class RunFit:
             single = self.only
             single.config_digest, single.config_sections = self.config_digest, self.config_sections
             single.data_sha256, single.wall_time_s = self.data_sha256, self.wall_time_s
-            return single.to_dict()
+            return {**single.to_dict(), **jsonable(self.references or {})}
         return jsonable({
-            "name": self.name, "joint": True, "parameters": self.names, "per_test": self.per_test,
+            **(self.references or {}), "name": self.name, "joint": True, "parameters": self.names,
+            "per_test": self.per_test,
             "estimate": self.estimate, "sd": self.sd, "err": self.err,
             "units": {k: unit(k) for k in self.names},
             "covariance": self.covariance, "correlation": self.correlation,
@@ -121,6 +124,9 @@ class RunFit:
 
     def table(self) -> str:
         """The console table of the fit."""
+        return "\n".join([self._table(), *self.reference_lines])
+
+    def _table(self) -> str:
         if self.plain:
             return self.only.table()
         d = self.discrepancy
@@ -204,6 +210,20 @@ def _fit_single(i: int, view: Config, test: Any) -> FitResult:
         raise type(err)(f"tests[{i}] ({view.name}): {err}") from None
 
 
+def joint_white_problem(cfg: Config, tests: dict[str, Any], singles: Mapping[str, FitResult],
+                        identifiability: Mapping[str, Any] | None) -> tuple[RunProblem, Config]:
+    """The joint white least-squares problem of several tests (each weighted by 1/σ0 of its own fit)
+    and the config it is of: with the parameters every test's fit held (``identifiability``)
+    fixed."""
+    if identifiability is not None:
+        cfg = cfg.with_holds({k: v["value"] for k, v in identifiability["held"].items()})
+    views = {t: cfg.for_test(t) for t in cfg.test_names}
+    layout = Layout.build({t: views[t].free_parameters for t in views}, cfg.per_test_parameters)
+    bounds = {g: cfg.parameters[base_name(g)].bounds() for g in layout.names}
+    return RunProblem(_blocks(views, tests), layout, bounds,
+                      {t: 1.0 / singles[t].sigma0 for t in views}), cfg
+
+
 def fit_run(cfg: Config, tests: dict[str, Any], plain: bool) -> RunFit:
     """The fit of a run (``tests``: name -> TestData; ``plain``: one test under plain names);
     writes nothing."""
@@ -214,14 +234,9 @@ def fit_run(cfg: Config, tests: dict[str, Any], plain: bool) -> RunFit:
     views = {t: cfg.for_test(t) for t in cfg.test_names}
     singles = {t: _fit_single(i, views[t], tests[t]) for i, t in enumerate(views)}
     identifiability = _held_by_every_test(singles)
-    if identifiability is not None:
-        cfg = cfg.with_holds({k: v["value"] for k, v in identifiability["held"].items()})
-        views = {t: cfg.for_test(t) for t in cfg.test_names}
-    layout = Layout.build({t: views[t].free_parameters for t in views}, cfg.per_test_parameters)
-    bounds = {g: cfg.parameters[base_name(g)].bounds() for g in layout.names}
-    blocks = _blocks(views, tests)
+    problem, cfg = joint_white_problem(cfg, tests, singles, identifiability)
+    layout, views = problem.layout, {t: cfg.for_test(t) for t in cfg.test_names}
     sigma0 = {t: singles[t].sigma0 for t in views}
-    problem = RunProblem(blocks, layout, bounds, {t: 1.0 / sigma0[t] for t in views})
     start = pooled_start({t: r.estimate for t, r in singles.items()}, {t: r.sd for t, r in singles.items()},
                          layout)
     beta0 = np.clip(problem.vector(start), problem.lower, problem.upper)

@@ -110,11 +110,9 @@ class RunProblem(LogCoordinates):
         beta = self.vector(params)
         return np.where(self.is_log[None, :], J / np.where(self.is_log, beta, 1.0)[None, :], J)
 
-    def project(self, params: Mapping[str, float]) -> dict[str, float]:
-        """All free E, G, sigma_inf (shared or per test) by one bounded linear least squares over
-        the stacked tests, for the time constants in ``params`` (variable projection)."""
-        if not self.linear:
-            return dict(params)
+    def linear_system(self, params: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+        """(A, b) of the stacked tests, weighted as their residuals: the stress is A @ (the free E,
+        G, sigma_inf in ``linear`` order) + the fixed part, b the data minus that part."""
         lin = {k: j for j, k in enumerate(self.linear)}
         A_rows, b_rows = [], []
         for t, b in self.blocks.items():
@@ -125,8 +123,16 @@ class RunProblem(LogCoordinates):
                 full[:, lin[g]] = A[:, j]
             A_rows.append(self.weights[t] * full)
             b_rows.append(self.weights[t] * target)
+        return np.vstack(A_rows), np.concatenate(b_rows)
+
+    def project(self, params: Mapping[str, float]) -> dict[str, float]:
+        """All free E, G, sigma_inf (shared or per test) by one bounded linear least squares over
+        the stacked tests, for the time constants in ``params`` (variable projection)."""
+        if not self.linear:
+            return dict(params)
+        A, b = self.linear_system(params)
         idx = [self.names.index(k) for k in self.linear]
-        c = bounded_lstsq(np.vstack(A_rows), np.concatenate(b_rows), self.lower[idx], self.upper[idx])
+        c = bounded_lstsq(A, b, self.lower[idx], self.upper[idx])
         out = dict(params)
         out.update(zip(self.linear, (float(x) for x in c), strict=True))
         return out

@@ -1,15 +1,17 @@
 """The log-posterior of a run, vectorised over emcee walkers:
 
-    log p(z | y) = log prior(z) + Σ_tests log L_t(θ_t(z)),
+    log p(z | y) = log prior(z) + Σ_tests log L_t(θ_t(z)) + Σ_terms log L_r(θ(z)),
 
 the tests independent given the parameters; θ_t is the test's own parameters in the run's vector
 (inference/layout.py), log L_t its likelihood (likelihood.py). A run with one test is the case
-N = 1 (the sum has one term).
+N = 1 (the sum has one term). The other terms are observations beside the tests that share their
+parameters: the references in the data (``reference_moduli`` with ``use: data``,
+inference/references/terms.py), each a callable of the run's vector.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -29,8 +31,9 @@ class LogPosterior:
     """
 
     def __init__(self, likelihoods: Mapping[str, TestLikelihood], layout: Layout,
-                 priors: PriorSet) -> None:
+                 priors: PriorSet, terms: Sequence[Callable[[np.ndarray], np.ndarray]] = ()) -> None:
         self.likelihoods = dict(likelihoods)
+        self.terms = list(terms)
         self.layout = layout
         self.priors = priors
         self.names = priors.names
@@ -46,6 +49,8 @@ class LogPosterior:
         out = np.zeros(theta.shape[0])
         for t, like in self.likelihoods.items():
             out += like.log_likelihood(self.layout.for_test(theta, t))
+        for term in self.terms:
+            out += term(theta)
         return out
 
     def log_likelihood_reference(self, theta: np.ndarray) -> np.ndarray:
@@ -54,13 +59,15 @@ class LogPosterior:
         out = np.zeros(theta.shape[0])
         for t, like in self.likelihoods.items():
             out += like.log_likelihood_reference(self.layout.for_test(theta, t))
+        for term in self.terms:
+            out += term(theta)
         return out
 
     def conditional_map(self, center: np.ndarray):
         """The model parameters' conditional given the discrepancy's hyperparameters around
         ``center`` (sampling coordinates; inference/posterior/conditional.py), for the conditional
-        move; None for several tests or without sampled hyperparameters."""
-        if len(self.likelihoods) != 1:
+        move; None for several tests, other terms or without sampled hyperparameters."""
+        if len(self.likelihoods) != 1 or self.terms:
             return None
         from bayes_dnlr.inference.posterior.conditional import conditional_map
 
