@@ -32,6 +32,7 @@ from bayes_dnlr.inference.checks.band import Band, band_check
 from bayes_dnlr.inference.mcmc import ess
 from bayes_dnlr.inference.modulus_window import ResolvedWindow
 from bayes_dnlr.model.modulus import SMALL_STRAIN_SLOPE, relaxation_modulus, spectrum_weights
+from bayes_dnlr.model.shift import GAS_CONSTANT, KELVIN, LN10, log_temperature_shift
 from bayes_dnlr.model.spectrum import tau_scale
 from bayes_dnlr.vocabulary import LOG_COORDINATES, SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT
 
@@ -48,6 +49,43 @@ NO_PRIOR = "a least-squares fit has no prior"
 SHAPE_Z = 2.576          # the exponent's pull moves E(t) by more than this many of its sd (two-sided 1 %)
 INFORMATIVE = 0.25       # a 90 % HDI wider than ± this share of E(t) says little about it
 LOCAL_Z = 2.576          # E(t) of the whole window against the local fit's, in the local sd (1 %)
+
+
+SHIFT_FACTOR = "a_T"        # a column of the draws: a_T at the temperature E(t) is wanted at
+LOG_SLOPES = "dln_a_T"      # in a point: d ln a_T / dθ of the temperature law's parameters
+
+
+@dataclass(frozen=True)
+class AtTemperature:
+    """The temperature E(t) is wanted at (°C; None: the reference state's) and the model's
+    temperature law (``model.shift``): E(t) there is the reference spectrum's with every τ_j
+    multiplied by a_T (model/modulus.py ``shift_factor``)."""
+
+    law: str = "none"
+    reference: float | None = None
+    value: float | None = None
+
+    @property
+    def shifted(self) -> bool:
+        return self.law != "none" and self.value is not None and self.value != self.reference
+
+    def factor(self, values: Mapping[str, Any]) -> np.ndarray | float:
+        """a_T of each draw (the law's parameters from ``values``)."""
+        if not self.shifted:
+            return 1.0
+        return np.exp(log_temperature_shift(self.value, self.law, self.reference,
+                                            **{k: values.get(k) for k in ("Ea", "C1", "C2")}))
+
+    def log_slopes(self, point: Mapping[str, float]) -> dict[str, float]:
+        """d ln a_T / dθ at ``point`` for the law's parameters θ."""
+        if not self.shifted:
+            return {}
+        dt = float(self.value) - float(self.reference)
+        if self.law == "arrhenius":
+            return {"Ea": 1000.0 / GAS_CONSTANT * (1.0 / (self.value + KELVIN)
+                                                   - 1.0 / (self.reference + KELVIN))}
+        c1, c2 = float(point["C1"]), float(point["C2"])
+        return {"C1": -LN10 * dt / (c2 + dt), "C2": LN10 * c1 * dt / (c2 + dt) ** 2}
 
 
 @dataclass(frozen=True)
@@ -71,18 +109,25 @@ class Source:
             return self.draws[name]
         return self.fixed.get(name)
 
-    def columns(self) -> dict[str, np.ndarray | float]:
-        """E, G, tau_max and alpha (G 0 and alpha ½ when the test has neither)."""
+    def columns(self, at: AtTemperature | None = None) -> dict[str, np.ndarray | float]:
+        """E, G, tau_max and alpha (G 0 and alpha ½ when the test has neither), and a_T at ``at``."""
         out = {}
         for k in MODULUS_PARAMETERS:
             v = self.value(k)
             out[k] = v if v is not None else (UNIVERSAL_EXPONENT if k == SPECTRUM_EXPONENT else 0.0)
+        if at is not None and at.shifted:
+            out[SHIFT_FACTOR] = at.factor({k: self.value(k) for k in ("Ea", "C1", "C2")})
         return out
 
-    def point(self) -> dict[str, float]:
-        """Every parameter at its draws' median (the fixed ones at their values)."""
-        return {**{k: float(v) for k, v in self.fixed.items()},
-                **{k: float(np.median(v)) for k, v in self.draws.items()}}
+    def point(self, at: AtTemperature | None = None) -> dict[str, Any]:
+        """Every parameter at its draws' median (the fixed ones at their values), with a_T and its
+        log slopes at ``at``."""
+        out: dict[str, Any] = {**{k: float(v) for k, v in self.fixed.items()},
+                               **{k: float(np.median(v)) for k, v in self.draws.items()}}
+        if at is not None and at.shifted:
+            out[SHIFT_FACTOR] = float(at.factor(out))
+            out[LOG_SLOPES] = at.log_slopes(out)
+        return out
 
 
 def posterior_source(draws: Mapping[str, np.ndarray], fixed: Mapping[str, float], converged: bool,
@@ -125,16 +170,20 @@ def modulus_draws(columns: Mapping[str, np.ndarray | float], times: Sequence[flo
     """E(t) of every draw: (draws, times)."""
     out = relaxation_modulus(np.asarray(times, dtype=float), columns["E"], columns.get("G", 0.0),
                              columns["tau_max"], columns.get(SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT),
-                             modes, decades)
+                             modes, decades, shift_factor=columns.get(SHIFT_FACTOR, 1.0))
     return np.atleast_2d(out)
 
 
 def gradient(params: Mapping[str, float], names: Sequence[str], times: Sequence[float],
              modes: int = 50, decades: float = 6.0) -> np.ndarray:
     """∂E(t)/∂β for the parameters ``names`` (β as the fit reports them: tau_max in s), one row per
-    time; parameters E(t) does not depend on have a zero column."""
+    time; parameters E(t) does not depend on have a zero column. With a_T in ``params`` (at another
+    temperature than the reference) the spectrum's time scale is tau_max a_T, and the temperature
+    law's parameters move it through ln a_T (``LOG_SLOPES``)."""
     t = np.asarray(times, dtype=float)
-    E, G, tau = float(params["E"]), float(params.get("G", 0.0)), float(params["tau_max"])
+    a_t = float(params.get(SHIFT_FACTOR, 1.0))
+    slopes = params.get(LOG_SLOPES) or {}
+    E, G, tau = float(params["E"]), float(params.get("G", 0.0)), float(params["tau_max"]) * a_t
     alpha = float(params.get(SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT))
     shape = tau_scale(modes, decades)
     p = spectrum_weights(np.array([alpha]), modes, decades)[0]
@@ -146,9 +195,11 @@ def gradient(params: Mapping[str, float], names: Sequence[str], times: Sequence[
             out[:, j] = fast
         elif k == "G":
             out[:, j] = SMALL_STRAIN_SLOPE * (1.0 - fast)
-        elif k == "tau_max":
-            # d/dτ exp(−t/(τ s_j)) = exp(·) t/(τ² s_j)
-            out[:, j] = (E - SMALL_STRAIN_SLOPE * G) * (decay * (t[:, None] / (tau**2 * shape))) @ p
+        elif k == "tau_max" or k in slopes:
+            # d/dτ exp(−t/(τ s_j)) = exp(·) t/(τ² s_j), τ = tau_max a_T; then d τ/d tau_max = a_T,
+            # d τ/d θ = τ d ln a_T/d θ
+            d_tau = (E - SMALL_STRAIN_SLOPE * G) * (decay * (t[:, None] / (tau**2 * shape))) @ p
+            out[:, j] = d_tau * (a_t if k == "tau_max" else tau * float(slopes[k]))
         elif k == SPECTRUM_EXPONENT:
             up = relaxation_modulus(t, E, G, tau, alpha + ALPHA_STEP, modes, decades)
             down = relaxation_modulus(t, E, G, tau, alpha - ALPHA_STEP, modes, decades)
@@ -202,7 +253,8 @@ class ExponentSpread:
                  # a time constant moves in log space (d ln τ = dτ/τ), never to a negative τ
                  "tau_max": float(point["tau_max"]) * math.exp(
                      d.get("tau_max", 0.0) * a / float(point["tau_max"])),
-                 SPECTRUM_EXPONENT: float(point.get(SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT)) + a}
+                 SPECTRUM_EXPONENT: float(point.get(SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT)) + a,
+                 SHIFT_FACTOR: float(point.get(SHIFT_FACTOR, 1.0))}
         return (modulus_draws(moved, times, modes, decades)[0]
                 - modulus_draws(_with_defaults(point), times, modes, decades)[0])
 
@@ -309,13 +361,15 @@ class BoundRefit:
 
 
 def bound_moves(refits: Sequence[BoundRefit], t: float, sd: float, modes: int,
-                decades: float) -> dict[str, float]:
+                decades: float, at: AtTemperature | None = None) -> dict[str, float]:
     """E(t)'s move, in its sd, when each piled-up bound is widened (the bound check's refits)."""
     if not sd > 0:
         return {}
+    at = at or AtTemperature()
     out = {}
     for r in refits:
-        v = [float(modulus_draws(_with_defaults(p), [t], modes, decades)[0, 0])
+        v = [float(modulus_draws(_with_defaults({**p, SHIFT_FACTOR: float(at.factor(p))}), [t],
+                                 modes, decades)[0, 0])
              for p in (r.before, r.after)]
         out[r.parameter] = (v[1] - v[0]) / sd
     return out
@@ -323,7 +377,8 @@ def bound_moves(refits: Sequence[BoundRefit], t: float, sd: float, modes: int,
 
 def _with_defaults(params: Mapping[str, float]) -> dict[str, float]:
     return {"E": params["E"], "tau_max": params["tau_max"], "G": params.get("G", 0.0),
-            SPECTRUM_EXPONENT: params.get(SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT)}
+            SPECTRUM_EXPONENT: params.get(SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT),
+            SHIFT_FACTOR: params.get(SHIFT_FACTOR, 1.0)}
 
 
 def _prior_sensitivity(values: np.ndarray, log_prior: np.ndarray | None) -> float | None:
@@ -351,11 +406,17 @@ class ModulusEstimate:
 def estimate(source: Source, times: Sequence[float], why: str, window: ResolvedWindow,
              band: Band | None, spread: ExponentSpread | None, refits: Sequence[BoundRefit],
              noise_ok: bool, modes: int = 50, decades: float = 6.0,
-             local: Mapping[float, LocalEstimate] | None = None) -> ModulusEstimate:
+             local: Mapping[float, LocalEstimate] | None = None,
+             at: AtTemperature | None = None) -> ModulusEstimate:
     """E(t) of one test at ``times`` from ``source``, with the numbers of its checks (``local``:
-    the local fit's E(t) per time, where the test has a start to fit alone)."""
-    columns = source.columns()
-    point = source.point()
+    the local fit's E(t) per time, where the test has a start to fit alone; ``at``: the test's
+    temperature, where the model has a temperature law)."""
+    at = at or AtTemperature()
+    columns = source.columns(at)
+    point = source.point(at)
+    band_point = None if band is None else {
+        **band.point, **({SHIFT_FACTOR: float(at.factor(band.point)),
+                          LOG_SLOPES: at.log_slopes(band.point)} if at.shifted else {})}
     held = modulus_draws(columns, times, modes, decades)       # with alpha where the source has it
     values, shapes = held, [None] * len(times)
     added = spread.added_sd(point, times, modes, decades) if spread is not None else None
@@ -365,7 +426,7 @@ def estimate(source: Source, times: Sequence[float], why: str, window: ResolvedW
     rows = []
     for i, t in enumerate(times):
         stats = draw_stats(values[:, i])
-        g = gradient(band.point, band.free, [t], modes, decades)[0] if band is not None else None
+        g = gradient(band_point, band.free, [t], modes, decades)[0] if band is not None else None
         slope = float(spread.slope(point, [t], modes, decades)[0]) if spread is not None else 0.0
         checks = {
             "inside_window": window.contains(t),
@@ -375,7 +436,7 @@ def estimate(source: Source, times: Sequence[float], why: str, window: ResolvedW
             "local": local_check((local or {}).get(float(t)), float(held[:, i].mean())),
             "band": band_check(band, g, window.origin) if g is not None else None,
             "start": start,
-            "bounds": bound_moves(refits, t, float(stats["sd"]), modes, decades),
+            "bounds": bound_moves(refits, t, float(stats["sd"]), modes, decades, at),
             "prior": _prior_sensitivity(values[:, i], source.log_prior),
             "noise_model": bool(noise_ok),
             "converged": source.converged,
@@ -389,11 +450,15 @@ def estimate(source: Source, times: Sequence[float], why: str, window: ResolvedW
                 "dE_dalpha": slope,
                 "alpha_sd": spread.alpha_sd, "added_sd": float(added[i])}
         rows.append(row)
-    return ModulusEstimate(rows, _curve(source, columns, window, times, spread, modes, decades))
+    if at.shifted:
+        for row in rows:
+            row["temperature"] = at.value
+    return ModulusEstimate(rows, _curve(source, columns, point, window, times, spread, modes,
+                                        decades))
 
 
-def _curve(source: Source, columns: Mapping[str, Any], window: ResolvedWindow,
-           times: Sequence[float], spread: ExponentSpread | None, modes: int,
+def _curve(source: Source, columns: Mapping[str, Any], point: Mapping[str, Any],
+           window: ResolvedWindow, times: Sequence[float], spread: ExponentSpread | None, modes: int,
            decades: float) -> dict[str, Any]:
     """E(t)'s 5, 50 and 95 % quantiles on CURVE_TIMES log-spaced times from a hundredth of the
     shortest resolved time to the longest, over CURVE_DRAWS draws (the exponent's spread added as
@@ -405,7 +470,7 @@ def _curve(source: Source, columns: Mapping[str, Any], window: ResolvedWindow,
                         max(window.longest, max(times)), CURVE_TIMES)
     e_t = modulus_draws(sub, grid, modes, decades)
     if spread is not None:
-        e_t = followed(e_t, spread, source.point(), grid, modes, decades)[0]
+        e_t = followed(e_t, spread, point, grid, modes, decades)[0]
     q = np.quantile(e_t, [0.05, 0.5, 0.95], axis=0)
     e = np.atleast_1d(np.asarray(columns["E"], dtype=float)).ravel()
     lo, hi = draw_stats(e)["hdi_90"] if e.size > 1 else (float(e[0]),) * 2

@@ -17,7 +17,7 @@ import numpy as np
 from bayes_dnlr.numbers import fmt, interval, pm
 from bayes_dnlr.report.figure_cache import drawn
 from bayes_dnlr.report.page_parts import bullets, img, para
-from bayes_dnlr.runs.modulus_view import curves, entries
+from bayes_dnlr.runs.modulus_view import curves, entries, reference
 from bayes_dnlr.runs.results import RunResults
 
 WHAT_E_IS = ("E is E(t) extrapolated to t → 0 through the fast end of Cunat's spectrum (eq. 12), "
@@ -121,7 +121,37 @@ def section(run: RunResults, figdir: Path) -> list[str]:
                 "HDI); the reported times (dots: filled when trusted); the ISO 527-1 chord over the "
                 "times the loading takes from 0.05 to 0.25 % strain (bar): the mean of E(t) there.")))
         sec.append(_table(rs))
-    return sec
+    return sec + _master_curve(run, figdir)
+
+
+def _master_curve(run: RunResults, figdir: Path) -> list[str]:
+    """Tests at several temperatures: E(t) at the reference temperature over their reduced
+    windows (runs/master_curve.py), its figure and its table."""
+    ref = reference(run.summary or {})
+    if not ref or not ref.get("rows"):
+        return []
+    curve, rows = ref["curve"], ref["rows"]
+    temp = f"{ref['temperature']:g} °C"
+    spans = "; ".join(f"{html.escape(t)} at {w['temperature']:g} °C: {fmt(w['reduced'][0], 3)}-"
+                      f"{fmt(w['reduced'][1], 3)} s (a_T = {fmt(w['a_T'], 3)})"
+                      for t, w in ref["windows"].items())
+    q = np.array([curve["q05"], curve["q50"], curve["q95"]])
+    marks = [(r["t"], r["mean"], *r["hdi_90"], bool(r.get("trust"))) for r in rows]
+    p = drawn(modulus_plot, np.asarray(curve["t"]), q, tuple(curve["resolved"]),
+              float(curve["E_median"]), tuple(curve["E_hdi_90"]), [], marks,
+              figdir / "modulus-reference.png",
+              tuple(tuple(w["reduced"]) for w in ref["windows"].values()),
+              f"reduced time at {temp} (s)")
+    return [f"<h3>The master curve: E(t) at {temp}</h3>",
+            para(f"Each test at temperature T resolves E(t) at T over its times; the run's "
+                 f"temperature law ({html.escape(ref['law'])}) maps them to {temp}, divided by a_T(T). "
+                 f"The tests' windows in reduced time: {spans}. Each time below comes from the "
+                 "test whose window holds it."),
+            img(p, "E(t) at the reference temperature", (
+                f"E(t) at {temp}: median and 90 % band over the union of the tests' reduced windows "
+                "(solid), the extrapolation beyond them (dashed), the reported times (dots: filled "
+                "when trusted).")),
+            _table(rows)]
 
 
 def _table(rows: list[dict]) -> str:
@@ -149,7 +179,9 @@ def _table(rows: list[dict]) -> str:
 
 def modulus_plot(grid: np.ndarray, q: np.ndarray, resolved: tuple[float, float], e_median: float,
                  e_hdi: tuple[float, float], chords: list[tuple[str, float, float, float]],
-                 marks: list[tuple[Any, ...]], path: Path) -> Path:
+                 marks: list[tuple[Any, ...]], path: Path,
+                 spans: tuple[tuple[float, float], ...] = (),
+                 xlabel: str = "t (s after the loading began)") -> Path:
     """E(t) against log t: the band inside the resolved times, dashed outside, E at the left edge,
     the standards' moduli as bars over their times, the reported times as dots."""
     from bayes_dnlr.report.canvas import new_figure, save_figure
@@ -175,9 +207,10 @@ def modulus_plot(grid: np.ndarray, q: np.ndarray, resolved: tuple[float, float],
     for t, mean, low, high, trusted in marks:
         ax.errorbar([t], [mean], yerr=[[mean - low], [high - mean]], fmt="o", color="k",
                     mfc="k" if trusted else "w", capsize=3, ms=5)
-    ax.axvspan(lo, hi, color="0.9", zorder=-1, lw=0)
+    for a, b in spans or ((lo, hi),):          # the windows that resolve E(t), shaded
+        ax.axvspan(a, b, color="0.9", zorder=-1, lw=0)
     ax.set_xscale("log")
-    ax.set_xlabel("t (s after the loading began)")
+    ax.set_xlabel(xlabel)
     ax.set_ylabel("E(t) (MPa)")
     ax.legend(fontsize=8, loc="upper right", frameon=False)
     ax.set_ylim(bottom=0)

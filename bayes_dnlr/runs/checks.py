@@ -307,8 +307,14 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
     if references is not None:
         checks["reference_moduli"] = references
     adequate, trust, head, points = verdict(checks, bool(summary.get("converged")), not layout.plain)
-    modulus, curve = posterior_block(cfg, tests, layout, draws, names, bands, checks,
-                                   _log_prior(draws, priors), bool(summary.get("converged")), fit)
+    log_prior = _log_prior(draws, priors)
+    modulus, curve = posterior_block(cfg, tests, layout, draws, names, bands, checks, log_prior,
+                                     bool(summary.get("converged")), fit)
+    if not layout.plain:
+        reference = _master_curve(cfg, tests, layout, draws, names, bands, checks, log_prior,
+                                  bool(summary.get("converged")), fit)
+        if reference is not None:
+            modulus["reference"] = reference
     if layout.plain:
         for k in ("predictive_coverage", "plausibility", "noise_model"):
             checks[k] = layout.collapse(checks[k])
@@ -316,6 +322,21 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
     checks.update(adequate=adequate, trust_interval=trust, verdict=" ".join([head, *points]),
                   verdict_points=points)
     return checks, modulus, curve
+
+
+def _master_curve(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, names: list[str],
+                  bands: dict[str, Band], checks: dict[str, Any], log_prior: np.ndarray,
+                  converged: bool, fit: dict[str, Any]) -> dict[str, Any] | None:
+    """E(t) at the reference temperature of tests made at several (runs/master_curve.py)."""
+    from bayes_dnlr.runs.master_curve import master_curve
+    from bayes_dnlr.runs.modulus_block import posterior_refits, posterior_sources
+
+    sources = posterior_sources(cfg, layout, draws, names, checks, log_prior, converged)
+    singles = fit.get("single_fits") or {}
+    refits = {t: posterior_refits(checks.get("bound_limited") or [], layout, t, cfg.for_test(t))
+              for t in sources}
+    noise_ok = {t: ((checks.get("noise_model") or {}).get(t) or {}).get("ok", True) for t in sources}
+    return master_curve(cfg, tests, sources, bands, singles, refits, noise_ok)
 
 
 def _log_prior(draws: np.ndarray, priors) -> np.ndarray:

@@ -41,6 +41,33 @@ def common_times(cfg: Config, tests: TestSet) -> list[float]:
     return [max(default_times(test_window(data))[0][0] for data in tests.tests.values())]
 
 
+def reduced_times(cfg: Config, tests: TestSet, fit: Mapping[str, Any]
+                  ) -> tuple[list[float], dict[str, float], str | None]:
+    """With a temperature law and tests at several temperatures: times at the reference temperature
+    that every test resolves in reduced time (its times over a_T at the joint fit's law), each
+    test's a_T, and why E(t) is not compared when their reduced windows do not overlap. Without:
+    ``common_times`` and a_T = 1."""
+    from bayes_dnlr.inference.modulus_window import nice_time
+    from bayes_dnlr.runs.modulus_block import at_temperature
+
+    s = cfg.model.shift
+    ats = {t: at_temperature(cfg.for_test(t), data) for t, data in tests.tests.items()}
+    if s.temperature == "none" or len({a.value for a in ats.values()}) < 2:
+        return common_times(cfg, tests), dict.fromkeys(tests.tests, 1.0), None
+    joint = analysis(fit)[0]
+    factor = {t: float(a.factor({**cfg.fixed_values, **joint})) for t, a in ats.items()}
+    lo = max(test_window(d).shortest / factor[t] for t, d in tests.tests.items())
+    hi = min(test_window(d).longest / factor[t] for t, d in tests.tests.items())
+    if cfg.output.modulus_at:
+        return list(cfg.output.modulus_at), factor, None
+    if lo > hi:
+        return [], factor, (f"E(t) not compared: the tests' windows in reduced time at "
+                            f"{s.reference_temperature:g} °C do not overlap (their temperatures "
+                            "are too far apart for one time every test resolves)")
+    t = nice_time(lo)
+    return [t if t <= hi else lo], factor, None
+
+
 def consistency(cfg: Config, tests: TestSet, fit: Mapping[str, Any]) -> dict[str, Any] | None:
     """The block: per quantity the tests' own values, Cochran's Q and whether they agree; ``agree``
     over all; ``words`` for a person. None for a run with one test or without single fits."""
@@ -50,7 +77,9 @@ def consistency(cfg: Config, tests: TestSet, fit: Mapping[str, Any]) -> dict[str
     # E(t) is one material function only where the tests share the spectrum; with a tau_max (or
     # an alpha) per test, the run itself says their E(t) differ, and only E is compared
     shared_spectrum = not ({"tau_max", "alpha"} & set(cfg.per_test_parameters))
-    times = common_times(cfg, tests) if shared_spectrum else []
+    times, factor, note = reduced_times(cfg, tests, fit) if shared_spectrum else ([], {}, None)
+    at_ref = (f" at {cfg.model.shift.reference_temperature:g} °C"
+              if any(a != 1.0 for a in factor.values()) else "")
     values: dict[str, dict[str, float]] = {}
     sds: dict[str, dict[str, float]] = {}
     how = {}
@@ -60,9 +89,10 @@ def consistency(cfg: Config, tests: TestSet, fit: Mapping[str, Any]) -> dict[str
         own = _own_e(single)
         if own is not None:
             values.setdefault("E", {})[t], sds.setdefault("E", {})[t], how[t] = own
-        found = fit_rows(cfg.for_test(t), tests.tests[t], single, f"{t}: ", times) if times else None
-        for row in found.rows if found is not None else []:
-            key = f"E({fmt(row['t'], 3)} s)"
+        own_times = [x * factor.get(t, 1.0) for x in times]
+        found = fit_rows(cfg.for_test(t), tests.tests[t], single, f"{t}: ", own_times) if times else None
+        for x, row in zip(times, found.rows if found is not None else [], strict=False):
+            key = f"E({fmt(x, 3)} s){at_ref}"
             values.setdefault(key, {})[t] = row["mean"]
             sds.setdefault(key, {})[t] = row["sd"]
     found = [a for k in values if (a := agreement(k, values[k], sds[k])) is not None]
@@ -71,9 +101,11 @@ def consistency(cfg: Config, tests: TestSet, fit: Mapping[str, Any]) -> dict[str
     # the tests agree when their E(t), what the data determine, agree; E, the extrapolation through
     # the spectrum's fast end, decides only where E(t) cannot be compared (a spectrum per test)
     deciding = [a for a in found if a.quantity != "E"] or found
+    text = words(found, deciding)
     return {"times": times, "estimates": how, "quantities": [a.to_dict() for a in found],
-            "decided_by": [a.quantity for a in deciding],
-            "agree": all(a.agree for a in deciding), "words": words(found, deciding)}
+            "decided_by": [a.quantity for a in deciding], "shift_factors": factor,
+            "agree": all(a.agree for a in deciding),
+            "words": text + (f" ({note}.)" if note else "")}
 
 
 def words(found: list[Agreement], deciding: list[Agreement]) -> str:

@@ -25,6 +25,7 @@ from bayes_dnlr.runs.folder import (
 )
 from bayes_dnlr.runs.identity import fit_is_current
 from bayes_dnlr.runs.layout import FIT_FILE
+from bayes_dnlr.runs.master_curve import fit_master_curve
 from bayes_dnlr.runs.modulus_block import fit_rows
 from bayes_dnlr.runs.modulus_view import console_lines
 from bayes_dnlr.runs.reference_fit import fit_references
@@ -84,6 +85,8 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
             found = fit_rows(cfg.for_test(name), test.tests[name], single.to_dict(),
                              "" if test.plain else f"{name}: ")
             single.modulus_at = None if found is None else found.rows
+        if not test.plain:
+            result.modulus_reference = fit_master_curve(cfg, test, result)
     secs = sections(cfg)
     result.config_digest = identity.config_digest(cfg, secs)
     result.config_sections = identity.section_digests(cfg, secs)
@@ -106,5 +109,6 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
 def fit_table(result: RunFit) -> str:
     """The console's table of a fit, with each test's E(t) and its trust."""
     block = ({"modulus_at": result.only.modulus_at or []} if result.plain else
-             {"single_fits": {t: {"modulus_at": r.modulus_at} for t, r in result.singles.items()}})
+             {"single_fits": {t: {"modulus_at": r.modulus_at} for t, r in result.singles.items()},
+              "modulus_reference": result.modulus_reference})
     return "\n".join([result.table(), *console_lines(block)])

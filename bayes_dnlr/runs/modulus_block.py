@@ -27,6 +27,7 @@ from bayes_dnlr.inference.checks.band import Band
 from bayes_dnlr.inference.layout import Layout
 from bayes_dnlr.inference.modulus_estimate import (
     MODULUS_PARAMETERS,
+    AtTemperature,
     BoundRefit,
     LocalEstimate,
     ModulusEstimate,
@@ -63,6 +64,16 @@ def judged(result: ModulusEstimate, who: str) -> ModulusEstimate:
     return result
 
 
+def at_temperature(view: Config, data) -> AtTemperature:
+    """The test's temperature for its E(t) (a column's mean where it is read per row), with the
+    model's temperature law; the reference state's when the model has none."""
+    s = view.model.shift
+    t = getattr(data, "temperature", None)
+    if s.temperature == "none" or t is None:
+        return AtTemperature()
+    return AtTemperature(s.temperature, s.reference_temperature, float(np.mean(t)))
+
+
 def _rows(view: Config, data, source: Source, band: Band | None, fit: Mapping[str, Any],
           refits: Sequence[BoundRefit], noise_ok: bool, who: str,
           times: Sequence[float] | None = None) -> ModulusEstimate:
@@ -74,7 +85,8 @@ def _rows(view: Config, data, source: Source, band: Band | None, fit: Mapping[st
     if local is None:
         local = local_estimates(view, data, fit, chosen, window.origin)
     return judged(estimate(source, chosen, why, window, band, spread, refits, noise_ok,
-                           view.model.modes, view.model.decades, local), who)
+                           view.model.modes, view.model.decades, local,
+                           at_temperature(view, data)), who)
 
 
 def _first_turn(data) -> float:
@@ -136,7 +148,8 @@ def local_estimates(view: Config, data, fit: Mapping[str, Any], times: Sequence[
             except BayesDnlrError:
                 sources[k] = None
         if sources[k] is not None:
-            values = modulus_draws(sources[k].columns(), [t], view.model.modes, view.model.decades)
+            values = modulus_draws(sources[k].columns(at_temperature(view, data)), [t],
+                                   view.model.modes, view.model.decades)
             out[float(t)] = LocalEstimate(float(values.mean()), float(values.std(ddof=1)),
                                           end - origin, end)
     return out
@@ -152,9 +165,13 @@ def under_model_error(fit: Mapping[str, Any]) -> bool:
 
 
 def fit_view(view: Config, fit: Mapping[str, Any]) -> Config:
-    """The test's config with the parameters its fit held (identifiability) fixed there."""
-    held = ((fit.get("identifiability") or {}).get("held") or {})
-    return view.with_holds({k: v["value"] for k, v in held.items()}) if held else view
+    """The test's config with the parameters its fit held fixed there: those its window cannot
+    identify (identifiability), and those a test alone holds (its temperature law's,
+    inference/lsq/temperature_start.py)."""
+    held = {k: v["value"] for k, v in ((fit.get("identifiability") or {}).get("held") or {}).items()}
+    held.update({k: v for k, v in (fit.get("fixed") or {}).items()
+                 if k in view.free_parameters and k not in held})
+    return view.with_holds(held) if held else view
 
 
 def fit_rows(view: Config, data, fit: Mapping[str, Any], who: str = "",
@@ -228,7 +245,7 @@ def uses_discrepancy(checks: Mapping[str, Any], test: str) -> bool:
     return ((checks.get("noise_model") or {}).get(test) or {}).get("likelihood") == "discrepancy"
 
 
-def _posterior_refits(bound_limited: Sequence[Mapping[str, Any]], layout: Layout, test: str,
+def posterior_refits(bound_limited: Sequence[Mapping[str, Any]], layout: Layout, test: str,
                       view: Config) -> list[BoundRefit]:
     """The bound check's refits (runs/checks.py) in the test's own names."""
     out = []
@@ -244,6 +261,22 @@ def _posterior_refits(bound_limited: Sequence[Mapping[str, Any]], layout: Layout
     return out
 
 
+def posterior_sources(cfg: Config, layout: Layout, draws: np.ndarray, names: list[str],
+                      checks: Mapping[str, Any], log_prior: np.ndarray | None,
+                      converged: bool) -> dict[str, Source]:
+    """Each test's posterior draws under its own parameter names (tests with an E(t) only)."""
+    flat = draws.reshape(-1, draws.shape[-1])
+    out = {}
+    for test in layout.tests:
+        view = cfg.for_test(test)
+        if has_modulus(view):
+            drawn = {k: flat[:, names.index(layout.name(k, test))] for k in view.parameters
+                     if layout.name(k, test) in names}
+            out[test] = posterior_source(drawn, view.fixed_values, converged, log_prior,
+                                         uses_discrepancy(checks, test))
+    return out
+
+
 def posterior_block(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray,
                     names: list[str], bands: Mapping[str, Band], checks: Mapping[str, Any],
                     log_prior: np.ndarray | None, converged: bool,
@@ -251,21 +284,15 @@ def posterior_block(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarr
     """summary.json's ``modulus_at`` (per test, a list of {t, mean, sd, median, hdi_90, source,
     resolved, why, checks, trust, trust_reasons}; a run with one test gives its list, a run with
     several {"tests": {name: list}}) and ``modulus_curve`` (per test, what the report draws)."""
-    flat = draws.reshape(-1, draws.shape[-1])
     per_test: dict[str, list[dict]] = {}
     curves: dict[str, dict] = {}
-    for test in layout.tests:
+    for test, source in posterior_sources(cfg, layout, draws, names, checks, log_prior,
+                                          converged).items():
         view = cfg.for_test(test)
-        if not has_modulus(view):
-            continue
-        drawn = {k: flat[:, names.index(layout.name(k, test))] for k in view.parameters
-                 if layout.name(k, test) in names}
-        source = posterior_source(drawn, view.fixed_values, converged, log_prior,
-                                  uses_discrepancy(checks, test))
         own = fit if layout.plain else (fit.get("single_fits") or {}).get(test) or {}
         noise_ok = ((checks.get("noise_model") or {}).get(test) or {}).get("ok", True)
         found = _rows(view, tests.tests[test], source, bands.get(test), own,
-                      _posterior_refits(checks.get("bound_limited") or [], layout, test, view),
+                      posterior_refits(checks.get("bound_limited") or [], layout, test, view),
                       noise_ok, "" if layout.plain else f"{test}: ")
         per_test[test], curves[test] = found.rows, found.curve
     if layout.plain:

@@ -22,6 +22,16 @@ def entries(summary: Mapping[str, Any]) -> dict[str, list[dict]]:
     return {t: s["modulus_at"] for t, s in singles.items() if s.get("modulus_at")}
 
 
+def reference(summary: Mapping[str, Any]) -> dict[str, Any] | None:
+    """E(t) at the reference temperature of tests made at several (runs/master_curve.py): the
+    ``reference`` of summary.json's ``modulus_at``, or fit.json's ``modulus_reference``."""
+    block = summary.get("modulus_at")
+    if isinstance(block, Mapping) and block.get("reference"):
+        return dict(block["reference"])
+    found = summary.get("modulus_reference")
+    return dict(found) if found else None
+
+
 def curves(summary: Mapping[str, Any]) -> dict[str, dict]:
     """The ``modulus_curve`` of summary.json per test (a run with one test under '')."""
     block = summary.get("modulus_curve")
@@ -48,6 +58,14 @@ def console_lines(summary: Mapping[str, Any]) -> list[str]:
                        "E is its extrapolation to t → 0)")
             out += [f"  - {x}" for x in r.get("trust_reasons") or []]
             out += [f"  - not checked: {k} ({why})" for k, why in (r.get("lacks") or {}).items()]
+    ref = reference(summary)
+    for r in (ref or {}).get("rows") or []:
+        lo, hi = r["hdi_90"]
+        mark = "trusted" if r.get("trust") else "NOT trusted"
+        out.append(f"E(t) at {ref['temperature']:g} °C (the master curve): E({fmt(r['t'], 3)} s) = "
+                   f"{pm(r['mean'], r['sd'])} MPa, 90 % HDI {interval(lo, hi, r['sd'])}, from "
+                   f"{r.get('test')}: {mark}")
+        out += [f"  - {x}" for x in r.get("trust_reasons") or []]
     block = summary.get("consistency")
     if block:
         out.append(f"tests: {block.get('words')}")

@@ -32,6 +32,7 @@ from bayes_dnlr.inference.lsq.optimize import run_minimiser
 from bayes_dnlr.inference.lsq.problem import LsqProblem
 from bayes_dnlr.inference.lsq.run_problem import RunProblem
 from bayes_dnlr.inference.lsq.sensitivity import StochasticAnalysis, analyse, identifiability_warnings
+from bayes_dnlr.inference.lsq.temperature_start import alone, joint_start
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd, pm
 from bayes_dnlr.vocabulary import TIME_CONSTANTS, base_name, unit
@@ -66,6 +67,7 @@ class RunFit:
     wall_time_s: float = 0.0
     plain: bool = False                    # one test, plain names: fit.json is that test's fit
     identifiability: dict[str, Any] | None = None   # parameters held: no test identifies them
+    modulus_reference: dict[str, Any] | None = None  # E(t) at T_ref (runs/master_curve.py)
     references: dict[str, Any] | None = None        # fit.json's reference_moduli and reference_data
     reference_lines: list[str] = field(default_factory=list)   # their lines of the console table
 
@@ -111,7 +113,7 @@ class RunFit:
                                 if k in ("estimate", "sd", "err", "sigma0", "sigma0_source", "residuals",
                                          "warnings", "discrepancy", "strain_rate", "deborah_max",
                                          "n_points", "relaxation_start", "data_notes", "spectrum_exponent",
-                                         "modulus_at", "identifiability", "parameters", "converged",
+                                         "modulus_at", "identifiability", "parameters", "converged", "fixed",
                                          "covariance")}
                             for t, r in self.singles.items()},
             "criterion": self.criterion, "converged": self.converged, "message": self.message,
@@ -120,6 +122,7 @@ class RunFit:
             "config_digest": self.config_digest, "config_sections": self.config_sections,
             "data_sha256": self.data_sha256, "version": __version__, "wall_time_s": self.wall_time_s,
             "identifiability": self.identifiability,
+            **({"modulus_reference": self.modulus_reference} if self.modulus_reference else {}),
         })
 
     def table(self) -> str:
@@ -232,13 +235,14 @@ def fit_run(cfg: Config, tests: dict[str, Any], plain: bool) -> RunFit:
         (t, test), = tests.items()
         return RunFit.of_one_test(fit_test(cfg, test))
     views = {t: cfg.for_test(t) for t in cfg.test_names}
-    singles = {t: _fit_single(i, views[t], tests[t]) for i, t in enumerate(views)}
+    singles = {t: _fit_single(i, alone(views[t], tests[t]), tests[t]) for i, t in enumerate(views)}
     identifiability = _held_by_every_test(singles)
     problem, cfg = joint_white_problem(cfg, tests, singles, identifiability)
     layout, views = problem.layout, {t: cfg.for_test(t) for t in cfg.test_names}
     sigma0 = {t: singles[t].sigma0 for t in views}
-    start = pooled_start({t: r.estimate for t, r in singles.items()}, {t: r.sd for t, r in singles.items()},
-                         layout)
+    start = joint_start(cfg, pooled_start({t: r.estimate for t, r in singles.items()},
+                                          {t: r.sd for t, r in singles.items()}, layout),
+                        singles, tests)
     beta0 = np.clip(problem.vector(start), problem.lower, problem.upper)
     opt = run_minimiser(problem, cfg.fit.method, beta0, cfg.fit.max_iterations)
     params = problem.params(opt.beta)
