@@ -240,6 +240,16 @@ class Config(Strict):
         """All model parameters, in the canonical order."""
         return [k for k in PARAMETER_NAMES if k in self.parameters]
 
+    def with_shift(self, **laws: str) -> Config:
+        """This config with other shift laws (keys of ``model.shift``: stress="eyring", ...), the
+        parameters of a law it did not have at their default priors."""
+        shift = self.model.shift.model_copy(update=laws)
+        params = dict(self.parameters)
+        for k in shift.parameters:
+            params.setdefault(k, ParameterSpec(**DEFAULT_PRIORS[k]))
+        return self.model_copy(update={"model": self.model.model_copy(update={"shift": shift}),
+                                       "parameters": params})
+
     def with_holds(self, held: Mapping[str, float]) -> Config:
         """This config with the parameters of ``held`` fixed at the given values (a parameter the
         window cannot identify, held by the fit: inference/lsq/sensitivity.py ``unidentified``)."""

@@ -29,6 +29,7 @@ import numpy as np
 
 from bayes_dnlr.inference.checks import power_scaling
 from bayes_dnlr.inference.checks.band import Band, band_check
+from bayes_dnlr.inference.lsq.stress_score import STRESS_Z
 from bayes_dnlr.inference.mcmc import ess
 from bayes_dnlr.inference.modulus_window import ResolvedWindow
 from bayes_dnlr.model.modulus import SMALL_STRAIN_SLOPE, relaxation_modulus, spectrum_weights
@@ -49,6 +50,7 @@ NO_PRIOR = "a least-squares fit has no prior"
 SHAPE_Z = 2.576          # the exponent's pull moves E(t) by more than this many of its sd (two-sided 1 %)
 INFORMATIVE = 0.25       # a 90 % HDI wider than ± this share of E(t) says little about it
 LOCAL_Z = 2.576          # E(t) of the whole window against the local fit's, in the local sd (1 %)
+STRESS_MOVE_Z = 2.576    # E(t)'s move when the stress shift is admitted, in its sd (two-sided 1 %)
 
 
 SHIFT_FACTOR = "a_T"        # a column of the draws: a_T at the temperature E(t) is wanted at
@@ -277,8 +279,55 @@ def exponent_spread(fit: Mapping[str, Any], under_model_error: bool) -> Exponent
                           float(score.get("step") or 0.0))
 
 
+@dataclass(frozen=True)
+class StressPull:
+    """The stress shift the data ask a stress-blind fit for (inference/lsq/stress_score.py): its
+    score test, and the fit that admits it (the same test with ``model.shift.stress: eyring``):
+    its sigma_s and its parameters, whose E(t) (the σ → 0 limit) is the material's linear one if
+    the Eyring law holds."""
+
+    z: float
+    sigma_s: float | None                  # the refit's, else the one the score's step points to
+    refit: dict[str, float] | None = None  # the refit's estimate (None: it failed)
+
+    @property
+    def asked(self) -> bool:
+        """The score test rejects the stress-blind model (one-sided 1 %)."""
+        return self.z > STRESS_Z
+
+
+def stress_pull(fit: Mapping[str, Any], under_model_error: bool) -> StressPull | None:
+    """A fit's stress score (fit.json ``stress_score``, its discrepancy's under model error) and
+    its refit with the stress shift (``stress_refit``); None when the model has a stress shift or
+    the fit has no score."""
+    score = ((fit.get("discrepancy") or {}).get("stress_score") if under_model_error else None) \
+        or fit.get("stress_score")
+    if not score or not math.isfinite(score.get("z", math.nan)):
+        return None
+    refit = fit.get("stress_refit") or {}
+    estimate_ = refit.get("estimate")
+    sigma_s = (estimate_ or {}).get("sigma_s") or score.get("sigma_s")
+    return StressPull(float(score["z"]), None if sigma_s is None else float(sigma_s),
+                      None if not estimate_ else {k: float(v) for k, v in estimate_.items()})
+
+
+def stress_check(pull: StressPull | None, value: float, sd: float, t: float, modes: int,
+                 decades: float, at: AtTemperature) -> dict[str, float | bool] | None:
+    """Does a stress-blind E(t) read nonlinearity as relaxation? Where the data ask for a stress
+    shift (its score test), the E(t) of the fit that admits it against this one (both at ½), in
+    this one's sd: beyond STRESS_MOVE_Z the stress-blind spectrum, not the material's linear one,
+    decides E(t). None where the data do not ask for it or the refit failed."""
+    if pull is None or not pull.asked or pull.refit is None or not sd > 0:
+        return None
+    shifted = _with_defaults({**pull.refit, SHIFT_FACTOR: float(at.factor(pull.refit))})
+    other = float(modulus_draws(shifted, [t], modes, decades)[0, 0])
+    move = other - value
+    return {"score_z": pull.z, "sigma_s": pull.sigma_s, "shifted": other, "move": move,
+            "z": move / sd, "ok": abs(move / sd) <= STRESS_MOVE_Z}
+
+
 def followed(held: np.ndarray, spread: ExponentSpread, point: Mapping[str, float],
-             times: Sequence[float], modes: int, decades: float
+             times: Sequence[float], modes: int, decades: float, follow: bool = True
              ) -> tuple[np.ndarray, list[dict[str, float | bool]]]:
     """E(t) draws (draws, times) with the exponent's spread and, at each time where it is small, its
     pull; with the shape check of each time. The data pull the exponent by the score's step (kept
@@ -286,7 +335,10 @@ def followed(held: np.ndarray, spread: ExponentSpread, point: Mapping[str, float
     a posterior with alpha free and a flat prior, linearized). On data the model describes the step
     is N(0, σ_α²), so the move exceeds SHAPE_Z of E(t)'s sd (which holds |slope| σ_α) at most 1 %
     of the time. A larger move is not followed, since its linearization does not hold that far:
-    E(t) stays at ½ and the check says that the spectrum's shape, not the data, decides it."""
+    E(t) stays at ½ and the check says that the spectrum's shape, not the data, decides it.
+    ``follow`` False: the pull is not followed at all (where the data ask for a stress shift, the
+    curve bends for another reason than the spectrum's shape, and the pull says nothing of it);
+    the spread stays, and so does the check."""
     added = spread.added_sd(point, times, modes, decades)
     move = spread.move(point, times, modes, decades)
     still = apply_spread(held, added)
@@ -294,9 +346,11 @@ def followed(held: np.ndarray, spread: ExponentSpread, point: Mapping[str, float
     with np.errstate(divide="ignore", invalid="ignore"):
         z = np.where(sd > 0, move / sd, 0.0)
     ok = np.abs(z) <= SHAPE_Z
-    values = np.where(ok[None, :], apply_spread(held, added, np.where(ok, move, 0.0)), still)
+    taken = ok & follow
+    values = np.where(taken[None, :], apply_spread(held, added, np.where(taken, move, 0.0)), still)
     checks = [{"alpha_pulled": UNIVERSAL_EXPONENT + spread.pull, "move": float(m), "z": float(zi),
-               "ok": bool(o), "followed": bool(o)} for m, zi, o in zip(move, z, ok, strict=True)]
+               "ok": bool(o), "followed": bool(f)}
+              for m, zi, o, f in zip(move, z, ok, taken, strict=True)]
     return values, checks
 
 
@@ -407,7 +461,7 @@ def estimate(source: Source, times: Sequence[float], why: str, window: ResolvedW
              band: Band | None, spread: ExponentSpread | None, refits: Sequence[BoundRefit],
              noise_ok: bool, modes: int = 50, decades: float = 6.0,
              local: Mapping[float, LocalEstimate] | None = None,
-             at: AtTemperature | None = None) -> ModulusEstimate:
+             at: AtTemperature | None = None, pull: StressPull | None = None) -> ModulusEstimate:
     """E(t) of one test at ``times`` from ``source``, with the numbers of its checks (``local``:
     the local fit's E(t) per time, where the test has a start to fit alone; ``at``: the test's
     temperature, where the model has a temperature law)."""
@@ -421,7 +475,8 @@ def estimate(source: Source, times: Sequence[float], why: str, window: ResolvedW
     values, shapes = held, [None] * len(times)
     added = spread.added_sd(point, times, modes, decades) if spread is not None else None
     if added is not None:
-        values, shapes = followed(held, spread, point, times, modes, decades)
+        values, shapes = followed(held, spread, point, times, modes, decades,
+                                  follow=pull is None or not pull.asked)
     start = band.start.to_dict() if band is not None and band.start is not None else None
     rows = []
     for i, t in enumerate(times):
@@ -432,6 +487,8 @@ def estimate(source: Source, times: Sequence[float], why: str, window: ResolvedW
             "inside_window": window.contains(t),
             "width": width_check(stats),
             "shape": shapes[i],
+            "stress": stress_check(pull, float(held[:, i].mean()), float(stats["sd"]), t, modes,
+                                   decades, at),
             # like with like: the local fit holds alpha where the whole window's source does
             "local": local_check((local or {}).get(float(t)), float(held[:, i].mean())),
             "band": band_check(band, g, window.origin) if g is not None else None,
@@ -454,12 +511,12 @@ def estimate(source: Source, times: Sequence[float], why: str, window: ResolvedW
         for row in rows:
             row["temperature"] = at.value
     return ModulusEstimate(rows, _curve(source, columns, point, window, times, spread, modes,
-                                        decades))
+                                        decades, pull is None or not pull.asked))
 
 
 def _curve(source: Source, columns: Mapping[str, Any], point: Mapping[str, Any],
            window: ResolvedWindow, times: Sequence[float], spread: ExponentSpread | None, modes: int,
-           decades: float) -> dict[str, Any]:
+           decades: float, follow: bool = True) -> dict[str, Any]:
     """E(t)'s 5, 50 and 95 % quantiles on CURVE_TIMES log-spaced times from a hundredth of the
     shortest resolved time to the longest, over CURVE_DRAWS draws (the exponent's spread added as
     for the reported times), and E's median and 90 % HDI: what the report draws."""
@@ -470,7 +527,7 @@ def _curve(source: Source, columns: Mapping[str, Any], point: Mapping[str, Any],
                         max(window.longest, max(times)), CURVE_TIMES)
     e_t = modulus_draws(sub, grid, modes, decades)
     if spread is not None:
-        e_t = followed(e_t, spread, point, grid, modes, decades)[0]
+        e_t = followed(e_t, spread, point, grid, modes, decades, follow)[0]
     q = np.quantile(e_t, [0.05, 0.5, 0.95], axis=0)
     e = np.atleast_1d(np.asarray(columns["E"], dtype=float)).ravel()
     lo, hi = draw_stats(e)["hdi_90"] if e.size > 1 else (float(e[0]),) * 2

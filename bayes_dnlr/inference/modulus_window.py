@@ -9,10 +9,12 @@ before that: the spectrum's fast end, which the data never see, carries it there
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+LINEAR_SHIFT = 0.5       # a_σ where the linear range ends: the stress has sped every mode up 2×
+X_LINEAR = 2.177318      # x/sinh x = LINEAR_SHIFT: that stress over sigma_s
 RESOLVE_STEPS = 2        # E(t) is measured from this many sampling steps into the first loading
 NICE_STEPS = (1.0, 2.0, 5.0)   # default times are rounded up to 1-2-5 values, so that tests of
 #                                similar sampling share them
@@ -111,3 +113,31 @@ def times_for(cfg, test) -> tuple[list[float], str, ResolvedWindow]:
         return list(given), "output.modulus_at", w
     times, why = default_times(w)
     return times, why, w
+
+
+def linear_range(w: ResolvedWindow, time: np.ndarray, stress: np.ndarray, window: np.ndarray,
+                 sigma_s: float, whose: str) -> ResolvedWindow:
+    """The resolved window ended where the test leaves its linear range: where the stress first
+    reaches X_LINEAR × sigma_s, at which the Eyring shift x/sinh x (x = |σ|/sigma_s) has sped every
+    mode up by 1/LINEAR_SHIFT. Beyond, E(t), the σ → 0 relaxation modulus, is no longer what the
+    curve measures: the model reaches it through its stress shift (an extrapolation in stress), or
+    a stress-blind model reads the curve's nonlinearity as relaxation. ``whose``: where sigma_s
+    comes from, for a person."""
+    if not (math.isfinite(sigma_s) and sigma_s > 0):
+        return w
+    rows = np.flatnonzero(np.asarray(window, dtype=bool))
+    t = np.asarray(time, dtype=float)[rows]
+    s = np.abs(np.asarray(stress, dtype=float)[rows])
+    limit = X_LINEAR * sigma_s
+    past = np.flatnonzero(s >= limit)
+    if not past.size:
+        return w
+    end = float(t[past[0]]) - w.origin
+    if end >= w.longest:
+        return w
+    how = (f"; the linear range ends at t = {end:.3g} s, where the stress reaches {limit:.3g} MPa "
+           f"({X_LINEAR:.2f} sigma_s, sigma_s = {sigma_s:.3g} MPa, {whose}): there the stress has "
+           f"sped the relaxation up {1 / LINEAR_SHIFT:g}×")
+    if end <= w.shortest:
+        how += ", before the test resolves E(t)"
+    return replace(w, longest=max(end, w.shortest), how=w.how + how)

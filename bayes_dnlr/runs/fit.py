@@ -26,7 +26,7 @@ from bayes_dnlr.runs.folder import (
 from bayes_dnlr.runs.identity import fit_is_current
 from bayes_dnlr.runs.layout import FIT_FILE
 from bayes_dnlr.runs.master_curve import fit_master_curve
-from bayes_dnlr.runs.modulus_block import fit_rows
+from bayes_dnlr.runs.modulus_block import fit_rows, stress_refit
 from bayes_dnlr.runs.modulus_view import console_lines
 from bayes_dnlr.runs.reference_fit import fit_references
 from bayes_dnlr.runs.testset import load_tests, sections
@@ -82,6 +82,7 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
         result = fit_run(cfg, test.tests, plain=test.plain)
         fit_references(cfg, result, test.tests)   # the data references in the analyses, first
         for name, single in result.singles.items():
+            single.stress_refit = stress_refit(cfg.for_test(name), test.tests[name], single.to_dict())
             found = fit_rows(cfg.for_test(name), test.tests[name], single.to_dict(),
                              "" if test.plain else f"{name}: ")
             single.modulus_at = None if found is None else found.rows

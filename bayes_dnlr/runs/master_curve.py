@@ -26,8 +26,8 @@ from bayes_dnlr.inference.modulus_estimate import (
     estimate,
     fit_source,
 )
-from bayes_dnlr.inference.modulus_window import ResolvedWindow, nice_time, times_for
-from bayes_dnlr.runs.modulus_block import at_temperature, has_modulus, judged
+from bayes_dnlr.inference.modulus_window import ResolvedWindow, nice_time
+from bayes_dnlr.runs.modulus_block import at_temperature, has_modulus, judged, resolved
 from bayes_dnlr.runs.testset import TestSet
 
 MAX_TIMES = 6        # the default reference times: the shortest, then one per decade
@@ -35,15 +35,16 @@ NO_SPREAD = ("the exponent's spread comes from one test's own fit, which a curve
              "tests does not follow: sample parameters.alpha to carry it")
 
 
-def reduced_windows(cfg: Config, tests: TestSet, sources: Mapping[str, Source]) -> dict[str, dict]:
-    """Each test's resolved window at its temperature and in reduced time at the reference one
-    (divided by a_T at the draws' median)."""
+def reduced_windows(cfg: Config, tests: TestSet, sources: Mapping[str, Source],
+                    fits: Mapping[str, Mapping[str, Any]]) -> dict[str, dict]:
+    """Each test's resolved window (to the end of its linear range) at its temperature and in
+    reduced time at the reference one (divided by a_T at the draws' median)."""
     out = {}
     for t, source in sources.items():
         view, data = cfg.for_test(t), tests.tests[t]
         at = at_temperature(view, data)
         a = float(at.factor(source.point())) if at.shifted else 1.0
-        w = times_for(view, data)[2]
+        w = resolved(view, data, source, fits.get(t) or {})[2]
         out[t] = {"temperature": at.value, "a_T": a, "resolved": [w.shortest, w.longest],
                   "reduced": [w.shortest / a, w.longest / a]}
     return out
@@ -84,7 +85,7 @@ def master_curve(cfg: Config, tests: TestSet, sources: Mapping[str, Source],
     s = cfg.model.shift
     if s.temperature == "none" or len(sources) < 2:
         return None
-    windows = reduced_windows(cfg, tests, sources)
+    windows = reduced_windows(cfg, tests, sources, fits)
     if len({w["temperature"] for w in windows.values()}) < 2:
         return None
     times = list(cfg.output.modulus_at) if cfg.output.modulus_at else default_times(windows)

@@ -37,8 +37,9 @@ from bayes_dnlr.inference.modulus_estimate import (
     fit_source,
     modulus_draws,
     posterior_source,
+    stress_pull,
 )
-from bayes_dnlr.inference.modulus_window import times_for
+from bayes_dnlr.inference.modulus_window import X_LINEAR, ResolvedWindow, linear_range, times_for
 from bayes_dnlr.inference.posterior.priors import LOG_SPACE_KINDS
 from bayes_dnlr.runs.bands import N_CURVES, fit_noise, test_band
 from bayes_dnlr.runs.testset import TestSet
@@ -74,19 +75,49 @@ def at_temperature(view: Config, data) -> AtTemperature:
     return AtTemperature(s.temperature, s.reference_temperature, float(np.mean(t)))
 
 
+def resolved(view: Config, data, source: Source, fit: Mapping[str, Any]
+             ) -> tuple[list[float], str, ResolvedWindow, dict[str, float] | None]:
+    """A test's E(t) times, why, and the window it resolves, ended where the test leaves its linear
+    range (inference/modulus_window.py ``linear_range``): at the model's sigma_s with a stress
+    shift, else at the one the stress score points to where the data ask for a stress shift;
+    with that range's end for the words (None when the window was not ended there)."""
+    times, why, w = times_for(view, data)
+    sigma_s, whose = None, ""
+    if view.model.shift.stress != "none":
+        sigma_s, whose = source.point().get("sigma_s"), "the model's"
+    else:
+        pull = stress_pull(fit, source.under_model_error)
+        if pull is not None and pull.asked and pull.sigma_s:
+            sigma_s = pull.sigma_s
+            whose = (f"the one the stress score points to (z = {pull.z:.1f}); the model has no "
+                     "stress shift")
+    if sigma_s is None:
+        return times, why, w, None
+    ended = linear_range(w, data.time, data.stress, np.asarray(data.window)[: data.model_end],
+                         float(sigma_s), whose)
+    if ended.longest == w.longest:
+        return times, why, w, None
+    return times, why, ended, {"time": ended.longest, "stress": X_LINEAR * float(sigma_s),
+                               "sigma_s": float(sigma_s), "model_shift": view.model.shift.stress != "none"}
+
+
 def _rows(view: Config, data, source: Source, band: Band | None, fit: Mapping[str, Any],
           refits: Sequence[BoundRefit], noise_ok: bool, who: str,
           times: Sequence[float] | None = None) -> ModulusEstimate:
-    chosen, why, window = times_for(view, data)
+    chosen, why, window, linear = resolved(view, data, source, fit)
     if times is not None:
         chosen, why = list(times), "times every test of the run resolves"
     spread = exponent_spread(fit, source.under_model_error)
     local = _stored_local(fit, chosen) if source.kind == "posterior" else None
     if local is None:
         local = local_estimates(view, data, fit, chosen, window.origin)
-    return judged(estimate(source, chosen, why, window, band, spread, refits, noise_ok,
-                           view.model.modes, view.model.decades, local,
-                           at_temperature(view, data)), who)
+    found = estimate(source, chosen, why, window, band, spread, refits, noise_ok, view.model.modes,
+                     view.model.decades, local, at_temperature(view, data),
+                     stress_pull(fit, source.under_model_error))
+    if linear is not None:
+        for row in found.rows:
+            row["linear_range"] = linear
+    return judged(found, who)
 
 
 def _first_turn(data) -> float:
@@ -94,6 +125,27 @@ def _first_turn(data) -> float:
     test never turns there)."""
     k = data.first_peak
     return math.inf if k is None else float(np.asarray(data.time, dtype=float)[k])
+
+
+def stress_refit(view: Config, data, fit: Mapping[str, Any]) -> dict[str, Any] | None:
+    """Where the data ask a stress-blind fit for a stress shift (its score test), the same test
+    fitted with it (``model.shift.stress: eyring``, the parameters the fit held held): {estimate
+    (of the generalized analysis under model error), sigma_s, converged}, or {error} when that fit
+    fails. None where the data do not ask for it."""
+    from bayes_dnlr.errors import BayesDnlrError
+    from bayes_dnlr.inference.lsq.run_fit import fit_run
+
+    pull = stress_pull(fit, under_model_error(fit))
+    if pull is None or not pull.asked or not has_modulus(view):
+        return None
+    shifted = fit_view(view, fit).with_shift(stress="eyring")
+    try:
+        again = fit_run(shifted, {view.name: data}, plain=True).to_dict()
+    except BayesDnlrError as err:
+        return {"error": str(err)}
+    estimate_ = analysis(again)[0]
+    return {"estimate": estimate_, "sigma_s": estimate_.get("sigma_s"),
+            "converged": bool(again.get("converged"))}
 
 
 def _stored_local(fit: Mapping[str, Any], times: Sequence[float]) -> dict[float, LocalEstimate] | None:

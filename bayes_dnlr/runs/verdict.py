@@ -185,7 +185,16 @@ def modulus_reasons(row: dict[str, Any], who: str = "") -> list[str]:
     t = f"E({fmt(row['t'], 3)} s)"
     c = row["checks"]
     out = []
-    if not c["inside_window"]:
+    linear = row.get("linear_range")
+    if not c["inside_window"] and linear and row["t"] > row["resolved"][1]:
+        out.append(f"{who}{t} lies beyond the test's linear range (it ends at t = "
+                   f"{fmt(linear['time'], 3)} s, where the stress reaches {fmt(linear['stress'], 3)} MPa, "
+                   f"{fmt(linear['sigma_s'], 3)} MPa sigma_s): " + (
+                       "the model reaches it through its stress shift, an extrapolation in stress"
+                       if linear.get("model_shift") else
+                       "the stress-blind model reads the curve's nonlinearity there as relaxation; "
+                       "set model.shift.stress: eyring (docs/theory.md)"))
+    elif not c["inside_window"]:
         lo, hi = row["resolved"]
         out.append(f"{who}{t} lies outside the times the test resolves ({fmt(lo, 3)}-{fmt(hi, 4)} s): "
                    "an extrapolation through the model's spectrum, not a measurement")
@@ -200,6 +209,13 @@ def modulus_reasons(row: dict[str, Any], who: str = "") -> list[str]:
                    f"holds it at ½), which moves {t} by {fmt(shape['move'], 3)} MPa, "
                    f"{abs(shape['z']):.1f} of its sd: the assumed spectrum's shape, not the data, "
                    "decides it; sample the exponent (parameters.alpha, docs/model-form.md)")
+    stress = c.get("stress")
+    if stress and not stress["ok"]:
+        out.append(f"{who}the data ask for a stress shift (its score test, z = {stress['score_z']:.1f}"
+                   + (f"; sigma_s about {fmt(stress['sigma_s'], 3)} MPa" if stress.get("sigma_s") else "")
+                   + f"), and admitting it moves {t} by {fmt(stress['move'], 3)} MPa, "
+                   f"{abs(stress['z']):.1f} of its sd: the stress-blind model reads the curve's "
+                   "nonlinearity as relaxation; set model.shift.stress: eyring (docs/theory.md)")
     local = c.get("local")
     if local and not local["ok"]:
         out.append(f"{who}fitted on its first {fmt(local['window_end'], 3)} s alone, where {t} is "

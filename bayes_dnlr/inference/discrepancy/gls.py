@@ -48,13 +48,14 @@ from bayes_dnlr.inference.discrepancy.hyper import (
 from bayes_dnlr.inference.lsq import optimize
 from bayes_dnlr.inference.lsq.problem import LsqProblem
 from bayes_dnlr.inference.lsq.sensitivity import (
-    alpha_score,
     bound_side,
     correlation,
     relative_errors,
+    score_test,
     standard_deviations,
 )
 from bayes_dnlr.inference.lsq.sigma0 import high_frequency_sd, resolve_sigma0
+from bayes_dnlr.inference.lsq.stress_score import stress_score
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.numbers import fmt, share
 from bayes_dnlr.vocabulary import SPECTRUM_EXPONENT
@@ -242,8 +243,10 @@ def discrepancy_analysis(cfg: Config, test, problem: LsqProblem, beta_white: np.
     score = None
     if SPECTRUM_EXPONENT not in names and "E" in names:      # the spectrum exponent held at ½
         x_alpha = problem.column(params, SPECTRUM_EXPONENT)
-        score = alpha_score(whiten(problem.jacobian(params)), whiten(x_alpha), whiten(core["r_window"]),
+        score = score_test(whiten(problem.jacobian(params)), whiten(x_alpha), whiten(core["r_window"]),
                             1.0)
+    stress = (stress_score(cfg, test, params, problem.jacobian(params), core["r_window"], 1.0,
+                           problem.mask, whiten) if "E" in names else None)
     gain = (per["matern32"]["log_posterior"] - per["exp"]["log_posterior"]) if len(per) == 2 else None
     record = {
         "rule": "kernels weighed by their likelihood of the hyperparameters with the amplitude's prior; "
@@ -288,6 +291,7 @@ def discrepancy_analysis(cfg: Config, test, problem: LsqProblem, beta_white: np.
         "criterion": float(core["r_window"] @ core["r_window"]), "converged": True, "message": core["how"],
         "whitened_residuals": whitened,
         "alpha_score": score,
+        "stress_score": stress,
         "kernel_choice": record,
         "projection": projection,
         "warnings": warnings + _whiteness_warning(whitened, zero_amplitude, hs),

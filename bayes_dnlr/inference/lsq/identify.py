@@ -36,13 +36,13 @@ from bayes_dnlr.inference.lsq.sensitivity import (
     NEGLIGIBLE_SENSITIVITY,
     StochasticAnalysis,
     alpha_dependence,
-    alpha_score,
     analyse,
     analyse_holding,
     bound_side,
     bound_warning,
     hold_words,
     identifiability_warnings,
+    score_test,
     unidentified,
 )
 from bayes_dnlr.inference.lsq.sigma0 import resolve_sigma0
@@ -53,6 +53,7 @@ from bayes_dnlr.inference.lsq.start import (
     physics_start,
     spread_starts,
 )
+from bayes_dnlr.inference.lsq.stress_score import stress_score
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd
 from bayes_dnlr.vocabulary import UNITS, UNIVERSAL_EXPONENT
@@ -106,6 +107,9 @@ class FitResult:
     discrepancy: dict[str, Any] | None = None   # the model-discrepancy (GLS) analysis, or None (white)
     spectrum_exponent: dict[str, Any] | None = None   # how the estimate depends on alpha (eq. 12)
     modulus_at: Any = None   # E(t) of this fit (runs/modulus_block.py fills it in: fit.json)
+    stress_score: dict[str, Any] | None = None   # the stress shift held off, its score test
+    stress_refit: dict[str, Any] | None = None   # the fit with it, when the score asks for it
+    #                                              (runs/modulus_block.py fills it in: fit.json)
     identifiability: dict[str, Any] | None = None   # parameters held where the window cannot identify them
 
     def to_dict(self) -> dict[str, Any]:
@@ -152,6 +156,8 @@ class FitResult:
             "wall_time_s": self.wall_time_s,
             "discrepancy": self.discrepancy,
             "spectrum_exponent": self.spectrum_exponent,
+            "stress_score": self.stress_score,
+            "stress_refit": self.stress_refit,
             "modulus_at": self.modulus_at,
             "identifiability": self.identifiability,
         }
@@ -400,7 +406,9 @@ def fit_test(cfg: Config, test) -> FitResult:
         strain_rate=rate, relaxation_start=test.relaxation_start, window=_window_info(cfg, test, problem),
         start=start, start_notes=notes, fixed=dict(cfg.fixed_values),
         wall_time_s=_time.perf_counter() - t_start, data_notes=list(test.notes), discrepancy=disc,
-        spectrum_exponent=spectrum)
+        spectrum_exponent=spectrum,
+        stress_score=stress_score(cfg, test, params, X, residuals, sigma0, problem.mask)
+        if "E" in names else None)
 
 
 def _top_of_prior(spec, estimate: float, sd: float) -> float:
@@ -442,7 +450,7 @@ def _spectrum_dependence(problem: LsqProblem, params: Mapping[str, float], names
     out = alpha_dependence(X[:, other], [names[j] for j in other], values[other], x_alpha,
                            alpha, "alpha" in names)
     if "alpha" not in names:
-        out["score"] = alpha_score(X, x_alpha, residuals, sigma0)
+        out["score"] = score_test(X, x_alpha, residuals, sigma0)
     return out
 
 

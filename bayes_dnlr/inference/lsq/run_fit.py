@@ -114,6 +114,7 @@ class RunFit:
                                          "warnings", "discrepancy", "strain_rate", "deborah_max",
                                          "n_points", "relaxation_start", "data_notes", "spectrum_exponent",
                                          "modulus_at", "identifiability", "parameters", "converged", "fixed",
+                                         "stress_score", "stress_refit",
                                          "covariance")}
                             for t, r in self.singles.items()},
             "criterion": self.criterion, "converged": self.converged, "message": self.message,

@@ -247,13 +247,14 @@ def alpha_dependence(X: np.ndarray, names: Sequence[str], values: Sequence[float
                                    for k, d, v in zip(names, slope, vals, strict=True)}}
 
 
-def alpha_score(X: np.ndarray, x_alpha: np.ndarray, residuals: np.ndarray,
-                sigma0: float) -> dict[str, float]:
-    """The score (Lagrange-multiplier) test of a fixed spectrum exponent: how far the data pull
-    alpha from the value it is held at. One Gauss-Newton step for alpha from the optimum with
-    alpha fixed, the other free parameters re-optimised with it: step = x̃ᵀr / x̃ᵀx̃, x̃ = x_α minus
-    its projection on the columns of X (eq. 22), r = y - f; its sd σ0/|x̃|; z = step/sd. Whitened
-    X, x_α and r (with σ0 = 1) give the same test under the model discrepancy."""
+def score_test(X: np.ndarray, x_alpha: np.ndarray, residuals: np.ndarray,
+               sigma0: float) -> dict[str, float]:
+    """The score (Lagrange-multiplier) test of a held parameter (the spectrum exponent at ½, the
+    stress shift off: inference/lsq/stress_score.py): how far the data pull it from the value it is
+    held at. One Gauss-Newton step for it from the optimum with it held, the other free parameters
+    re-optimised with it: step = x̃ᵀr / x̃ᵀx̃, x̃ = its column x minus its projection on the columns
+    of X (eq. 22), r = y - f; its sd σ0/|x̃|; z = step/sd. Whitened X, x and r (with σ0 = 1) give
+    the same test under the model discrepancy."""
     norms = np.linalg.norm(X, axis=0)
     norms[norms == 0] = 1.0
     q, _ = np.linalg.qr(X / norms)
