@@ -18,7 +18,6 @@ import dataclasses
 import html
 import os
 import threading
-from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -50,6 +49,7 @@ from bayes_dnlr.workflows.batch.manifest import (
 from bayes_dnlr.workflows.batch.pooling import PopulationStep
 from bayes_dnlr.workflows.batch.population_step import groups_of, population_step, section
 from bayes_dnlr.workflows.batch.run import BATCH_SET, BatchResult, run_batch, write_table
+from bayes_dnlr.workflows.batch.shared_warnings import group
 from bayes_dnlr.workflows.population.page import listed
 
 PAGE = "batch.html"
@@ -243,21 +243,25 @@ def _materials_table(rows: list[dict[str, Any]], with_et: bool) -> str:
 
 
 def _warnings_html(warned: list[dict[str, Any]], n_ok: int) -> str:
-    """The tests' warnings: one line for each warning that several tests share word for word (the
-    fit's note on G held at 0 for every window that ends at yield, docs/batch.md), then each test's
-    own."""
+    """The tests' warnings: one line for each warning that several tests share, word for word but
+    for its numbers (the fit's note on G held at 0 for every window that ends at yield, docs/batch.md;
+    workflows/batch/shared_warnings.py), then each test's own."""
     if not warned:
         return "<p>None.</p>"
     own = {r["name"]: [w for w in str(r.get("warnings") or "").split(" | ") if w] for r in warned}
-    counts = Counter(w for ws in own.values() for w in set(ws))
-    shared = [w for w, c in counts.most_common() if c > 1]
+    groups = group(own)
+    shared = [g for g in groups if len(g.tests) > 1]
+    alone = {g.tests[0]: [] for g in groups}
+    for g in groups:
+        if len(g.tests) == 1:
+            alone[g.tests[0]].append(g.text())
     parts = []
     if shared:
-        items = "".join(f"<li><b>{counts[w]} of {n_ok} tests</b>: {_e(w)}</li>" for w in shared)
+        items = "".join(f"<li><b>{len(g.tests)} of {n_ok} tests</b>: {_e(g.text())}</li>" for g in shared)
         parts.append(f"<p>Shared by several tests (each listed once):</p><ul class='flags'>{items}</ul>")
     body = ""
     for r in warned:
-        mine = [w for w in own[r["name"]] if counts[w] == 1]
+        mine = alone.get(r["name"], [])
         if mine or r.get("converged") is False:
             body += (f"<tr><th>{_e(r['name'])}</th><td>{'no' if r.get('converged') is False else 'yes'}"
                      f"</td><td class='text'>{_e(' | '.join(mine))}</td></tr>")
