@@ -41,6 +41,7 @@ from bayes_dnlr.inference.lsq.sensitivity import (
     analyse_holding,
     bound_side,
     bound_warning,
+    fixing,
     hold_words,
     identifiability_warnings,
     unidentified,
@@ -331,7 +332,8 @@ def fit_test(cfg: Config, test) -> FitResult:
     zero = [k for k, c in zip(names, np.linalg.norm(X, axis=0), strict=True) if c == 0]
     if zero:
         raise BayesDnlrError(f"parameter(s) {zero} have no effect on the model over the window: fix "
-                             "them (value: ...) or widen data.window")
+                             f"them ({'; '.join(fixing(k, params[k]) for k in zero)}: any value "
+                             "does the same here) or widen data.window")
     bounds = {k: specs[k].bounds() for k in names}
     on_bound = {k: side for k, v in zip(names, values, strict=True)
                 if (side := bound_side(float(v), *bounds[k])) is not None}
