@@ -127,12 +127,27 @@ def _pm(r: dict[str, Any], p: str) -> str:
     return "–" if m is None else pm(m, s)
 
 
-def _link(r: dict[str, Any], out: Path) -> str:
+def _named(r: dict[str, Any], out: Path) -> str:
+    """The test's name, a link to its report when it has one (a column of its own, last, was cut off
+    at the right of a 1280 px window)."""
     rep = r.get("report")
     if not rep:
-        return "–"
+        return _e(r["name"])
     rel = os.path.relpath(rep, out)
-    return f'<a href="{html.escape(rel)}">report</a>'
+    return f'<a href="{html.escape(rel)}" title="its report">{_e(r["name"])}</a>'
+
+
+def _cell(text: str) -> str:
+    """A ``value ± sd`` cell that may break before its ± and nowhere else, so that the table of all
+    tests fits the window."""
+    return text.replace("± ", "±\u00a0")
+
+
+# The table of all tests is as wide as its columns (a parameter's mean ± sd each): it fits a 1280 px
+# window when its cells may break (a name anywhere, a number before its ±) and the page is as wide
+# as the window (tests/report/test_browser.py measures it in Chromium).
+WIDE_CSS = ("body{max-width:none}table.all td{white-space:normal}table.all th,table.all td{padding:4px 6px}"
+            "table.all tbody th{overflow-wrap:anywhere;min-width:6em}")
 
 
 def _e(text: Any) -> str:
@@ -345,7 +360,7 @@ def write_page(result: BatchResult, step: PopulationStep | None = None) -> Path:
                "<th>E(t) (MPa), at t</th>")
     body = ""
     for r in rows:
-        vals = "".join(f"<td>{_pm(r, p)}</td>" for p in params)
+        vals = "".join(f"<td>{_cell(_pm(r, p))}</td>" for p in params)
         et = ""
         if et_head:
             e = et_of.get(r["name"])
@@ -355,18 +370,18 @@ def write_page(result: BatchResult, step: PopulationStep | None = None) -> Path:
                 cell += f" at {fmt(e['t'], 3)} s"
             et = f"<td{flag}>{cell}</td>"
         row_cls = " class='warn'" if r.get("trust_interval") is False else ""
-        body += (f"<tr{row_cls}><th>{_e(r['name'])}</th>"
+        body += (f"<tr{row_cls}><th>{_named(r, out)}</th>"
                  + (f"<td class='text'>{_e(r.get('material'))}</td>" if grouped else "")
                  + f"<td class='text'>{_e(r.get('status'))}</td>{_trust_mark(r)}{vals}{et}"
                  f"<td>{fmt(r.get('r_hat_max'), 4)}</td><td>{fmt(r.get('ess_min'), 3)}</td>"
-                 f"<td>{fmt(r.get('iso527_1'))}</td><td>{fmt(r.get('n_warnings'))}</td>"
-                 f"<td class='text'>{_link(r, out)}</td></tr>")
-    sec.append("<table class='num'><thead><tr><th>test</th>" + ("<th>material</th>" if grouped else "")
+                 f"<td>{fmt(r.get('iso527_1'))}</td><td>{fmt(r.get('n_warnings'))}</td></tr>")
+    sec.append("<table class='num all'><thead><tr><th>test (its report)</th>"
+               + ("<th>material</th>" if grouped else "")
                + f"<th>status</th><th>trusted</th>{head}{et_head}<th>max R-hat</th>"
-               "<th>min ESS</th><th>ISO 527-1 (MPa)</th><th>warnings</th><th></th></tr></thead>"
+               "<th>min ESS</th><th>ISO 527-1 (MPa)</th><th>warnings</th></tr></thead>"
                f"<tbody>{body}</tbody></table>")
     page = ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
-            f"<title>batch: {len(rows)} tests</title><style>{CSS}</style></head><body>"
+            f"<title>batch: {len(rows)} tests</title><style>{CSS}{WIDE_CSS}</style></head><body>"
             + "\n".join(sec) + "<footer>python -m bayes_dnlr batch · docs/batch.md</footer></body></html>")
     path = out / PAGE
     tmp = out / f".{PAGE}.{os.getpid()}.tmp"
