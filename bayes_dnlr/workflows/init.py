@@ -28,6 +28,7 @@ from bayes_dnlr.diskio import storage_error
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.numbers import fmt
 from bayes_dnlr.units import lookup
+from bayes_dnlr.workflows.init_start import apply, other_words, remedies
 from bayes_dnlr.workflows.init_text import config_text as _config_text
 from bayes_dnlr.workflows.init_text import flow
 
@@ -391,10 +392,16 @@ def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
     raw, edits, found, comments, column_notes = build_config(data, out)
     raw["name"] = run_name(out.parent.name) if out.name == "config.yaml" else run_name(out.stem)
     problems, test = _trial(raw, edits, out, comments)
+    if test is not None and any(p.startswith(LOADED_START) for p in problems):
+        remedy, started = _loaded_start(test, raw, edits, comments, out)
+        if started is not None:             # the window on the strain as the remedy measures it
+            test = started
+            found += [n for n in started.notes if n.startswith(("toe compensation", "initial_state"))]
+            wrote = f"; init wrote data.{remedy.key}: {remedy.value} (its line below)"
+            problems = [re.sub(r"; set data\.toe: .*?\(docs/data-input\.md, 'The first sample'\)", wrote, p)
+                        if p.startswith(LOADED_START) else p for p in problems]
     if test is not None and "relaxation_start" not in raw["data"]:
         _window_at_peak(test, raw, edits, comments)
-    if any(p.startswith(LOADED_START) for p in problems):
-        _loaded_start(raw, edits, comments)
     text = config_text(raw, comments, data, column_notes)
     made = [q for q in (out.parent, *out.parent.parents) if not q.exists() and not q.is_symlink()]
     try:
@@ -422,18 +429,34 @@ def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
 PLACEHOLDER = {"data.area0": 1.0, "data.gauge_length": 1.0}
 
 
-def _loaded_start(raw: dict[str, Any], edits: list[Edit], comments: dict[str, str]) -> None:
-    """A first sample that already carries load (the reader's warning): the choice of data.toe is
-    one of the edits, and the key is written into the config with the two remedies beside it."""
-    raw["data"].setdefault("toe", "none")
-    comments["toe"] = ("EDIT: the first sample carries load (init's warning): compensate, or "
-                       "initial_state: ramp-from-zero; none biases E (docs/data-input.md, 'The first "
-                       "sample')")
-    edits.append(Edit("check", "data.toe", raw["data"]["toe"],
-                      "the first sample carries load (the warning above): `compensate` moves the "
-                      "strain's zero to the toe's extrapolation (ASTM D638 X1, ISO 527-1), "
-                      "`data.initial_state: ramp-from-zero` lets the model load the specimen from "
-                      "zero; `none` keeps the model's unloaded start there, which biases E"))
+def _loaded_start(test: Any, raw: dict[str, Any], edits: list[Edit], comments: dict[str, str],
+                  out: Path) -> tuple[Any, Any]:
+    """A first sample that already carries load (the reader's warning): the remedy the strain points
+    to (workflows/init_start.py), else the other, whichever the file reads with; ``toe: none``
+    marked EDIT when neither does. (the remedy, the TestData read with it), or (None, None)."""
+    for remedy in remedies(test.strain[test.virtual_start:]):
+        trial = {**raw, "data": apply(raw["data"], remedy)}
+        _, started = _trial(trial, edits, out, {})
+        if started is None:
+            continue
+        raw["data"] = apply(raw["data"], remedy)
+        comments[remedy.key] = (f"the first sample carries load (init's warning): {remedy.why}; none "
+                                "biases E (docs/data-input.md, 'The first sample')")
+        edits.append(Edit("check", f"data.{remedy.key}", remedy.value,
+                          f"the first sample carries load (the warning above): {remedy.why}; "
+                          f"{other_words(remedy)}; `toe: none` keeps the model's unloaded start "
+                          "there, which biases E"))
+        return remedy, started
+    raw["data"]["toe"] = "none"
+    comments["toe"] = ("EDIT: the first sample carries load (init's warning) and neither remedy reads "
+                       "here: give a toe band {stress_min: .., stress_max: ..} (MPa); none biases E "
+                       "(docs/data-input.md, 'The first sample')")
+    edits.append(Edit("check", "data.toe", "none",
+                      "the first sample carries load (the warning above) and neither `compensate` nor "
+                      "`data.initial_state: ramp-from-zero` reads this file: give `toe: {stress_min: "
+                      "a, stress_max: b}` (MPa) on the linear part; `none` keeps the model's unloaded "
+                      "start there, which biases E"))
+    return None, None
 
 
 def _trial(raw: dict[str, Any], edits: list[Edit], out: Path, comments: dict[str, str]
