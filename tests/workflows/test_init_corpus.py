@@ -33,6 +33,7 @@ def _init_then_fit(case: Case, tmp_path: Path):
     result = init_config(case.path, out)
     assert {e.key for e in result.edits if e.action == "set"} == set(case.set), result.text()
     assert not any("cannot be read" in p for p in result.problems), result.problems
+    assert ("EDIT:" in out.read_text()) == bool(case.set)     # marked only where a value must be set
     raw = yaml.safe_load(out.read_text())
     for key, value in case.expect.items():
         assert raw["data"].get(key) == value, (key, raw["data"])
