@@ -28,6 +28,7 @@ from bayes_dnlr.diskio import storage_error
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.numbers import fmt
 from bayes_dnlr.units import lookup
+from bayes_dnlr.workflows.init_labels import Labels
 from bayes_dnlr.workflows.init_start import apply, other_words, remedies
 from bayes_dnlr.workflows.init_text import config_text as _config_text
 from bayes_dnlr.workflows.init_text import flow
@@ -162,10 +163,11 @@ class _Draft:
     found: list[str] = field(default_factory=list)
 
 
-def build_config(data: Path, out: Path) -> tuple[dict[str, Any], list[Edit], list[str], dict[str, str],
-                                                 dict[str, str]]:
-    """(config mapping, edits, what was found, comments per data key, notes per column) for ``data``."""
-    guess = guess_columns(data)
+def build_config(data: Path, out: Path, guess: Guess | None = None
+                 ) -> tuple[dict[str, Any], list[Edit], list[str], dict[str, str], dict[str, str]]:
+    """(config mapping, edits, what was found, comments per data key, notes per column) for ``data``
+    (``guess``: its columns, when already guessed)."""
+    guess = guess if guess is not None else guess_columns(data)
     p = guess.picks
     if "time" not in p:
         raise RunError(f"{data}: no time column found (a column that increases at every row); "
@@ -372,9 +374,13 @@ def config_text(raw: dict[str, Any], comments: dict[str, str], source: Path,
     return _config_text(raw, comments, str(source), column_notes or {})
 
 
-def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
+def init_config(data: str | Path, out: str | Path | None = None, *, specimen: int | None = None,
+                guess: Guess | None = None, labels: Labels | None = None) -> InitResult:
     """Write a starting config for the export ``data`` (module doc); never overwrites. A DMA
-    export gives the ``reference_moduli`` entry that reads it instead (workflows/init_sweep.py)."""
+    export gives the ``reference_moduli`` entry that reads it instead (workflows/init_sweep.py).
+    ``specimen``: this specimen of a file with several side by side (default: the first, with a
+    check line asking which); ``guess``: the file's columns when already guessed; ``labels``: the
+    material the file states (workflows/init_labels.py)."""
     data = Path(data)
     if not data.is_file():
         raise RunError(f"{data}: data file not found (init takes a test export, e.g. a CSV)")
@@ -389,8 +395,14 @@ def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
         raise RunError(f"{out}: --out names the config file to write, e.g. runs/name/config.yaml")
     if out.exists():
         raise RunError(f"{out}: exists; init never overwrites a config (give --out another path)")
-    raw, edits, found, comments, column_notes = build_config(data, out)
+    raw, edits, found, comments, column_notes = build_config(data, out, guess)
     raw["name"] = run_name(out.parent.name) if out.name == "config.yaml" else run_name(out.stem)
+    if specimen is not None and "specimen" in raw["data"]:
+        n = comments["specimen"].split(" of ", 1)[1].split(";", 1)[0]
+        raw["data"]["specimen"] = specimen
+        comments["specimen"] = f"{specimen} of {n}; columns are counted within its group"
+        edits[:] = [e for e in edits if e.key != "data.specimen"]
+    _labelled(raw, comments, labels)
     problems, test = _trial(raw, edits, out, comments)
     if test is not None and any(p.startswith(LOADED_START) for p in problems):
         remedy, started = _loaded_start(test, raw, edits, comments, out)
@@ -424,6 +436,13 @@ def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
             raise clean from None
         raise
     return InitResult(out, raw, edits, found, problems)
+
+
+def _labelled(raw: dict[str, Any], comments: dict[str, str], labels: Labels | None) -> None:
+    """The material the file states as the config's ``material:``."""
+    if labels is not None and labels.material is not None:
+        raw["material"] = labels.material.value
+        comments["material"] = f"read from {labels.material.where}"
 
 
 PLACEHOLDER = {"data.area0": 1.0, "data.gauge_length": 1.0}

@@ -41,7 +41,6 @@ from bayes_dnlr.inference.lsq.sensitivity import (
     analyse_holding,
     bound_side,
     bound_warning,
-    fixing,
     hold_words,
     identifiability_warnings,
     unidentified,
@@ -56,7 +55,7 @@ from bayes_dnlr.inference.lsq.start import (
 )
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd
-from bayes_dnlr.vocabulary import UNITS, UNIVERSAL_EXPONENT
+from bayes_dnlr.vocabulary import UNITS, UNIVERSAL_EXPONENT, fixing
 
 SAME_OPTIMUM_SD = 0.01      # multi-start end points within this many sd of the best: same optimum
 SAME_OPTIMUM_REL = 1.0e-6   # ... or within this relative distance (noise-free data: sd -> 0)

@@ -15,7 +15,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from bayes_dnlr.inference.lsq.sensitivity import fixing
+from bayes_dnlr.vocabulary import fixing
 
 
 def plausibility_warnings(params: Mapping[str, float], estimate: str = "white least squares") -> list[str]:

@@ -31,11 +31,11 @@ from bayes_dnlr.inference.lsq.identify import FitResult, fit_test
 from bayes_dnlr.inference.lsq.optimize import run_minimiser
 from bayes_dnlr.inference.lsq.problem import LsqProblem
 from bayes_dnlr.inference.lsq.run_problem import RunProblem
-from bayes_dnlr.inference.lsq.sensitivity import StochasticAnalysis, analyse, fixing, identifiability_warnings
+from bayes_dnlr.inference.lsq.sensitivity import StochasticAnalysis, analyse, identifiability_warnings
 from bayes_dnlr.inference.lsq.temperature_start import alone, joint_start
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd, pm
-from bayes_dnlr.vocabulary import TIME_CONSTANTS, base_name, unit
+from bayes_dnlr.vocabulary import TIME_CONSTANTS, base_name, fixing, unit
 
 
 @dataclass

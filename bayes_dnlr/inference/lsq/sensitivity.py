@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bayes_dnlr.model import Basis
-from bayes_dnlr.vocabulary import LINEAR_COLUMN, SPECTRUM_PARAMETERS, base_name
+from bayes_dnlr.vocabulary import LINEAR_COLUMN, SPECTRUM_PARAMETERS, fixing
 
 # identifiability thresholds (warnings, never errors)
 RHO_WARN = 0.99
@@ -298,12 +298,6 @@ def bound_warning(name: str, value: float, low: float, high: float, side: str, h
         text += (f"If larger values are physical, raise parameters.{name}.high; else fix {name} or "
                  "read the residuals for a model or window problem")
     return text
-
-
-def fixing(name: str, value: float) -> str:
-    """The config line that holds ``name`` at ``value``: what a message that says "fix it" writes,
-    so that no advice leaves the value to guess."""
-    return f"parameters.{base_name(name)}: {{value: {float(value):.4g}}}"
 
 
 def identifiability_warnings(a: StochasticAnalysis, held: Sequence[str] = ()) -> list[str]:

@@ -80,11 +80,11 @@ def run_campaign(inputs: list[str], *, manifest: Path | None = None, out: Path |
     (``sample --restart``) instead of failing; current and interrupted tests are kept.
     See docs/batch.md."""
     if manifest is not None:
-        if len(inputs) != 1:
-            raise BatchError(f"--manifest takes exactly one template config, got {len(inputs)}: "
-                             f"{' '.join(inputs)}")
+        if len(inputs) > 1:
+            raise BatchError(f"--manifest takes one template config (or none, with a config column), "
+                             f"got {len(inputs)}: {' '.join(inputs)}")
         out = Path(out) if out is not None else default_out([], Path(manifest))
-        jobs = jobs_from_manifest(Path(inputs[0]), Path(manifest), out)
+        jobs = jobs_from_manifest(Path(inputs[0]) if inputs else None, Path(manifest), out)
     else:
         paths = expand_inputs(inputs)
         if not paths:
