@@ -30,9 +30,13 @@ bytecode: install
 
 RUN_DIR = $(patsubst %/,%,$(dir $(EXAMPLE)))
 
+# The example's residuals are white: its run compiles the model but not the discrepancy's kernels,
+# which every real curve needs; warm.py compiles them ahead (once per clone), so that the first real
+# `sample` does not wait 10-30 s for them (docs/performance.md).
 demo: bytecode
 	$(PY) -m bayes_dnlr sample $(EXAMPLE) $(if $(FORCE),,--report)
 	$(if $(FORCE),$(PY) -m bayes_dnlr report $(RUN_DIR) --force)
+	@$(PY) -m bayes_dnlr.workflows.warm
 	@echo "open $(RUN_DIR)/report.html"
 
 test: bytecode

@@ -161,6 +161,11 @@ def cmd_compare(args: argparse.Namespace) -> None:
 
 
 def cmd_init(args: argparse.Namespace) -> None:
+    if args.all:
+        from bayes_dnlr.workflows.init_all import init_all
+
+        print(init_all(args.data, args.out).text())
+        return
     from bayes_dnlr.workflows.init import init_config
 
     print(init_config(args.data, args.out).text())
@@ -226,7 +231,12 @@ def build_parser() -> argparse.ArgumentParser:
                  "docs/data-input.md")
     p.add_argument("data", help="the test export (CSV or text), e.g. runs/bluehill-like/bluehill-like.csv")
     p.add_argument("--out", type=Path, default=None,
-                   help="the config to write (default: runs/<file name>/config.yaml); never overwritten")
+                   help="the config to write (default: runs/<file name>/config.yaml); with --all, the "
+                        "folder (default: runs/<file name>); never overwritten")
+    p.add_argument("--all", action="store_true",
+                   help="a config for every specimen of a file that holds several side by side, and "
+                        "the batch manifest that runs them all (specimens.csv), with the material and "
+                        "test temperature the file states")
     p.set_defaults(func=cmd_init)
 
     p = _command(sub, "simulate", "write a synthetic test CSV from the config's truth: section",
@@ -319,12 +329,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = _command(sub, "batch", "fit, sample and report many tests on all cores or a Dask cluster; "
                                "resumable; results table and batch page", "docs/batch.md")
-    p.add_argument("inputs", nargs="+", metavar="config",
+    p.add_argument("inputs", nargs="*", metavar="config",
                    help="config files or glob patterns, e.g. 'runs/hdpe-a-*/config.yaml'; with "
-                        "--manifest, one template config")
+                        "--manifest, one template config, or none when the manifest has a config column")
     p.add_argument("--manifest", type=Path, default=None,
                    help="CSV, one row per test; columns are dotted config keys (data.file, "
-                        "data.area0, data.window.strain_max, ...) overriding the template")
+                        "data.area0, data.window.strain_max, ...) overriding the template, or a config "
+                        "column naming each row's own config (init FILE --all writes one)")
     p.add_argument("--out", type=Path, default=None,
                    help="folder for results.csv/.parquet, batch.html (and the runs of a manifest); "
                         "default: <configs' common folder>/batch or <manifest folder>/batch-<stem>")

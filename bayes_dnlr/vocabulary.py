@@ -72,6 +72,12 @@ def base_name(name: str) -> str:
     return name.split("[", 1)[0]
 
 
+def fixing(name: str, value: float) -> str:
+    """The config line that holds ``name`` at ``value``: what a message that says "fix it" writes,
+    so that no advice leaves the value to guess."""
+    return f"parameters.{base_name(name)}: {{value: {float(value):.4g}}}"
+
+
 def unit(name: str) -> str:
     """The unit of a parameter name, a joint run's ``tau_max[r5e-3]`` included ('' when unknown)."""
     return UNITS.get(base_name(name), "")

@@ -75,9 +75,10 @@ def zygote():
         yield z
 
 
-# ------------------------------------------------------------- the real curves, counted in the summary
+# ------------------------------------------- the real curves and the browser, counted in the summary
 
 _REAL_REPORTS: dict[str, list] = {"ran": [], "skipped": []}
+_BROWSER_REPORTS: dict[str, list] = {"ran": [], "skipped": []}
 
 
 @pytest.hookimpl(wrapper=True)
@@ -99,15 +100,18 @@ def pytest_collection(session):
 def pytest_configure(config) -> None:
     config.addinivalue_line("markers", "real_data: reads the real curves of tests/support/real_data.py "
                                        "(skipped when they are absent)")
+    config.addinivalue_line("markers", "browser: opens a page in headless Chromium (tests/support/"
+                                       "browser.py; skipped when it is not installed)")
 
 
 def pytest_runtest_logreport(report) -> None:
-    if "real_data" not in report.keywords:
-        return
-    if report.when == "call":
-        _REAL_REPORTS["ran"].append(report)
-    elif report.skipped:
-        _REAL_REPORTS["skipped"].append(report)
+    for mark, reports in (("real_data", _REAL_REPORTS), ("browser", _BROWSER_REPORTS)):
+        if mark not in report.keywords:
+            continue
+        if report.when == "call":
+            reports["ran"].append(report)
+        elif report.skipped:
+            reports["skipped"].append(report)
 
 
 class _Counted:
@@ -121,6 +125,7 @@ def pytest_terminal_summary(terminalreporter) -> None:
     the curves does not run fewer tests silently."""
     from support.real_data import ENV, PRESENT, REAL
 
+    _browser_summary(terminalreporter)
     ran, skipped = _REAL_REPORTS["ran"], _REAL_REPORTS["skipped"]
     if not ran and not skipped:
         return
@@ -130,6 +135,23 @@ def pytest_terminal_summary(terminalreporter) -> None:
     else:
         text = f"real data: absent, {len(skipped)} tests skipped (set {ENV} to the folder of the real curves)"
         terminalreporter.stats["real-data tests skipped (curves absent)"] = [_Counted() for _ in skipped]
+    terminalreporter.write_line(text, yellow=not PRESENT, bold=True)
+
+
+def _browser_summary(terminalreporter) -> None:
+    """The same for the tests that open a page in Chromium: '2 browser tests ran', or '2 browser
+    tests skipped (no Chromium)' on pytest's last line."""
+    from support.browser import EXE, PRESENT, REASON
+
+    ran, skipped = _BROWSER_REPORTS["ran"], _BROWSER_REPORTS["skipped"]
+    if not ran and not skipped:
+        return
+    if PRESENT:
+        text = f"browser: {len(ran)} tests ran ({EXE})" + (f", {len(skipped)} skipped" if skipped else "")
+        terminalreporter.stats["browser tests ran"] = [_Counted() for _ in ran]
+    else:
+        text = f"browser: {len(skipped)} tests skipped: {REASON}"
+        terminalreporter.stats["browser tests skipped (no Chromium)"] = [_Counted() for _ in skipped]
     terminalreporter.write_line(text, yellow=not PRESENT, bold=True)
 
 

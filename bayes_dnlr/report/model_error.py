@@ -115,7 +115,7 @@ def hyper_table(run: RunResults) -> Table | None:
             cell = "fixed" if post else "—"
         rows.append([f"{label} ({u})", fmt(ml.get(key)), prior, cell])
     choice = (d.get("kernel_choice") or {}).get("reason")
-    chosen = f" (kernel: auto; {choice})" if choice else ""
+    chosen = f" (kernel: auto: {choice})" if choice else ""
     notes = [f"Kernel {d.get('kernel')}{chosen} on the {d.get('axis')} axis. Likelihood ratio against "
              f"the white model 2 Δ log L = {fmt(d.get('likelihood_ratio'))}: "
              + ("evidence of model error (> 9.21), the hyperparameters are sampled."

@@ -14,8 +14,8 @@ from typing import Any
 
 from bayes_dnlr.config import Config
 from bayes_dnlr.inference.discrepancy.hyper import AMPLITUDE, LENGTH
+from bayes_dnlr.inference.discrepancy.kernel_mix import mix_words
 from bayes_dnlr.inference.layout import Layout
-from bayes_dnlr.numbers import share
 from bayes_dnlr.runs.records import Analysis, FitRecord
 from bayes_dnlr.vocabulary import Z90
 
@@ -131,9 +131,8 @@ def verdict(block: dict[str, Any]) -> str:
                 f"parameters. The estimate under model error fits the curve in the metric of an "
                 f"Ornstein-Uhlenbeck discrepancy (slopes as much as levels): {p} moves by "
                 f"{shift:+.1f} white sd; its sd, {ratio:.2f}x the white one ({width}), is that of this "
-                f"estimate under the kernels' model of the error ("
-                + ", ".join(f"{k} {share(v)}" for k, v in w.items()) + "). Whether to use "
-                "the interval is the checks' verdict.")
+                f"estimate under {mix_words(w, str(block.get('kernel')))}. Whether to use the "
+                "interval is the checks' verdict.")
     if proj:
         offset = (proj.get("sd_offset_u") or {}).get(p)
         return (f"The residuals of the white fit are signed waves (model error), which the white "

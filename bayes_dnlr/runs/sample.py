@@ -252,6 +252,10 @@ def _sample(cfg: Config, test: TestSet, *, restart: bool, progress: bool, before
     target = build_target(used, test, FitRecord.from_dict(fit, cfg.test_names), stored)
     post, priors, names = target.post, target.priors, target.names
     sigma0, sigma0_source = target.sigma0, target.sigma0_source
+    if progress and any(like.discrepancy is not None for like in post.likelihoods.values()):
+        from bayes_dnlr.inference.discrepancy.compiled import announce_first_compile
+
+        announce_first_compile()          # before the wait, not after the progress bar
     check_sampler(used, names)
     if stored is not None and (stored.names != names or [bool(v) for v in stored.attrs.get(
             "log_space", [])] != [bool(v) for v in priors.log_space]):

@@ -137,13 +137,19 @@ def _model_form_words(test: str, c: dict, several: bool) -> tuple[bool, str | No
 
 
 def _bound_words(entries: list[dict]) -> tuple[bool, list[str]]:
-    ok, words = True, []
+    """(whether no bound decides E, a sentence per parameter whose posterior piles against a bound)."""
+    said = _bound_sentences(entries)
+    return all(ok for ok, _ in said), [w for _, w in said]
+
+
+def _bound_sentences(entries: list[dict]) -> list[tuple[bool, str]]:
+    """(ok, sentence) per parameter whose posterior piles against a bound of its prior."""
+    out = []
     for b in entries:
         shift = b.get("E_shift_sd") or {}
         big = {k: v for k, v in shift.items() if abs(v) > SHIFT_SD}
         where = f"its prior's {b['side']} bound ({fmt(b['bound'], 4)})"
         if big:
-            ok = False
             moves = ", ".join(f"{k} by {v:+.1f} posterior sd" for k, v in big.items())
             name = base_name(b["parameter"])
             if b.get("identified", True):
@@ -155,15 +161,16 @@ def _bound_words(entries: list[dict]) -> tuple[bool, list[str]]:
                           "so a wider box only moves where the box decides it. Fix "
                           f"parameters.{name} at a value another test measures, or identify on a "
                           f"window that measures {name}.")
-            words.append(f"The posterior of {b['parameter']} piles against {where}; {_widened_words(b)} "
-                         f"moves {moves} (least squares): the prior box decides E. {remedy}")
+            out.append((False, f"The posterior of {b['parameter']} piles against {where}; "
+                               f"{_widened_words(b)} moves {moves} (least squares): the prior box decides "
+                               f"E. {remedy}"))
         elif b.get("note") or not b.get("widened"):
-            words.append(f"The posterior of {b['parameter']} piles against {where}"
-                         + (f" ({b['note']})." if b.get("note") else "."))
+            out.append((True, f"The posterior of {b['parameter']} piles against {where}"
+                              + (f" ({b['note']})." if b.get("note") else ".")))
         else:
-            words.append(f"The posterior of {b['parameter']} piles against {where}; {_widened_words(b)} "
-                         f"moves E by less than {SHIFT_SD:g} sd (least squares).")
-    return ok, words
+            out.append((True, f"The posterior of {b['parameter']} piles against {where}; "
+                              f"{_widened_words(b)} moves E by less than {SHIFT_SD:g} sd (least squares)."))
+    return out
 
 
 def _widened_words(b: dict) -> str:
@@ -282,17 +289,20 @@ def band_remedy(band: dict[str, Any]) -> str:
 
 def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[bool, bool, str, list[str]]:
     """(adequate, trust_interval, the verdict's first sentence, one sentence per check) from the
-    checks; summary.json's ``verdict`` is the sentences joined."""
-    adequate, trust, words = True, True, []
+    checks; summary.json's ``verdict`` is the sentences joined. The first sentence says the decision
+    first; the sentences of the checks that fail come before those that pass, so that a verdict that
+    does not trust E's interval opens with why."""
+    adequate, trust = True, True
+    said: list[tuple[bool, str]] = []          # (ok, sentence)
     reaches_e = implausible = False
     for t, c in checks["predictive_coverage"].items():
         ok, text = _coverage_words(t, c, several)
         adequate &= ok
         reaches_e |= not ok and _coverage_reaches_e(c)
-        words.append(text)
+        said.append((ok, text))
     for t, c in checks["plausibility"].items():
         for kind, ok, text in _plausibility_words(t, c, several):
-            words.append(text)
+            said.append((ok, text))
             if kind == "adequate":
                 adequate &= ok
                 implausible |= not ok
@@ -302,37 +312,37 @@ def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[boo
         ok, text = _noise_model_words(t, c, several)
         trust &= ok
         if text:
-            words.append(text)
+            said.append((ok, text))
     for t, c in (checks.get("model_form") or {}).items():
         ok, text = _model_form_words(t, c, several)
         trust &= ok
         if text:
-            words.append(text)
+            said.append((ok, text))
     refs = checks.get("reference_moduli")
     if refs:
         for e in refs["entries"]:
             if e["fired"]:
                 trust = False
-                words.append(e["words"] + ".")
-    ok, bound_words = _bound_words(checks["bound_limited"])
-    trust &= ok
-    words += bound_words
+                said.append((False, e["words"] + "."))
+    for ok, text in _bound_sentences(checks["bound_limited"]):
+        trust &= ok
+        said.append((ok, text))
     sens = prior_shaped_e(checks["prior_sensitivity"])
     if sens:
         trust = False
-        words.append(_prior_words(sens, checks.get("prior_sources") or {}))
+        said.append((False, _prior_words(sens, checks.get("prior_sources") or {})))
     if not converged:
         trust = False
-        words.append("The chain has not converged: its intervals are not final (raise "
-                     "sampler.max_steps and run `sample` again).")
+        said.append((False, "The chain has not converged: its intervals are not final (raise "
+                            "sampler.max_steps and run `sample` again)."))
     trust &= not reaches_e
     trust &= not implausible
     these = "these tests" if several else "this test"
     head = ("Use E's interval as it is." + ("" if adequate else f" The model does not describe all "
                                             f"of {these} (below), but not where E is measured.")
             if trust else
-            f"The model describes {these}, but do not use E's interval as it is." if adequate else
+            f"Do not use E's interval as it is: the model's predictive band holds {these}, but the "
+            "checks below find what the interval misses." if adequate else
             f"The model does not describe {these}: E's interval is not reliable.")
-    return adequate, trust, head, [_cap(w) for w in words]
-
-
+    said = [x for x in said if not x[0]] + [x for x in said if x[0]]
+    return adequate, trust, head, [_cap(w) for _, w in said]

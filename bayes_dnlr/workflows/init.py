@@ -28,6 +28,8 @@ from bayes_dnlr.diskio import storage_error
 from bayes_dnlr.errors import RunError
 from bayes_dnlr.numbers import fmt
 from bayes_dnlr.units import lookup
+from bayes_dnlr.workflows.init_labels import Labels
+from bayes_dnlr.workflows.init_start import apply, other_words, remedies
 from bayes_dnlr.workflows.init_text import config_text as _config_text
 from bayes_dnlr.workflows.init_text import flow
 
@@ -161,10 +163,11 @@ class _Draft:
     found: list[str] = field(default_factory=list)
 
 
-def build_config(data: Path, out: Path) -> tuple[dict[str, Any], list[Edit], list[str], dict[str, str],
-                                                 dict[str, str]]:
-    """(config mapping, edits, what was found, comments per data key, notes per column) for ``data``."""
-    guess = guess_columns(data)
+def build_config(data: Path, out: Path, guess: Guess | None = None
+                 ) -> tuple[dict[str, Any], list[Edit], list[str], dict[str, str], dict[str, str]]:
+    """(config mapping, edits, what was found, comments per data key, notes per column) for ``data``
+    (``guess``: its columns, when already guessed)."""
+    guess = guess if guess is not None else guess_columns(data)
     p = guess.picks
     if "time" not in p:
         raise RunError(f"{data}: no time column found (a column that increases at every row); "
@@ -371,9 +374,13 @@ def config_text(raw: dict[str, Any], comments: dict[str, str], source: Path,
     return _config_text(raw, comments, str(source), column_notes or {})
 
 
-def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
+def init_config(data: str | Path, out: str | Path | None = None, *, specimen: int | None = None,
+                guess: Guess | None = None, labels: Labels | None = None) -> InitResult:
     """Write a starting config for the export ``data`` (module doc); never overwrites. A DMA
-    export gives the ``reference_moduli`` entry that reads it instead (workflows/init_sweep.py)."""
+    export gives the ``reference_moduli`` entry that reads it instead (workflows/init_sweep.py).
+    ``specimen``: this specimen of a file with several side by side (default: the first, with a
+    check line asking which); ``guess``: the file's columns when already guessed; ``labels``: the
+    material the file states (workflows/init_labels.py)."""
     data = Path(data)
     if not data.is_file():
         raise RunError(f"{data}: data file not found (init takes a test export, e.g. a CSV)")
@@ -388,13 +395,25 @@ def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
         raise RunError(f"{out}: --out names the config file to write, e.g. runs/name/config.yaml")
     if out.exists():
         raise RunError(f"{out}: exists; init never overwrites a config (give --out another path)")
-    raw, edits, found, comments, column_notes = build_config(data, out)
+    raw, edits, found, comments, column_notes = build_config(data, out, guess)
     raw["name"] = run_name(out.parent.name) if out.name == "config.yaml" else run_name(out.stem)
+    if specimen is not None and "specimen" in raw["data"]:
+        n = comments["specimen"].split(" of ", 1)[1].split(";", 1)[0]
+        raw["data"]["specimen"] = specimen
+        comments["specimen"] = f"{specimen} of {n}; columns are counted within its group"
+        edits[:] = [e for e in edits if e.key != "data.specimen"]
+    _labelled(raw, comments, labels)
     problems, test = _trial(raw, edits, out, comments)
+    if test is not None and any(p.startswith(LOADED_START) for p in problems):
+        remedy, started = _loaded_start(test, raw, edits, comments, out)
+        if started is not None:             # the window on the strain as the remedy measures it
+            test = started
+            found += [n for n in started.notes if n.startswith(("toe compensation", "initial_state"))]
+            wrote = f"; init wrote data.{remedy.key}: {remedy.value} (its line below)"
+            problems = [re.sub(r"; set data\.toe: .*?\(docs/data-input\.md, 'The first sample'\)", wrote, p)
+                        if p.startswith(LOADED_START) else p for p in problems]
     if test is not None and "relaxation_start" not in raw["data"]:
         _window_at_peak(test, raw, edits, comments)
-    if any(p.startswith(LOADED_START) for p in problems):
-        _loaded_start(raw, edits, comments)
     text = config_text(raw, comments, data, column_notes)
     made = [q for q in (out.parent, *out.parent.parents) if not q.exists() and not q.is_symlink()]
     try:
@@ -419,21 +438,44 @@ def init_config(data: str | Path, out: str | Path | None = None) -> InitResult:
     return InitResult(out, raw, edits, found, problems)
 
 
+def _labelled(raw: dict[str, Any], comments: dict[str, str], labels: Labels | None) -> None:
+    """The material the file states as the config's ``material:``."""
+    if labels is not None and labels.material is not None:
+        raw["material"] = labels.material.value
+        comments["material"] = f"read from {labels.material.where}"
+
+
 PLACEHOLDER = {"data.area0": 1.0, "data.gauge_length": 1.0}
 
 
-def _loaded_start(raw: dict[str, Any], edits: list[Edit], comments: dict[str, str]) -> None:
-    """A first sample that already carries load (the reader's warning): the choice of data.toe is
-    one of the edits, and the key is written into the config with the two remedies beside it."""
-    raw["data"].setdefault("toe", "none")
-    comments["toe"] = ("EDIT: the first sample carries load (init's warning): compensate, or "
-                       "initial_state: ramp-from-zero; none biases E (docs/data-input.md, 'The first "
-                       "sample')")
-    edits.append(Edit("check", "data.toe", raw["data"]["toe"],
-                      "the first sample carries load (the warning above): `compensate` moves the "
-                      "strain's zero to the toe's extrapolation (ASTM D638 X1, ISO 527-1), "
-                      "`data.initial_state: ramp-from-zero` lets the model load the specimen from "
-                      "zero; `none` keeps the model's unloaded start there, which biases E"))
+def _loaded_start(test: Any, raw: dict[str, Any], edits: list[Edit], comments: dict[str, str],
+                  out: Path) -> tuple[Any, Any]:
+    """A first sample that already carries load (the reader's warning): the remedy the strain points
+    to (workflows/init_start.py), else the other, whichever the file reads with; ``toe: none``
+    marked EDIT when neither does. (the remedy, the TestData read with it), or (None, None)."""
+    for remedy in remedies(test.strain[test.virtual_start:]):
+        trial = {**raw, "data": apply(raw["data"], remedy)}
+        _, started = _trial(trial, edits, out, {})
+        if started is None:
+            continue
+        raw["data"] = apply(raw["data"], remedy)
+        comments[remedy.key] = (f"the first sample carries load (init's warning): {remedy.why}; none "
+                                "biases E (docs/data-input.md, 'The first sample')")
+        edits.append(Edit("check", f"data.{remedy.key}", remedy.value,
+                          f"the first sample carries load (the warning above): {remedy.why}; "
+                          f"{other_words(remedy)}; `toe: none` keeps the model's unloaded start "
+                          "there, which biases E"))
+        return remedy, started
+    raw["data"]["toe"] = "none"
+    comments["toe"] = ("EDIT: the first sample carries load (init's warning) and neither remedy reads "
+                       "here: give a toe band {stress_min: .., stress_max: ..} (MPa); none biases E "
+                       "(docs/data-input.md, 'The first sample')")
+    edits.append(Edit("check", "data.toe", "none",
+                      "the first sample carries load (the warning above) and neither `compensate` nor "
+                      "`data.initial_state: ramp-from-zero` reads this file: give `toe: {stress_min: "
+                      "a, stress_max: b}` (MPa) on the linear part; `none` keeps the model's unloaded "
+                      "start there, which biases E"))
+    return None, None
 
 
 def _trial(raw: dict[str, Any], edits: list[Edit], out: Path, comments: dict[str, str]

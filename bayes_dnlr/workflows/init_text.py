@@ -76,13 +76,18 @@ def _line(indent: str, key: str, value: Any, note: str | None, width: int = 28) 
 def config_text(raw: dict[str, Any], comments: dict[str, str], source: str,
                 column_notes: dict[str, str]) -> str:
     """The config as YAML: a comment on the keys the user may need to change, and the relation or
-    the reason beside each column (``column_notes``, by role)."""
+    the reason beside each column (``column_notes``, by role); the material the file states under
+    the run's name."""
     lines = [f"# Starting config written by `python -m bayes_dnlr init {comment(source)}`.",
              "# Edit the lines marked EDIT, check the others (docs/data-input.md, docs/config.md); a",
              "# comment 'a = b ...' is a relation computed from the file's values that confirms the guess.",
              "# The priors, model and sampler are the defaults (docs/config.md).",
              f"name: {scalar(raw['name'])}                 # run name = this folder: outputs go next "
-             "to this file", "", "data:"]
+             "to this file"]
+    if raw.get("material") is not None:
+        note = comments.get("material")
+        lines.append(f"material: {scalar(str(raw['material']))}" + (f"   # {comment(note)}" if note else ""))
+    lines += ["", "data:"]
     for k, v in raw["data"].items():
         if k == "columns":
             lines.append("  columns:")

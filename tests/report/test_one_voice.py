@@ -14,9 +14,14 @@ later is checked the same way):
 - an rms (``rms 0.28 MPa``, ``the rms of the whitened residuals (9.4, no unit)``) one of the stored
   rms values of its kind, whitened or not.
 
-The word "verdict" names the checks' verdict only, a joint run's verdict never says "this test", and
-the prior sensitivity of the run with the exponent sampled is that of arviz_stats.psense on the
-priors as the config gives them.
+- a ratio of two sd (``2.01x the white one``; ``against the white one: E 2.03x, G 10.19x``) is
+  written the number then ``x`` and names what it divides by; against the white one, it is the
+  stored ratio of the estimate its clause names (the posterior's or the one under model error).
+
+The word "verdict" names the checks' verdict only, a verdict leads with its decision and then the
+checks that fail, a joint run's verdict never says "this test", the kernels' weights are never said
+without what they weigh, the exponent's pull is said in sd, and the prior sensitivity of the run
+with the exponent sampled is that of arviz_stats.psense on the priors as the config gives them.
 """
 
 from __future__ import annotations
@@ -183,6 +188,13 @@ def stored(run: dict[str, Any]) -> dict[tuple[str, str], set[float]]:
             if side in spec:
                 add(k, "bound", float(spec[side]))
     add("alpha", "fixed", 0.5)                     # left out: eq. 12's ½
+    white_sd, gls_sd = run["fit"].get("sd") or {}, (run["fit"].get("discrepancy") or {}).get("sd") or {}
+    for k, v in gls_sd.items():
+        if white_sd.get(k):
+            add(f"ratio:{k}", "gls", v / white_sd[k])
+    interval = ((run["summary"].get("noise") or {}).get("interval") or {})
+    if interval.get("sd_ratio_posterior_to_white") is not None:
+        add(f"ratio:{interval['parameter']}", "posterior", interval["sd_ratio_posterior_to_white"])
     singles = [(f["estimate"]["E"], f["sd"]["E"]) for f in (run["fit"].get("single_fits") or {}).values()
                if (f.get("sd") or {}).get("E")]
     if singles:                                    # the paper's way: one E from the tests alone
@@ -248,6 +260,46 @@ def _values(store: dict, quantity: str, labels: set[str]) -> set[float]:
     return out
 
 
+RATIO = re.compile(rf"(?:(\b{'|'.join(sorted(PARAMETER_NAMES, key=len, reverse=True))}) )?({NUMBER})x\b")
+
+
+def ratio_mismatches(text: str, store: dict) -> list[str]:
+    """Every ratio of sd written otherwise than ``2.01x`` with what it divides by, and every ratio to
+    the white sd that is not the stored one of its estimate (the parameter before it, else E)."""
+    bad = [f"x before its number: {m[0]!r}" for m in re.finditer(r"(?<![\w.])x\d", text)]
+    for clause in clauses(text):
+        for m in RATIO.finditer(clause):
+            after = clause[m.end():m.end() + 12]
+            if "white one" not in clause:
+                if not re.match(r" (the|sigma0)\b", after):
+                    bad.append(f"a ratio without what it divides by: {m[0]!r} in {clause.strip()!r}")
+                continue
+            labels = _labels(clause) & {"gls", "posterior"} or {"gls", "posterior"}
+            vals = _values(store, f"ratio:{m[1] or 'E'}", labels)
+            if not _close(m[2], vals):
+                bad.append(f"ratio {m[0]!r} is none of {sorted(vals)}: {clause.strip()!r}")
+    return bad
+
+
+# the exponent's own pull: "pull alpha by -2.35" (an exponent of -1.85), not "pull the spectrum's
+# exponent to 0.25 (...), which moves E(5.00 s) by -109 MPa" (a value of it, and what E(t) does)
+PULL = re.compile(rf"pulls? (?:alpha|the spectrum's exponent)(?: away from \S+)? by (?>({NUMBER}))(?! sd)")
+
+
+def word_mismatches(text: str) -> list[str]:
+    """The words that misled: a kernel's weight without what the weights weigh, the exponent's pull
+    as a step of the exponent (an exponent of ½ "pulled by -2.35"), a literal '...' to fill in."""
+    bad = []
+    for line in text.splitlines():
+        if re.search(r"\b(exp|matern32) \d+(\.\d+)? %", line) and "whatever the weights" not in line:
+            bad.append(f"kernel weights without what they weigh: {line.strip()!r}")
+        for m in re.finditer(PULL, line):
+            bad.append(f"the exponent's pull not in sd: {m[0]!r}")
+        if re.search(r"value: \.\.\.", line):
+            bad.append(f"a value left as '...': {line.strip()!r}")
+    return bad
+
+
 def quotes(text: str) -> int:
     """How many values the checks below read in ``text``."""
     return sum(len(PARAMETER.findall(c)) + len(DEBORAH.findall(c)) + len(RMS.findall(c))
@@ -302,6 +354,18 @@ def test_the_clauses_and_labels_read_as_meant():
     assert not mismatches("The rms of the whitened residuals (9.43, no unit) is 9.4x the 1", store)
     assert not mismatches("De_max = tau_max · rate = 0.02922 (eq. 45, white least squares)", store)
     assert mismatches("De_max = tau_max · rate = 0.02922 (eq. 45)", store)
+    ratios = {("ratio:E", "posterior"): {2.0109}, ("ratio:E", "gls"): {2.025}, ("ratio:G", "gls"): {10.19}}
+    assert not ratio_mismatches("E moves by +17.9 white sd; its sd, 2.01x the white one (wider)", ratios)
+    assert not ratio_mismatches("the estimate: generalized least squares; its sd, against the white one: "
+                                "E 2.03x, G 10.19x", ratios)
+    assert ratio_mismatches("its sd, 2.39x the white one", ratios)                 # not the stored one
+    assert ratio_mismatches("sd widened by the kernels' model of the error: E x5.01", ratios)
+    assert not ratio_mismatches("The rms residual (9.43 MPa) is 9.4x sigma0", ratios)
+    assert word_mismatches("the interval's width: kernel auto mixes the kernels, weights exp 0 %")
+    assert word_mismatches("the data pull alpha by -2.35 ± 0.22 (-10.8 sd, white noise)")
+    assert not word_mismatches("the data pull alpha away from ½ by -10.8 sd (score test, white noise)")
+    assert not word_mismatches("the data pull the spectrum's exponent to 0.25 (eq. 12 holds it at ½), "
+                               "which moves E(5.00 s) by -109 MPa")
 
 
 @pytest.mark.parametrize("name", list(RUNS))
@@ -309,8 +373,33 @@ def test_every_quoted_number_is_the_stored_one_of_the_estimate_it_names(runs, na
     run = runs[name]
     store = stored(run)
     bad = mismatches(run["console"], store) + mismatches(run["page"], store)
+    bad += ratio_mismatches(run["console"], store) + ratio_mismatches(run["page"], store)
     assert not bad, "\n".join(bad)
     assert quotes(run["console"]) >= 1 and quotes(run["page"]) >= 3      # De_max; E, De_max, the rms
+
+
+@pytest.mark.parametrize("name", list(RUNS))
+def test_the_words_say_what_their_numbers_are(runs, name):
+    run = runs[name]
+    bad = word_mismatches(run["console"]) + word_mismatches(run["page"])
+    assert not bad, "\n".join(bad)
+
+
+@pytest.mark.parametrize("name", list(RUNS))
+def test_a_verdict_leads_with_its_decision_then_the_checks_that_fail(runs, name):
+    """Never "The model describes this test, but do not use ..." above a point that says the model's
+    form does not fit, nor the predictive band's good news first in a verdict that does not trust."""
+    console, checks = runs[name]["console"], runs[name]["summary"]["checks"]
+    lines = console.splitlines()
+    at = next(i for i, line in enumerate(lines) if line.startswith("verdict: "))
+    head = lines[at].removeprefix("verdict: ")
+    if checks["trust_interval"]:
+        assert head.startswith("Use E's interval as it is.")
+        return
+    assert head.startswith(("Do not use E's interval", "The model does not describe")), head
+    assert "describes" not in head.replace("does not describe", "")
+    first = lines[at + 1].removeprefix("  - ")
+    assert not re.search(r"predictive band holds \d+ % of the points \(80-97 % expected\)", first), first
 
 
 @pytest.mark.parametrize("name", list(RUNS))

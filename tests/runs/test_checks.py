@@ -426,13 +426,31 @@ def test_checks_that_pass_leave_the_verdict_as_it_is() -> None:
     assert adequate and trust and head == "Use E's interval as it is." and len(words) == 1
 
 
+def test_a_verdict_that_does_not_trust_e_says_so_first_and_then_why() -> None:
+    """Its first sentence is the decision and does not contradict the points (it used to open "The
+    model describes this test, but ..." above a point that says the model's form does not fit); the
+    failed checks come before the passing ones (a failed verdict opened with the good news of the
+    predictive band)."""
+    form = {"t": {"ok": False, "z": 5.8, "likelihood": "under the discrepancy",
+                  "E_relative_per_tenth": -0.09}}
+    bound = [{"parameter": "disc_length", "side": "high", "bound": 100.0, "note": "a noise hyperparameter"}]
+    adequate, trust, head, words = verdict_parts(_at_thresholds(model_form=form, bound_limited=bound),
+                                                 True, False)
+    assert adequate and not trust
+    assert head.startswith("Do not use E's interval as it is: ") and "describes" not in head
+    assert words[0].startswith("The data pull the spectrum's exponent away from Cunat's ½ by +5.8 sd")
+    assert words[1].startswith("The 90 % predictive band holds") and words[2].startswith("The posterior of")
+    _, _, _, unconverged = verdict_parts(_at_thresholds(), False, False)
+    assert unconverged[0].startswith("The chain has not converged")
+
+
 def test_a_time_constant_beyond_the_test_withdraws_trust_in_words() -> None:
     for k in ("tau_max", "tau_max_R"):
         failing = {"ok": False, "median": 2.0e4, "test_duration": 400.0}
         checks = _at_thresholds(plausibility={"t": {k: failing}})
         adequate, trust, head, words = verdict_parts(checks, True, False)
         assert adequate and not trust
-        assert words[1] == (f"{k[0].upper() + k[1:]} = 20000 s (posterior median) is more than 10× the "
+        assert words[0] == (f"{k[0].upper() + k[1:]} = 20000 s (posterior median) is more than 10× the "
                             "test's duration (400 s): "
                             "the test does not measure it, and what trades off with it comes from the "
                             "prior box.")

@@ -114,6 +114,7 @@ def test_a_singular_x_names_the_parameters_and_the_bound():
     assert "the data do not inform the combination of" in text
     assert "E" in text.split("combination of")[1] and "tau_max" in text.split("combination of")[1]
     assert "G = 0 (its lower bound)" in text
+    assert "parameters.tau_max: {value: 3}" in text and "..." not in text
 
 
 def test_negligible_sensitivity_warning_spares_a_well_determined_parameter(tmp_path):

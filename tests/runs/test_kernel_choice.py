@@ -81,7 +81,7 @@ def test_a_smooth_error_weighs_matern32_in_fit_sample_and_report(smooth_error_ru
     assert summary["posterior"]["E"]["sd"] == pytest.approx(disc["sd"]["E"], rel=0.3)
     figures_not_drawn(monkeypatch)          # the page's text is read, not its figures
     page = build_report(run).read_text()
-    assert "kernel: auto; weights" in page
+    assert "kernel: auto: the kernels&#x27; models of the error weighed by their likelihood" in page
 
 
 def test_target_l2_samples_the_orthogonal_discrepancy_and_offsets_the_draws(tmp_path) -> None:

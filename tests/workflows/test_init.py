@@ -173,19 +173,58 @@ def test_names_that_reach_the_config_are_escaped(tmp_path, name):
     assert all("\n" not in line and "\x85" not in line for line in out.read_text().split("\n"))
 
 
-def test_a_loaded_first_sample_makes_the_toe_one_of_the_edits(tmp_path):
-    """An export whose first rows were cropped (its first sample carries load): init lists data.toe
-    among the edits and writes the key with its remedies; the uncropped export has no such edit."""
+def _cropped(tmp_path: Path, rows: int, zeroed: bool) -> Path:
+    """The Bluehill-like export without its first ``rows`` samples; ``zeroed``: its strain also
+    counted from the new first sample (a preload), else from the unloaded length (a cropped toe)."""
     lines = BLUEHILL.read_text().splitlines(keepends=True)
     start = lines.index('"(s)","(%)","(N)"\n') + 1
-    cropped = tmp_path / "cropped.csv"
-    cropped.write_text("".join(lines[:start] + lines[start + 60:]))    # the first 60 samples gone
-    result = init_config(cropped, tmp_path / "cropped" / "config.yaml")
-    assert any(p.startswith("the first sample") for p in result.problems), result.problems
-    [toe] = [e for e in result.edits if e.key == "data.toe"]
-    assert toe.action == "check" and toe.value == "none" and "ramp-from-zero" in toe.why
-    text = (tmp_path / "cropped" / "config.yaml").read_text()
-    assert "  toe: none   # EDIT: the first sample carries load" in text
+    kept = [line for line in lines[start + rows:] if line.strip()]
+    if zeroed:
+        cells = [line.strip().strip('"').split('","') for line in kept]
+        e0 = float(cells[0][1])
+        kept = [f'"{t}","{float(e) - e0:.10g}","{f}"\n' for t, e, f in cells]
+    path = tmp_path / f"{'preload' if zeroed else 'cropped'}.csv"
+    path.write_text("".join(lines[:start] + kept))
+    return path
+
+
+def _fit_e(out: Path, **data) -> float:
+    from bayes_dnlr.runs.fit import fit
+
+    raw = yaml.safe_load(out.read_text())
+    raw["data"] = {k: v for k, v in {**raw["data"], "area0": 40.0, **data}.items() if v is not None}
+    out.write_text(yaml.safe_dump(raw, sort_keys=False, allow_unicode=True))
+    return fit(load_config(out), write=False).estimate["E"]
+
+
+@pytest.mark.parametrize(("zeroed", "key", "value"), [(False, "initial_state", "ramp-from-zero"),
+                                                      (True, "toe", "compensate")])
+def test_a_loaded_first_sample_gets_the_remedy_its_strain_points_to(tmp_path, zeroed, key, value):
+    """The Bluehill-like export (E = 2854 MPa) without its first 5 rows: its first sample carries 30 %
+    of the peak force. Its strain counts from the unloaded length: init writes initial_state:
+    ramp-from-zero; zeroed there (a preload): toe: compensate. A check line names the other remedy,
+    nothing is marked EDIT, and fit on the config as written is nearer the truth than with the
+    unloaded start (toe: none, what init wrote before) and than with the other remedy."""
+    out = tmp_path / "run" / "config.yaml"
+    result = init_config(_cropped(tmp_path, 5, zeroed), out)
+    assert any(p.startswith("the first sample") and f"init wrote data.{key}: {value}" in p
+               for p in result.problems), result.problems
+    [edit] = [e for e in result.edits if e.key == f"data.{key}"]
+    assert edit.action == "check" and edit.value == value
+    assert ("toe: compensate" if key == "initial_state" else "ramp-from-zero") in edit.why
+    text = out.read_text()
+    assert f"  {key}: {value}   # the first sample carries load" in text and "EDIT: the first" not in text
+    other = {"toe": "compensate", "initial_state": None} if key == "initial_state" else \
+        {"toe": None, "initial_state": "ramp-from-zero"}
+    e, e_none, e_other = (_fit_e(out), _fit_e(out, toe="none", initial_state=None), _fit_e(out, **other))
+    assert abs(e - 2854.0) < abs(e_other - 2854.0) and abs(e - 2854.0) < abs(e_none - 2854.0) / 4, \
+        (e, e_other, e_none)
+    if not zeroed:
+        assert abs(e - 2854.0) < 0.03 * 2854.0
+
+
+def test_an_unloaded_first_sample_gets_no_remedy(tmp_path):
     whole = init_config(BLUEHILL, tmp_path / "whole" / "config.yaml")
-    assert all(e.key != "data.toe" for e in whole.edits)
+    assert all(e.key not in ("data.toe", "data.initial_state") for e in whole.edits)
     assert "toe:" not in (tmp_path / "whole" / "config.yaml").read_text()
+    assert "initial_state:" not in (tmp_path / "whole" / "config.yaml").read_text()

@@ -33,6 +33,7 @@ def _init_then_fit(case: Case, tmp_path: Path):
     result = init_config(case.path, out)
     assert {e.key for e in result.edits if e.action == "set"} == set(case.set), result.text()
     assert not any("cannot be read" in p for p in result.problems), result.problems
+    assert ("EDIT:" in out.read_text()) == bool(case.set)     # marked only where a value must be set
     raw = yaml.safe_load(out.read_text())
     for key, value in case.expect.items():
         assert raw["data"].get(key) == value, (key, raw["data"])
@@ -67,8 +68,9 @@ def _rhdpe_case() -> Case:
     a = np.loadtxt(RHDPE, delimiter=",", usecols=(1, 3))
     peak = float(a[int(np.argmax(a[:, 1])), 0])           # the force's peak (yield)
     data = {"columns": {"time": 2, "force": 4, "strain": 6}, "strain_unit": "percent",
-            "strain_measure": "nominal", "area0": 37.1712}
-    # the hand config: the data README's layout, and S0 as the export's stress column used it
+            "strain_measure": "nominal", "area0": 37.1712, "initial_state": "ramp-from-zero"}
+    # the hand config: the data README's layout, S0 as the export's stress column used it, and the
+    # first rows its source cropped put back (its strain counts from the unloaded length)
     return Case("rhdpe", RHDPE, data, {**data, "window": {"time_max": peak}}, peak_time=peak)
 
 

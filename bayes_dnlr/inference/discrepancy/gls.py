@@ -45,6 +45,7 @@ from bayes_dnlr.inference.discrepancy.hyper import (
     search_priors,
     whitener,
 )
+from bayes_dnlr.inference.discrepancy.kernel_mix import mix_words
 from bayes_dnlr.inference.lsq import optimize
 from bayes_dnlr.inference.lsq.problem import LsqProblem
 from bayes_dnlr.inference.lsq.sensitivity import (
@@ -57,7 +58,7 @@ from bayes_dnlr.inference.lsq.sensitivity import (
 from bayes_dnlr.inference.lsq.sigma0 import high_frequency_sd, resolve_sigma0
 from bayes_dnlr.inference.lsq.stress_score import stress_score
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
-from bayes_dnlr.numbers import fmt, share
+from bayes_dnlr.numbers import fmt
 from bayes_dnlr.vocabulary import SPECTRUM_EXPONENT
 
 CANDIDATES = ("exp", "matern32")
@@ -252,7 +253,7 @@ def discrepancy_analysis(cfg: Config, test, problem: LsqProblem, beta_white: np.
         "rule": "kernels weighed by their likelihood of the hyperparameters with the amplitude's prior; "
                 "the estimate does not depend on the weights",
         "weights": w, "log_likelihood_gain_matern32": gain,
-        "reason": "weights " + ", ".join(f"{k} {share(v)}" for k, v in w.items())
+        "reason": mix_words(w, core["sampled_kernel"])
                   + (f" (log-likelihood matern32 - exp: {fmt(gain, 3)})" if gain is not None else ""),
         "candidates": {k: {kk: a[kk] for kk in ("hyperparameters", "log_likelihood", "log_posterior")}
                        for k, a in per.items()},

@@ -56,7 +56,7 @@ from bayes_dnlr.inference.lsq.start import (
 from bayes_dnlr.inference.lsq.stress_score import stress_score
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd
-from bayes_dnlr.vocabulary import UNITS, UNIVERSAL_EXPONENT
+from bayes_dnlr.vocabulary import UNITS, UNIVERSAL_EXPONENT, fixing
 
 SAME_OPTIMUM_SD = 0.01      # multi-start end points within this many sd of the best: same optimum
 SAME_OPTIMUM_REL = 1.0e-6   # ... or within this relative distance (noise-free data: sd -> 0)
@@ -226,9 +226,12 @@ def spectrum_line(dep: dict[str, Any], estimate: dict[str, float]) -> str:
     line = (f"spectrum exponent alpha = {a:.3g} ({how}): {dE:+.4g} MPa "
             f"({100 * dE / estimate['E']:+.2g} %) per +0.1 of alpha (eq. 12 has ½)")
     score = dep.get("score")
-    if score is not None and math.isfinite(score["step"]):
-        line += (f"; the data pull alpha by {score['step']:+.3g} ± {score['sd']:.2g} "
-                 f"({score['z']:+.1f} sd, white noise)")
+    if score is not None and math.isfinite(score["z"]):
+        line += (f"; the data pull alpha away from {'½' if a == UNIVERSAL_EXPONENT else f'{a:.3g}'} by "
+                 f"{score['z']:+.1f} sd (score test, white noise)")
+        to = a + score["step"]
+        if 0.0 < to < 1.0:      # a step past the exponent's range says nothing of where it would go
+            line += f", one linearized step towards alpha ≈ {to:.2g}"
     return line
 
 
@@ -253,15 +256,16 @@ def _discrepancy_lines(d: dict[str, Any], white_sd: dict[str, float]) -> list[st
     lines = [f"discrepancy on the {d['axis']} axis: {metric}; its maximum likelihood: sigma0 = "
              f"{fmt(h['sigma0'], 3)} MPa (noise floor {fmt(proj.get('sigma0_floor'), 3)}), amplitude "
              f"{amp}, length {fmt(h['length'], 3)} {unit}"]
-    widening = proj.get("widening") or {}
-    if d.get("evidence") and widening:
+    ratios = {k: s / white_sd[k] for k, s in (d.get("sd") or {}).items()
+              if white_sd.get(k) and math.isfinite(s / white_sd[k])}
+    if d.get("evidence") and ratios:
         lines.append("  the estimate: " + str(proj.get("estimate", "")).split(" (")[0]
-                     + "; sd widened by the kernels' model of the error: "
-                     + ", ".join(f"{k} x{v:.2f}" for k, v in widening.items() if math.isfinite(v)))
+                     + "; its sd under the kernels' model of the error, against the white one: "
+                     + ", ".join(f"{k} {v:.2f}x" for k, v in ratios.items()))
     lines.append(f"  whitened residuals: {d['whitened_residuals']['verdict']}")
     choice = d.get("kernel_choice")
     if choice and len(choice.get("weights") or {}) > 1:
-        lines.append(f"  the interval's width: kernel auto mixes the kernels, {choice['reason']}")
+        lines.append(f"  kernel auto: {choice['reason']}")
     return lines
 
 
@@ -337,7 +341,8 @@ def fit_test(cfg: Config, test) -> FitResult:
     zero = [k for k, c in zip(names, np.linalg.norm(X, axis=0), strict=True) if c == 0]
     if zero:
         raise BayesDnlrError(f"parameter(s) {zero} have no effect on the model over the window: fix "
-                             "them (value: ...) or widen data.window")
+                             f"them ({'; '.join(fixing(k, params[k]) for k in zero)}: any value "
+                             "does the same here) or widen data.window")
     bounds = {k: specs[k].bounds() for k in names}
     on_bound = {k: side for k, v in zip(names, values, strict=True)
                 if (side := bound_side(float(v), *bounds[k])) is not None}

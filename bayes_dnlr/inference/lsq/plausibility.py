@@ -15,6 +15,8 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from bayes_dnlr.vocabulary import fixing
+
 
 def plausibility_warnings(params: Mapping[str, float], estimate: str = "white least squares") -> list[str]:
     """Warnings for physically impossible estimates (never errors: the data decide, the user reads);
@@ -47,8 +49,10 @@ def singular_message(X: np.ndarray, names: Sequence[str], values: Sequence[float
         text += f" (singular values of the column-normalised X: {', '.join(f'{x:.3g}' for x in sv)})"
     text += f": the free parameters {list(names)} cannot all be identified on this window"
     if involved:
+        vals = dict(zip(names, values, strict=True))
         text += (f"; the data do not inform the combination of {', '.join(involved)}: fix one of them "
-                 "(parameters.<name>: {value: ...}) or widen data.window")
+                 f"at a value another test measures (as {fixing(involved[0], vals[involved[0]])}, where "
+                 "this fit ends) or widen data.window")
     if on_bound:
         vals = dict(zip(names, values, strict=True))
         parts = []

@@ -81,7 +81,9 @@ class LsqProblem(LogCoordinates):
         if relax and not self.model.has_relaxation:
             raise BayesDnlrError(
                 f"parameters {relax} act only in the relaxation phase, which starts after the "
-                "identification window ends: fix them (value: ...) or widen data.window")
+                "identification window ends: widen data.window past the hold's start, or leave them "
+                "out of the run by fixing them (parameters.<name>: {value: <any value in its prior>}: "
+                "no sample of the window depends on it)")
         self.shifted = self.model.is_shifted
         if self.shifted:
             self.linear: list[str] = []

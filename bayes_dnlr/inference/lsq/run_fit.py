@@ -35,7 +35,7 @@ from bayes_dnlr.inference.lsq.sensitivity import StochasticAnalysis, analyse, id
 from bayes_dnlr.inference.lsq.temperature_start import alone, joint_start
 from bayes_dnlr.inference.lsq.whiteness import residual_diagnostics
 from bayes_dnlr.numbers import err_pct, fmt, fmt_at, fmt_sd, pm
-from bayes_dnlr.vocabulary import TIME_CONSTANTS, base_name, unit
+from bayes_dnlr.vocabulary import TIME_CONSTANTS, base_name, fixing, unit
 
 
 @dataclass
@@ -172,7 +172,8 @@ def _analyse(problem: RunProblem, params: dict[str, float]) -> StochasticAnalysi
     if zero:
         raise BayesDnlrError(
             f"parameters {zero} have no effect on any test's window: no test can identify them; fix "
-            f"them (parameters.{base_name(zero[0])}: {{value: ...}}) or give them a test that can")
+            f"them ({'; '.join(fixing(k, params[k]) for k in zero)}: any value does the same here) or "
+            "give them a test that can")
     try:
         return analyse(X, names, problem.vector(params), 1.0)
     except np.linalg.LinAlgError as err:

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bayes_dnlr.model import Basis
-from bayes_dnlr.vocabulary import LINEAR_COLUMN, SPECTRUM_PARAMETERS
+from bayes_dnlr.vocabulary import LINEAR_COLUMN, SPECTRUM_PARAMETERS, fixing
 
 # identifiability thresholds (warnings, never errors)
 RHO_WARN = 0.99
@@ -325,12 +325,13 @@ def identifiability_warnings(a: StochasticAnalysis, held: Sequence[str] = ()) ->
                     "both (Err ≈ 1.4 %); check Err and the multi-start outcome before trusting them")
     skip = set(held) | {k for k, e in zip(a.names, a.err, strict=True) if not np.isfinite(e)}
     top = float(np.max(a.max_normalised)) if a.max_normalised.size else 0.0
-    for k, m, e in zip(a.names, a.max_normalised, a.err, strict=True):
+    for k, m, e, v in zip(a.names, a.max_normalised, a.err, a.values, strict=True):
         if k not in skip and top > 0 and m < NEGLIGIBLE_SENSITIVITY * top and e > NEGLIGIBLE_ERR:
             out.append(f"the normalised sensitivity to {k} is negligible on this window (max |X̃| = "
                        f"{m:.3g} MPa, {100 * m / top:.1f} % of the largest; Err({k}) = {100 * e:.0f} %, "
                        "white least squares): "
-                       f"fix {k} (value: ...) or widen the window (paper 4.2: G on interval I)")
+                       f"hold {k} where this fit puts it ({fixing(k, v)}) or widen the window "
+                       "(paper 4.2: G on interval I)")
     for k, e in zip(a.names, a.err, strict=True):
         if k not in skip and e > RELATIVE_ERROR_WARN:
             out.append(f"Err({k}) = {100 * e:.0f} % (white least squares): {k} is poorly determined by "

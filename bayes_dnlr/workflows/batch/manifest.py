@@ -14,6 +14,10 @@ template for that row, e.g.
   named after the stem of its data file. Names must be unique.
 - ``data.file`` (and ``output.dir``) in the manifest are relative to the manifest's folder.
 - Each row runs in ``<out>/runs/<name>/`` unless the row sets ``output.dir``.
+- A ``config`` column names each row's own config (relative to the manifest's folder) in place of
+  the template (``init FILE --all`` writes one per specimen): the row runs where that config runs
+  alone, as a list of configs would, and its other cells override that config's keys.
+- A line whose first cell starts with ``#`` is a comment.
 
 A config that does not validate becomes a failed test with its error (the batch goes on); a
 manifest that cannot be read, has no rows or repeats a name stops the batch before anything runs.
@@ -35,6 +39,7 @@ from bayes_dnlr.config.yamlio import YamlError, load_yaml, parse_yaml
 from bayes_dnlr.errors import BayesDnlrError
 
 RUNS_FOLDER = "runs"
+CONFIG_COLUMN = "config"          # a row's own config, in place of the template
 NAME_OK = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 PATH_KEYS = ("data.file", "output.dir")
 
@@ -191,7 +196,8 @@ def read_manifest(path: Path) -> tuple[list[str], list[tuple[int, dict[str, str]
         dialect = csv.excel
     reader = csv.reader(text.splitlines(), dialect)
     try:
-        rows = [(i + 1, r) for i, r in enumerate(reader) if any(c.strip() for c in r)]
+        rows = [(i + 1, r) for i, r in enumerate(reader)
+                if any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
     except csv.Error as err:      # e.g. a cell past the csv module's limit (131 072 characters)
         raise BatchError(f"{path}: line {reader.line_num}: not a manifest row ({err})") from None
     if not rows:
@@ -215,21 +221,45 @@ def read_manifest(path: Path) -> tuple[list[str], list[tuple[int, dict[str, str]
     return header, out
 
 
-def jobs_from_manifest(template: Path, manifest: Path, out: Path) -> list[Job]:
-    """One job per manifest row: the template with the row's overrides, in ``<out>/runs/<name>/``."""
+def _base(path: Path, what: str) -> dict[str, Any]:
     try:
-        base = load_yaml(template, "template config")
+        base = load_yaml(path, what)
     except YamlError as err:
         raise BatchError(str(err)) from None
     if not isinstance(base, dict):
-        raise BatchError(f"{template}: expected a mapping of config keys")
-    _, rows = read_manifest(manifest)
+        raise BatchError(f"{path}: expected a mapping of config keys")
+    return base
+
+
+def jobs_from_manifest(template: Path | None, manifest: Path, out: Path) -> list[Job]:
+    """One job per manifest row: the template (or the row's own config, a ``config`` column) with
+    the row's overrides, in ``<out>/runs/<name>/`` (a row's own config: where it runs alone)."""
+    header, rows = read_manifest(manifest)
+    own = CONFIG_COLUMN in header
+    if own == (template is not None):
+        raise BatchError(f"{manifest}: give a template config or a manifest with a '{CONFIG_COLUMN}' "
+                         "column (each row's own config), not " + ("both" if own else "neither"))
+    base = _base(template, "template config") if template is not None else None
     mdir = manifest.resolve().parent
     jobs = []
     for line, cells in rows:
         origin = f"{manifest} line {line}"
+        inputs = {k: v for k, v in cells.items() if v.strip() != "" and k != CONFIG_COLUMN}
+        source = template
+        if own:
+            source = mdir / cells[CONFIG_COLUMN].strip()
+            if source == mdir or not source.is_file():
+                jobs.append(Job(_sanitize(inputs.get("name") or f"row{line}"), origin, str(source), None,
+                                None, inputs, f"{origin}: config {cells[CONFIG_COLUMN]!r}: no such file "
+                                "(the config column is relative to the manifest's folder)"))
+                continue
+            try:
+                base = _base(source, "config")
+            except BatchError as err:
+                jobs.append(Job(_sanitize(inputs.get("name") or source.parent.name), origin, str(source),
+                                None, None, inputs, f"{origin}: {err}"))
+                continue
         raw = copy.deepcopy(base)
-        inputs = {k: v for k, v in cells.items() if v.strip() != ""}
         error = None
         try:
             for key, text in inputs.items():
@@ -240,7 +270,9 @@ def jobs_from_manifest(template: Path, manifest: Path, out: Path) -> list[Job]:
         except ConfigError as err:
             error = f"{origin}: {err}"
         name = inputs.get("name", "").strip()
-        if not name:
+        if not name and own and isinstance(raw.get("name"), str):
+            name = raw["name"]
+        elif not name:
             data_file = (raw.get("data") or {}).get("file") if isinstance(raw.get("data"), dict) else None
             name = _sanitize(Path(str(data_file)).stem) if data_file else f"row{line}"
             raw["name"] = name
@@ -248,16 +280,17 @@ def jobs_from_manifest(template: Path, manifest: Path, out: Path) -> list[Job]:
             error = error or (f"{origin}: name {name!r}: a run name is letters, digits, '.', '_', '-' "
                               "and starts with a letter or digit")
             name = _sanitize(name)
-        if "output.dir" not in inputs:
+        if "output.dir" not in inputs and not own:
             raw["output"] = {**(raw.get("output") or {}), "dir": str(out.resolve() / RUNS_FOLDER / name)}
         run_dir = None
         if error is None:
             try:
-                cfg = parse_config(copy.deepcopy(raw), source=template.resolve())
+                cfg = parse_config(copy.deepcopy(raw), source=source.resolve())
                 run_dir = str(cfg.run_dir)
             except ConfigError as err:
                 error = f"{origin}: {err}"
-        jobs.append(Job(name, origin, str(template.resolve()), None if error else raw, run_dir,
-                        inputs, error))
+        given = {**inputs, CONFIG_COLUMN: cells[CONFIG_COLUMN]} if own else inputs
+        jobs.append(Job(name, origin, str(source.resolve()), None if error else raw, run_dir,
+                        given, error))
     _check_unique(jobs, "manifest row")
     return jobs

@@ -18,7 +18,6 @@ import dataclasses
 import html
 import os
 import threading
-from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -50,6 +49,7 @@ from bayes_dnlr.workflows.batch.manifest import (
 from bayes_dnlr.workflows.batch.pooling import PopulationStep
 from bayes_dnlr.workflows.batch.population_step import groups_of, population_step, section
 from bayes_dnlr.workflows.batch.run import BATCH_SET, BatchResult, run_batch, write_table
+from bayes_dnlr.workflows.batch.shared_warnings import group
 from bayes_dnlr.workflows.population.page import listed
 
 PAGE = "batch.html"
@@ -80,11 +80,11 @@ def run_campaign(inputs: list[str], *, manifest: Path | None = None, out: Path |
     (``sample --restart``) instead of failing; current and interrupted tests are kept.
     See docs/batch.md."""
     if manifest is not None:
-        if len(inputs) != 1:
-            raise BatchError(f"--manifest takes exactly one template config, got {len(inputs)}: "
-                             f"{' '.join(inputs)}")
+        if len(inputs) > 1:
+            raise BatchError(f"--manifest takes one template config (or none, with a config column), "
+                             f"got {len(inputs)}: {' '.join(inputs)}")
         out = Path(out) if out is not None else default_out([], Path(manifest))
-        jobs = jobs_from_manifest(Path(inputs[0]), Path(manifest), out)
+        jobs = jobs_from_manifest(Path(inputs[0]) if inputs else None, Path(manifest), out)
     else:
         paths = expand_inputs(inputs)
         if not paths:
@@ -127,12 +127,27 @@ def _pm(r: dict[str, Any], p: str) -> str:
     return "–" if m is None else pm(m, s)
 
 
-def _link(r: dict[str, Any], out: Path) -> str:
+def _named(r: dict[str, Any], out: Path) -> str:
+    """The test's name, a link to its report when it has one (a column of its own, last, was cut off
+    at the right of a 1280 px window)."""
     rep = r.get("report")
     if not rep:
-        return "–"
+        return _e(r["name"])
     rel = os.path.relpath(rep, out)
-    return f'<a href="{html.escape(rel)}">report</a>'
+    return f'<a href="{html.escape(rel)}" title="its report">{_e(r["name"])}</a>'
+
+
+def _cell(text: str) -> str:
+    """A ``value ± sd`` cell that may break before its ± and nowhere else, so that the table of all
+    tests fits the window."""
+    return text.replace("± ", "±\u00a0")
+
+
+# The table of all tests is as wide as its columns (a parameter's mean ± sd each): it fits a 1280 px
+# window when its cells may break (a name anywhere, a number before its ±) and the page is as wide
+# as the window (tests/report/test_browser.py measures it in Chromium).
+WIDE_CSS = ("body{max-width:none}table.all td{white-space:normal}table.all th,table.all td{padding:4px 6px}"
+            "table.all tbody th{overflow-wrap:anywhere;min-width:6em}")
 
 
 def _e(text: Any) -> str:
@@ -243,21 +258,25 @@ def _materials_table(rows: list[dict[str, Any]], with_et: bool) -> str:
 
 
 def _warnings_html(warned: list[dict[str, Any]], n_ok: int) -> str:
-    """The tests' warnings: one line for each warning that several tests share word for word (the
-    fit's note on G held at 0 for every window that ends at yield, docs/batch.md), then each test's
-    own."""
+    """The tests' warnings: one line for each warning that several tests share, word for word but
+    for its numbers (the fit's note on G held at 0 for every window that ends at yield, docs/batch.md;
+    workflows/batch/shared_warnings.py), then each test's own."""
     if not warned:
         return "<p>None.</p>"
     own = {r["name"]: [w for w in str(r.get("warnings") or "").split(" | ") if w] for r in warned}
-    counts = Counter(w for ws in own.values() for w in set(ws))
-    shared = [w for w, c in counts.most_common() if c > 1]
+    groups = group(own)
+    shared = [g for g in groups if len(g.tests) > 1]
+    alone = {g.tests[0]: [] for g in groups}
+    for g in groups:
+        if len(g.tests) == 1:
+            alone[g.tests[0]].append(g.text())
     parts = []
     if shared:
-        items = "".join(f"<li><b>{counts[w]} of {n_ok} tests</b>: {_e(w)}</li>" for w in shared)
+        items = "".join(f"<li><b>{len(g.tests)} of {n_ok} tests</b>: {_e(g.text())}</li>" for g in shared)
         parts.append(f"<p>Shared by several tests (each listed once):</p><ul class='flags'>{items}</ul>")
     body = ""
     for r in warned:
-        mine = [w for w in own[r["name"]] if counts[w] == 1]
+        mine = alone.get(r["name"], [])
         if mine or r.get("converged") is False:
             body += (f"<tr><th>{_e(r['name'])}</th><td>{'no' if r.get('converged') is False else 'yes'}"
                      f"</td><td class='text'>{_e(' | '.join(mine))}</td></tr>")
@@ -341,7 +360,7 @@ def write_page(result: BatchResult, step: PopulationStep | None = None) -> Path:
                "<th>E(t) (MPa), at t</th>")
     body = ""
     for r in rows:
-        vals = "".join(f"<td>{_pm(r, p)}</td>" for p in params)
+        vals = "".join(f"<td>{_cell(_pm(r, p))}</td>" for p in params)
         et = ""
         if et_head:
             e = et_of.get(r["name"])
@@ -351,18 +370,18 @@ def write_page(result: BatchResult, step: PopulationStep | None = None) -> Path:
                 cell += f" at {fmt(e['t'], 3)} s"
             et = f"<td{flag}>{cell}</td>"
         row_cls = " class='warn'" if r.get("trust_interval") is False else ""
-        body += (f"<tr{row_cls}><th>{_e(r['name'])}</th>"
+        body += (f"<tr{row_cls}><th>{_named(r, out)}</th>"
                  + (f"<td class='text'>{_e(r.get('material'))}</td>" if grouped else "")
                  + f"<td class='text'>{_e(r.get('status'))}</td>{_trust_mark(r)}{vals}{et}"
                  f"<td>{fmt(r.get('r_hat_max'), 4)}</td><td>{fmt(r.get('ess_min'), 3)}</td>"
-                 f"<td>{fmt(r.get('iso527_1'))}</td><td>{fmt(r.get('n_warnings'))}</td>"
-                 f"<td class='text'>{_link(r, out)}</td></tr>")
-    sec.append("<table class='num'><thead><tr><th>test</th>" + ("<th>material</th>" if grouped else "")
+                 f"<td>{fmt(r.get('iso527_1'))}</td><td>{fmt(r.get('n_warnings'))}</td></tr>")
+    sec.append("<table class='num all'><thead><tr><th>test (its report)</th>"
+               + ("<th>material</th>" if grouped else "")
                + f"<th>status</th><th>trusted</th>{head}{et_head}<th>max R-hat</th>"
-               "<th>min ESS</th><th>ISO 527-1 (MPa)</th><th>warnings</th><th></th></tr></thead>"
+               "<th>min ESS</th><th>ISO 527-1 (MPa)</th><th>warnings</th></tr></thead>"
                f"<tbody>{body}</tbody></table>")
     page = ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
-            f"<title>batch: {len(rows)} tests</title><style>{CSS}</style></head><body>"
+            f"<title>batch: {len(rows)} tests</title><style>{CSS}{WIDE_CSS}</style></head><body>"
             + "\n".join(sec) + "<footer>python -m bayes_dnlr batch · docs/batch.md</footer></body></html>")
     path = out / PAGE
     tmp = out / f".{PAGE}.{os.getpid()}.tmp"

@@ -92,11 +92,12 @@ def error_model_note(models: list[ErrorModel], summary: dict[str, Any]) -> str:
     if not models:
         return ""
     proj = ((summary.get("noise") or {}).get("projection") or {})
-    factors = ", ".join(f"{k} x{float(f):.3g}" for k, f in (proj.get("sd_factor") or {}).items())
+    factors = ", ".join(f"{k} {float(f):.3g}x" for k, f in (proj.get("sd_factor") or {}).items())
     weights = ", ".join(f"{m.kernel} {share(m.weight)}" for m in models)
     return (f"the predicted sd carry the run's widening for the kernels' model of the error ({weights}, "
             "their maximum-likelihood hyperparameters), as `sample` reports the run's intervals"
-            + (f" (there: sd {factors})" if factors else "") + " (docs/design.md, 'Method')")
+            + (f" (there: sd {factors} the sampled kernel's alone)" if factors else "")
+            + " (docs/design.md, 'Method')")
 
 
 def resolve_draws(cfg: DesignConfig) -> tuple[Draws, list[str], dict[str, Any]]:

@@ -150,3 +150,6 @@ def test_identifiability_warnings_name_the_problem():
     w1 = identifiability_warnings(a1)
     assert any("sensitivity to G is negligible" in m for m in w1)
     assert not any("sensitivity to E" in m or "sensitivity to tau_max" in m for m in w1)
+    # the advice gives the config line with the value, never a literal "..." to fill in
+    (g,) = [m for m in w1 if "sensitivity to G" in m]
+    assert f"parameters.G: {{value: {a1.values[1]:.4g}}}" in g and "..." not in g

@@ -129,7 +129,7 @@ def test_same_name_in_two_configs_is_refused(tmp_path):
 def test_cli_input_errors_are_one_line_exit_2(tmp_path, capsys):
     template = _template(tmp_path)
     assert main(["batch", str(template), str(template), "--manifest", str(tmp_path / "m.csv")]) == 2
-    assert "exactly one template config" in capsys.readouterr().err
+    assert "takes one template config (or none, with a config column), got 2" in capsys.readouterr().err
     assert main(["batch", str(tmp_path / "none*.yaml")]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and err.count("\n") == 1 and "Traceback" not in err

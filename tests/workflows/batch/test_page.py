@@ -165,3 +165,29 @@ def test_the_e_t_column_says_the_time_its_values_are_at(tmp_path):
     html = write_page(BatchResult(rows, tmp_path, "1 local process", 1.0)).read_text()
     assert "<th>E(t) (MPa), at t</th>" in html
     assert "<td>1200.0 ± 3.0 at 2.00 s</td>" in html and "<td>900.0 ± 3.0 at 0.500 s</td>" in html
+
+
+def test_a_warning_that_differs_only_in_its_numbers_is_listed_once_with_their_range(tmp_path):
+    """G held at 0 by the fit of every test whose window ends at yield: its words are the same, its
+    sensitivity differs from test to test. One item, the number as its range; a test's own warning
+    stays in the test's row."""
+    from bayes_dnlr.inference.lsq.sensitivity import hold_words
+    from bayes_dnlr.workflows.batch.page import write_page
+    from bayes_dnlr.workflows.batch.run import BatchResult
+
+    def held(s: float) -> str:
+        return hold_words({"G": {"value": 0.0, "sensitivity": s, "reference": 50.0, "sd": 1.0}})
+
+    warned = {"t0": [held(0.004), "lag-1 autocorrelation +0.95 (Durbin-Watson 0.01)"],
+              "t1": [held(0.012), "lag-1 autocorrelation +0.91 (Durbin-Watson 0.03)"],
+              "t2": [held(0.007), "Err(tau_max) = 23 % (white least squares)"]}
+    rows = [{"name": n, "status": "ok", "E_mean": 2000.0 + i, "E_sd": 50.0, "E_hdi90_lo": 1900.0 + i,
+             "E_hdi90_hi": 2100.0 + i, "n_warnings": len(ws),
+             "warnings": " | ".join(ws)} for i, (n, ws) in enumerate(warned.items())]
+    html = write_page(BatchResult(rows, tmp_path, "1 local process", 1.0)).read_text()
+    listed = html.split("Shared by several tests")[1].split("</ul>")[0]
+    assert listed.count("<li>") == 2
+    assert "<b>3 of 3 tests</b>: G held at 0 (its normalised sensitivity" in listed
+    assert "is 0.4–1.2 % of the largest" in listed and html.count("G held at 0") == 1
+    assert "<b>2 of 3 tests</b>: lag-1 autocorrelation +0.91–+0.95 (Durbin-Watson 0.01–0.03)" in listed
+    assert "Err(tau_max) = 23 %" in html.split("its other warnings")[1]      # t2's own, in its row

@@ -16,6 +16,7 @@ import pandas as pd
 import pytest
 from support.batch import FEW, LONG_STEPS, tiny_campaign
 from support.drawing import figures_not_drawn
+from support.git_ignore import not_ignored
 
 from bayes_dnlr.cli import main
 from bayes_dnlr.runs.chains import read_run
@@ -61,6 +62,12 @@ def test_one_corrupt_data_file_gives_three_results_and_one_error_row(tmp_path, c
     assert "1 failed" in page and "t2.csv" in page and "E across the tests" in page
     assert "data:image/png;base64," in page and (out / "figures" / "batch_E.png").is_file()
     assert not (out / "runs" / "t2" / "chains.h5").exists()
+    # every file the batch wrote, in its default folder inside the project's runs/, stays out of
+    # `git status` as every other run output does
+    written = sorted(str(Path("runs/campaign/batch-manifest") / p.relative_to(out))
+                     for p in out.rglob("*") if p.is_file())
+    assert any(w.endswith("batch.html") for w in written) and any("/rows/" in w for w in written)
+    assert not not_ignored(written)
 
     # fixing the file and running again: only t2 runs, here in this process (what is reused is
     # decided before any worker starts: a worker process for t2 alone would cost its imports only)

@@ -281,7 +281,7 @@ def test_a_run_s_kernels_are_carried_only_when_they_weigh_another_kernel():
     summary = {"noise": {"projection": {"sd_factor": {"E": 5.0137, "G": 6.2383}}}}
     note = error_model_note(models, summary)
     assert "(matern32 100 %, their maximum-likelihood hyperparameters)" in note
-    assert "(there: sd E x5.01, G x6.24)" in note
+    assert "(there: sd E 5.01x, G 6.24x the sampled kernel's alone)" in note
     assert run_error_models(fit({"exp": 1.0, "matern32": 0.0}), "exp") == []      # the sampled kernel
     assert run_error_models({}, "exp") == [] and error_model_note([], summary) == ""
 
