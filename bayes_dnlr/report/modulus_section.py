@@ -114,12 +114,15 @@ def section(run: RunResults, figdir: Path) -> list[str]:
             p = drawn(modulus_plot, np.asarray(curve["t"]), q, tuple(curve["resolved"]),
                       float(curve["E_median"]), tuple(curve["E_hdi_90"]), _chords(view, rs), marks,
                       figdir / f"modulus{suffix}.png")
+            chord = ("the ISO 527-1 chord over the times the loading takes from 0.05 to 0.25 % strain"
+                     if _standard(rs) == "ISO 527-1" else f"the {_standard(rs)} slope over the times "
+                     "the loading takes across its window")
             sec.append(img(p, "E(t)", (
                 "E(t), the relaxation modulus of the identified model: posterior median and 90 % "
                 "band over the times the test resolves (solid), its continuation to t → 0 (dashed: "
                 "an extrapolation through the spectrum's fast end) ending at E (left, with its 90 % "
-                "HDI); the reported times (dots: filled when trusted); the ISO 527-1 chord over the "
-                "times the loading takes from 0.05 to 0.25 % strain (bar): the mean of E(t) there.")))
+                f"HDI); the reported times (dots: filled when trusted); {chord} (bar): the mean of "
+                "E(t) there.")))
         sec.append(_table(rs))
     return sec + _master_curve(run, figdir)
 
@@ -154,9 +157,20 @@ def _master_curve(run: RunResults, figdir: Path) -> list[str]:
             _table(rows)]
 
 
+def _standard(rows: list[dict]) -> str:
+    """Whose slope the start check compares: ISO 527-1's chord, or ASTM D638's on a curve that
+    starts past 0.05 % strain (a cropped toe: inference/checks/start.py)."""
+    start = next((s for r in rows if (s := (r.get("checks") or {}).get("start"))), None) or {}
+    return start.get("standard", "ISO 527-1")
+
+
+def _what(rows: list[dict]) -> str:
+    return "ISO 527-1 chord" if _standard(rows) == "ISO 527-1" else f"{_standard(rows)} slope"
+
+
 def _table(rows: list[dict]) -> str:
     head = ("<table class='num'><thead><tr><th>t (s)</th><th>E(t) (MPa)</th><th>90 % HDI</th>"
-            "<th>band where it is measured</th><th>start (ISO chord, data / model)</th>"
+            f"<th>band where it is measured</th><th>start ({_what(rows)}, data / model)</th>"
             "<th>trust</th></tr></thead><tbody>")
     body = []
     for r in rows:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
-from bayes_dnlr.report.modulus_section import headline_words
+from bayes_dnlr.report.modulus_section import _table, headline_words
 
 
 def _run(row: dict) -> SimpleNamespace:
@@ -19,3 +19,17 @@ def test_the_headline_gives_e_t_with_its_trust():
     assert "first loading" not in words
     cyclic = headline_words(_run({**row, "trust": False}))
     assert "not trusted" in cyclic
+
+
+def test_the_table_names_the_standard_whose_slope_the_start_check_compares():
+    """On a curve cropped past 0.05 % strain (the rHDPE export) the start check compares ASTM D638's
+    slope: the column says so, where it said "ISO chord"."""
+    def row(standard):
+        start = {"data_chord": 1156.0, "model_chord": 1016.0, "z": 3.1, "times": [0.69, 0.99],
+                 "standard": standard}
+        return {"t": 2.0, "mean": 600.6, "sd": 20.0, "hdi_90": [567.8, 631.7], "trust": False,
+                "checks": {"start": start}}
+
+    astm = _table([row("ASTM D638")])
+    assert "<th>start (ASTM D638 slope, data / model)</th>" in astm and "ISO" not in astm
+    assert "<th>start (ISO 527-1 chord, data / model)</th>" in _table([row("ISO 527-1")])
