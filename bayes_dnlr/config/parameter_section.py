@@ -35,7 +35,8 @@ class ShiftConfig(Strict):
         if self.temperature == "none" and self.reference_temperature is not None:
             raise ValueError("reference_temperature needs a temperature law (temperature: arrhenius "
                              "or wlf)")
-        if self.stress == "none" and "driving" in self.model_fields_set:
+        # the default may be written back by a resolved config: only another driving is an error
+        if self.stress == "none" and self.driving != "stress":
             raise ValueError("driving needs stress: eyring")
         return self
 

@@ -157,6 +157,8 @@ def window_past_peak(d: DataConfig, time: np.ndarray, strain: np.ndarray, load: 
     k = int(np.argmax(v))
     top = float(v[k])
     end = int(np.flatnonzero(window)[-1]) - first
+    if turns.first_loading_end is not None and end + first == turns.first_loading_end:
+        return None         # the first loading of cycles, to the strain's turn: init's own window
     if not top > 0 or float(v[k:].min()) > (1 - PEAK_DROP) * top or end <= k or end >= v.size - 1:
         return None
     e = strain[first:load_end]

@@ -542,17 +542,20 @@ def _force_only(note: str, test: Any) -> str:
 
 def _cycles_window(time: np.ndarray, strain: np.ndarray, turns: Turns,
                    lines: np.ndarray | None = None) -> tuple[dict[str, float], str] | None:
-    """For a loading-unloading test (its ``turns``, data/cycles.py, indices of ``time``): the whole
-    history, with the first loading named as the other window that means something; None for a
-    test without cycles."""
+    """For a loading-unloading test (its ``turns``, data/cycles.py, indices of ``time``): its first
+    loading, with the whole history named as the other window; None for a test without cycles.
+    The model's relaxed state does not follow unloading (docs/model-form.md, "Loading-unloading
+    cycles"), with or without its stress shift: over the whole history it misses every unloading
+    and E(t) with it, while the first loading is one analysis the model describes."""
     if not turns.cyclic:
         return None
     k = turns.first_loading_end
     first = peak_window(time, strain, k)
     at = f" (line {int(lines[k])})" if lines is not None else ""
-    return {}, (f"the whole history: {len(turns.peaks)} loading-unloading cycles (the strain turns "
-                f"back first at t = {fmt(float(time[k]), 5)} s{at}, Hencky strain "
-                f"{fmt(float(strain[k]), 4)}); the first loading alone is {_flow(first)}")
+    return first, (f"the first loading of {len(turns.peaks)} loading-unloading cycles, to where the "
+                   f"strain turns back first (t = {fmt(float(time[k]), 5)} s{at}, Hencky strain "
+                   f"{fmt(float(strain[k]), 4)}): the model does not follow unloading; the whole "
+                   "history is {}")
 
 
 def _window_at_peak(test: Any, raw: dict[str, Any], edits: list[Edit], comments: dict[str, str]) -> None:

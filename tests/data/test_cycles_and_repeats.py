@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from support.real_data import CYCLES, reads_export
 
 from bayes_dnlr.config import ConfigError
@@ -213,11 +214,12 @@ def test_cycles_that_reverse_by_4_percent_of_the_strain_are_cycles_everywhere(wr
     seg = segments(test.time, None, turns=turns.within(np.arange(test.time.size)))
     assert [k for k in seg if k.startswith(("loading", "unloading"))] == [
         "loading 1", "unloading 1", "loading 2", "unloading 2", "loading 3", "unloading 3"]
-    # init proposes the whole history and names the first loading, which ends at the same peak
+    # init proposes the first loading, which ends at the same peak, and names the whole history
     result = init_config(path, tmp_path / "init" / "config.yaml")
-    assert "the whole history: 3 loading-unloading cycles" in result.text()
-    assert "the strain turns back first at t = 200.00 s" in result.text()
-    assert "the first loading alone is {time_max: 200.0}" in result.text()
+    assert "the first loading of 3 loading-unloading cycles" in result.text()
+    assert "the strain turns back first (t = 200.00 s" in result.text()
+    assert yaml.safe_load((tmp_path / "init" / "config.yaml").read_text())["data"]["window"] == {
+        "time_max": 200.0}
     # a window that ends before the first peak has no peak to end at
     early = load_test(make_config(**CYCLIC, window={"time_max": 150.0}))
     assert early.first_peak is None and early.turns == turns

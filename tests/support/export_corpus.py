@@ -233,6 +233,11 @@ def repeated_stamps(folder: Path) -> Case:
     return Case("repeated-stamps", path, expect, hand, {"data.area0": S0}, _peak(d))
 
 
+def _first_peak(t: np.ndarray, strain: np.ndarray) -> float:
+    """The time of the strain's first peak, as written in the file: where the first loading ends."""
+    return float(_num(float(t[int(np.flatnonzero(np.diff(strain) < 0)[0])])))
+
+
 def _cycles(seed: int, count: int = 3, strain_max: float = 0.03, rate: float = 1e-3,
             sample_rate: float = 2.0) -> dict[str, np.ndarray]:
     """Loading-unloading cycles by ``simulate``'s protocol (each unloading until the stress falls
@@ -252,14 +257,15 @@ def _cycles(seed: int, count: int = 3, strain_max: float = 0.03, rate: float = 1
 def cycles_true_stress(folder: Path) -> Case:
     """One specimen, three loading-unloading cycles at 1e-3 1/s to 1, 2 and 3 % strain, sampled at
     2 Hz: time, Hencky strain, true stress. The turning points are sparse samples, no spikes; the
-    window is the whole history."""
+    window is the first loading."""
     d = _cycles(15)
     path = folder / "cycles.csv"
     path.write_text("\n".join(["Time (s),True strain,True stress (MPa)",
                                *_rows([d["t"], d["eps"], d["true"]])]) + "\n")
     data = {"columns": {"time": "Time (s)", "stress": "True stress (MPa)", "strain": "True strain"},
-            "strain_measure": "hencky", "observable": "stress", "window": {}}
-    return Case("cycles", path, data, data)
+            "strain_measure": "hencky", "observable": "stress"}
+    peak = _first_peak(d["t"], d["eps"])
+    return Case("cycles", path, data, {**data, "window": {"time_max": peak}}, peak_time=peak)
 
 
 def engineering_only(folder: Path) -> Case:
@@ -286,8 +292,9 @@ def engineering_only(folder: Path) -> Case:
     path.write_text("\n".join([",".join(header), *_rows(cols)]).replace("nan", "") + "\n")
     data = {"specimen": 1, "specimen_columns": 8, "columns": {"time": 1, "stress": 4, "strain": 2},
             "repeated_time": "drop", "strain_unit": "fraction", "observable": "stress",
-            "stress_measure": "engineering", "strain_measure": "nominal", "window": {}}
-    return Case("engineering-only", path, data, data)
+            "stress_measure": "engineering", "strain_measure": "nominal"}
+    peak = _first_peak(specs[0]["t"], specs[0]["e"])
+    return Case("engineering-only", path, data, {**data, "window": {"time_max": peak}}, peak_time=peak)
 
 
 CASES: dict[str, Callable[[Path], Case]] = {

