@@ -10,11 +10,13 @@ Poisson's ratio, and the checks printed with them.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from bayes_dnlr.errors import BayesDnlrError
+from bayes_dnlr.model.shift import NO_SHIFT, Shift
 from bayes_dnlr.vocabulary import UNIVERSAL_EXPONENT
 from bayes_dnlr.workflows.export.prony import Prony, Refit, from_parameters, refit
 
@@ -34,6 +36,13 @@ class Card:
     draw_index: int                    # index in the flattened posterior
     prony: Prony                       # what is written (the N-mode series, or the refit)
     refit: Refit | None = None
+    a_test: float = 1.0                # a_T at the test's temperature (a shifted model's series is
+                                       # the reference temperature's: its times are a_T times the test's)
+
+    @property
+    def at_test(self) -> Prony:
+        """The card's series at the test's temperature (as a solver shifts it there)."""
+        return self.prony.scaled(self.a_test)
 
 
 @dataclass(frozen=True)
@@ -69,19 +78,23 @@ def pick_draws(E: np.ndarray, draws: int, seed: int) -> dict[str, tuple[int, flo
 
 
 def make_cards(values: dict[str, np.ndarray], modes: int, decades: float, time_range: TimeRange,
-               terms: int | None = None, draws: int = 0, seed: int = 0) -> CardSet:
+               terms: int | None = None, draws: int = 0, seed: int = 0,
+               a_test: Callable[[Mapping[str, float]], float] | None = None) -> CardSet:
     """The cards (median, q05, q95 and ``draws`` random draws), each refitted to ``terms`` terms
-    over the test's time range when ``terms`` is given."""
+    over the test's time range when ``terms`` is given. ``a_test``: a_T at the test's temperature of
+    a draw, when the model has a temperature law (its series is the reference temperature's, so a
+    refit covers the test's times divided by a_T)."""
     picks = pick_draws(values["E"], draws, seed)
     cards: list[Card] = []
     for label, (i, q) in picks.items():
         params = {k: float(v[i]) for k, v in values.items()}
+        a = 1.0 if a_test is None else float(a_test(params))
         full = from_parameters(params["E"], params["G"], params["tau_max"], modes, decades,
                                params.get("alpha", UNIVERSAL_EXPONENT))
         fit = None
         if terms is not None:
-            fit = refit(full, terms, time_range.t_lo, time_range.t_hi)
-        cards.append(Card(label, params, q, i, fit.prony if fit else full, fit))
+            fit = refit(full, terms, time_range.t_lo / a, time_range.t_hi / a)
+        cards.append(Card(label, params, q, i, fit.prony if fit else full, fit, a))
     return CardSet(cards, time_range, terms)
 
 
@@ -96,15 +109,20 @@ def ramp(rate: float, strain_max: float, n: int = 400,
 
 
 def small_strain_limit(card: Card, rate: float, modes: int, decades: float,
-                       strain_max: float = 2.0) -> float:
+                       strain_max: float = 2.0, shift: Shift = NO_SHIFT,
+                       temperature: float | None = None) -> float:
     """The largest strain up to which the card's ramp response at ``rate`` stays within
-    SMALL_STRAIN_TOLERANCE of the DNLR model (eq. 18, with ε_HT and the Hencky strain)."""
+    SMALL_STRAIN_TOLERANCE of the DNLR model (eq. 18, with ε_HT and the Hencky strain). With a
+    ``shift``, at the test's ``temperature`` (°C): the card as a solver shifts it there against the
+    model with its shift factor (its stress shift included, which no card holds)."""
     from bayes_dnlr.model import simulate
 
     t, e = ramp(rate, strain_max, 2000)
     p = card.params
-    model = simulate(t, e, {k: p[k] for k in ("E", "G", "tau_max", "alpha") if k in p}, modes, decades)
-    diff = np.abs(card.prony.response(t, e) - model) / np.maximum(np.abs(model), 1e-300)
+    names = ("E", "G", "tau_max", "alpha", *shift.parameters)
+    model = simulate(t, e, {k: p[k] for k in names if k in p}, modes, decades, shift=shift,
+                     temperature=temperature if shift.temperature != "none" else None)
+    diff = np.abs(card.at_test.response(t, e) - model) / np.maximum(np.abs(model), 1e-300)
     bad = np.flatnonzero(diff[1:] > SMALL_STRAIN_TOLERANCE)
     return float(strain_max if bad.size == 0 else e[1:][bad[0]])
 
@@ -112,9 +130,9 @@ def small_strain_limit(card: Card, rate: float, modes: int, decades: float,
 def bracket_checks(cards: list[Card], time_range: TimeRange) -> dict[str, object]:
     """Do the q05 and q95 cards bracket the median card? In E(0), in the ramp response to 0.2 %
     at the test's rate (samples from the range's start on), and over how much of the test's time
-    range in E(t)."""
+    range in E(t); each card at the test's temperature (``Card.at_test``)."""
     by = {c.label: c for c in cards}
-    lo, mid, hi = by["q05"].prony, by["median"].prony, by["q95"].prony
+    lo, mid, hi = by["q05"].at_test, by["median"].at_test, by["q95"].at_test
     t = np.concatenate([[0.0], np.geomspace(time_range.t_lo, time_range.t_hi, 400)])
     m_lo, m_mid, m_hi = lo.modulus(t), mid.modulus(t), hi.modulus(t)
     ok = (m_lo <= m_mid) & (m_mid <= m_hi)

@@ -45,6 +45,11 @@ class Prony:
         """g_i = E_i / E(0): the dimensionless Prony coefficients (sum = 1 - E_∞/E(0))."""
         return self.moduli / self.e0
 
+    def scaled(self, factor: float) -> Prony:
+        """The series with every relaxation time multiplied by ``factor``: the reference state's
+        series at a temperature where a_T = ``factor`` (time-temperature superposition)."""
+        return self if factor == 1.0 else Prony(self.e_inf, self.moduli, self.times * factor)
+
     def modulus(self, t: np.ndarray | float) -> np.ndarray:
         """E(t) at times t >= 0 (s)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))

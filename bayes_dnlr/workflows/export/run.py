@@ -21,10 +21,11 @@ import numpy as np
 from bayes_dnlr.diskio import own_dir
 from bayes_dnlr.errors import BayesDnlrError, RunError
 from bayes_dnlr.fileset import folder_set, recover_folder
+from bayes_dnlr.inference.test_model import shift_of
 from bayes_dnlr.numbers import fmt
 from bayes_dnlr.runs.layout import EXPORT_DIR
 from bayes_dnlr.runs.testset import plain_names
-from bayes_dnlr.vocabulary import UNIVERSAL_EXPONENT
+from bayes_dnlr.vocabulary import UNIVERSAL_EXPONENT, unit
 from bayes_dnlr.workflows.export import FORMAT_NAMES, abaqus, ansys, lsdyna, table
 from bayes_dnlr.workflows.export.cards import (
     RAMP_CHECK_STRAIN,
@@ -43,6 +44,7 @@ from bayes_dnlr.workflows.export.cards import (
 )
 from bayes_dnlr.workflows.export.context import Context
 from bayes_dnlr.workflows.export.prony import from_parameters
+from bayes_dnlr.workflows.export.shift_law import ShiftLaw, Support, spread_of
 
 
 @dataclass(frozen=True)
@@ -50,14 +52,15 @@ class Format:
     render: Callable[[Card, Context], str]
     extension: str
     solver: str | None          # a solver that needs ν < 0.5, or None (csv, json)
+    shift: Callable[[ShiftLaw, dict[str, float]], Support]   # what it carries of a shift law
 
 
 FORMATS = {
-    "abaqus": Format(abaqus.render, abaqus.EXTENSION, abaqus.SOLVER),
-    "ls-dyna": Format(lsdyna.render, lsdyna.EXTENSION, lsdyna.SOLVER),
-    "ansys": Format(ansys.render, ansys.EXTENSION, ansys.SOLVER),
-    "csv": Format(table.render_csv, "csv", None),
-    "json": Format(table.render_json, "json", None),
+    "abaqus": Format(abaqus.render, abaqus.EXTENSION, abaqus.SOLVER, abaqus.shift_support),
+    "ls-dyna": Format(lsdyna.render, lsdyna.EXTENSION, lsdyna.SOLVER, lsdyna.shift_support),
+    "ansys": Format(ansys.render, ansys.EXTENSION, ansys.SOLVER, ansys.shift_support),
+    "csv": Format(table.render_csv, "csv", None, table.shift_support),
+    "json": Format(table.render_json, "json", None, table.shift_support),
 }
 INDEX_FILE = "cards.csv"
 assert tuple(FORMATS) == FORMAT_NAMES
@@ -77,6 +80,7 @@ class ExportResult:
     context: Context
     status: str                        # written | up to date
     removed: list[Path] = field(default_factory=list)
+    shift: str | None = None           # what the format carries of the run's shift law (None: no shift)
 
     def table(self) -> str:
         ctx, cs = self.context, self.cards
@@ -105,17 +109,34 @@ class ExportResult:
         lines.append(f"check: q05/q95 bracket the median in E(0) ({e0} MPa): "
                      f"{'yes' if ch['E0_bracketed'] else 'NO'}; in the ramp to {100 * RAMP_CHECK_STRAIN:g} % "
                      f"at {fmt(rng.strain_rate, 3)} 1/s: {'yes' if ch['ramp_bracketed'] else 'NO'}; {brk}")
+        law = ctx.shift
+        at_ref = ("" if law is None or not law.has_temperature else
+                  f" (the test's times at {law.test_temperature:g} °C; at T_ref = {law.reference:g} °C, "
+                  "those times over each card's a_T)")
         if cs.terms is not None:
-            lines.append(f"--terms {cs.terms}: refitted on {fmt(rng.t_lo, 3)}-{fmt(rng.t_hi, 4)} s; "
+            lines.append(f"--terms {cs.terms}: refitted on {fmt(rng.t_lo, 3)}-{fmt(rng.t_hi, 4)} s{at_ref}; "
                          f"max error of E(t) {100 * ch['refit_max_error']:.3g} %, of the ramp to "
                          f"{100 * RAMP_CHECK_STRAIN:g} % (from {fmt(rng.t_lo, 3)} s) "
                          f"{100 * ch['refit_ramp_error']:.3g} % (worst card)")
         lines.append(f"limit: the card follows the DNLR model within {100 * SMALL_STRAIN_TOLERANCE:g} % "
-                     f"up to a strain of {fmt(ctx.small_strain_limit, 3)} at {fmt(rng.strain_rate, 3)} 1/s; "
-                     "the viscoplastic hardening beyond needs a user material (the files say so)")
+                     f"up to a strain of {fmt(ctx.small_strain_limit, 3)} at {fmt(rng.strain_rate, 3)} 1/s"
+                     f"{_against(law)}; the viscoplastic hardening beyond needs a user material (the files "
+                     "say so)")
+        if self.shift is not None:
+            lines.append(f"shift: {self.shift}")
         lines.append(f"files: {len(self.files)} in {self.out_dir}"
                      + (f"; removed {len(self.removed)} stale draw cards" if self.removed else ""))
         return "\n".join(lines)
+
+
+def _against(law: ShiftLaw | None) -> str:
+    """How the limit was measured for a shifted model (nothing without a shift)."""
+    if law is None:
+        return ""
+    at = (f" and {law.test_temperature:g} °C (the card shifted there by a_T)"
+          if law.has_temperature and law.test_temperature is not None else "")
+    stress = ", its stress shift included" if law.has_stress else ""
+    return f"{at}, against the model with its shift factor{stress}"
 
 
 def material_name(name: str) -> str:
@@ -255,36 +276,43 @@ def export(run_dir: str | Path, fmt_name: str, *, terms: int | None = None, draw
     check_poisson(poisson, form.solver)
     if poisson.value is not None and not -1.0 < poisson.value <= 0.5:
         raise BayesDnlrError(f"--nu {poisson.value:g}: Poisson's ratio lies in (-1, 0.5]")
+    shift = shift_of(cfg)
     values = {k: (run.values[k] if k in run.values
                   else np.full(run.n_draws, float(cfg.fixed_values[k])) if k in cfg.fixed_values else None)
-              for k in ("E", "G", "tau_max", "alpha")}
+              for k in ("E", "G", "tau_max", "alpha", *shift.parameters)}
     if values["alpha"] is None:         # a run made before the spectrum's exponent: eq. 12
         del values["alpha"]
     missing = [k for k, v in values.items() if v is None]
     if missing:
+        needs = "E, G and tau_max" + (" and the shift law's parameters" if shift.parameters else "")
         raise RunError(f"{run_dir}: the posterior has no draws of {missing} and the config does not fix "
-                       "them; export needs E, G and tau_max")
+                       f"them; export needs {needs}")
     if not run.fit:
         raise RunError(f"{run_dir}: no fit.json (the test's time range comes from it); run `fit`")
     rng = _time_range(run.fit, run_dir)
-    cards = make_cards(values, modes, decades, rng, terms=terms, draws=draws, seed=seed)
+    law = _shift_law(cfg, shift, values)
+    cards = make_cards(values, modes, decades, rng, terms=terms, draws=draws, seed=seed,
+                       a_test=None if law is None or not law.has_temperature else law.a_T)
     cards.checks = bracket_checks(cards.cards, rng)
     if terms is not None:
         errs = [(c.refit.max_error,
-                 ramp_error(c.prony, from_parameters(c.params["E"], c.params["G"], c.params["tau_max"],
-                                                     modes, decades,
-                                                     c.params.get("alpha", UNIVERSAL_EXPONENT)),
+                 ramp_error(c.at_test, from_parameters(c.params["E"], c.params["G"], c.params["tau_max"],
+                                                       modes, decades,
+                                                       c.params.get("alpha", UNIVERSAL_EXPONENT)
+                                                       ).scaled(c.a_test),
                             rng.strain_rate, rng.t_lo))
                 for c in cards.cards]
         cards.checks["refit_max_error"] = max(e for e, _ in errs)
         cards.checks["refit_ramp_error"] = max(r for _, r in errs)
     median = cards.cards[1] if cards.cards[1].label == "median" else cards.cards[0]
+    limit = small_strain_limit(median, rng.strain_rate, modes, decades, shift=shift,
+                               temperature=None if law is None else law.test_temperature)
     ctx = Context(material=mat, run=printable(str(run_dir)), poisson=poisson, density=density, modes=modes,
-                  decades=decades, strain_rate=rng.strain_rate,
-                  small_strain_limit=small_strain_limit(median, rng.strain_rate, modes, decades),
-                  t_range=(rng.t_lo, rng.t_hi), notes=_notes(cfg))
+                  decades=decades, strain_rate=rng.strain_rate, small_strain_limit=limit,
+                  t_range=(rng.t_lo, rng.t_hi), notes=_notes(cfg), shift=law)
     files = {f"{mat}_{c.label}.{form.extension}": form.render(c, ctx) for c in cards.cards}
-    files[INDEX_FILE] = index_csv(cards, ctx)
+    carried = None if law is None else form.shift(law, median.params).summary
+    files[INDEX_FILE] = index_csv(cards, ctx, carried)
     # the default folder is the run's own: no link in it is followed (--out is the user's choice)
     out_dir = (Path(out) if out is not None
                else own_dir(own_dir(run_dir / EXPORT_DIR, make=False) / fmt_name, make=False))
@@ -295,12 +323,28 @@ def export(run_dir: str | Path, fmt_name: str, *, terms: int | None = None, draw
         with folder_set(out_dir) as tmp:
             for name, text in files.items():
                 (tmp / name).write_text(text, encoding="utf-8")
-    return ExportResult(out_dir, fmt_name, [out_dir / n for n in files], cards, ctx, status, stale)
+    return ExportResult(out_dir, fmt_name, [out_dir / n for n in files], cards, ctx, status, stale,
+                        carried)
+
+
+def _shift_law(cfg, shift, values: dict[str, np.ndarray]) -> ShiftLaw | None:
+    """The run's shift law for its cards (None without one): the test's temperature (a column's
+    mean), and the posterior's spread of the law's parameters."""
+    if shift.is_none:
+        return None
+    temperature = None
+    if shift.temperature != "none":
+        from bayes_dnlr.data import load_test
+        from bayes_dnlr.runs.modulus_block import at_temperature
+
+        temperature = at_temperature(cfg, load_test(cfg)).value
+    return ShiftLaw(shift.temperature, shift.reference_temperature, shift.stress, shift.driving,
+                    temperature, spread_of(values, cfg.fixed_values, shift.parameters))
 
 
 def _notes(cfg) -> list[str]:
     notes = []
-    fixed = [k for k in ("E", "G", "tau_max") if k in cfg.fixed_values]
+    fixed = [k for k in ("E", "G", "tau_max", *cfg.model.shift.parameters) if k in cfg.fixed_values]
     if fixed:
         notes.append(f"{', '.join(fixed)} fixed in the run's config (no uncertainty from them).")
     if cfg.has_relaxation:
@@ -309,17 +353,29 @@ def _notes(cfg) -> list[str]:
     return notes
 
 
-def index_csv(cards: CardSet, ctx: Context) -> str:
-    """One row per card: its draw, parameters, series and checks (the file's header says more)."""
+def _column(name: str) -> str:
+    """A parameter's column in cards.csv: its name and unit (``Ea_kJ_mol``; ``C1``: no unit)."""
+    u = unit(name)
+    return name if u in ("", "-") else f"{name}_{u.replace('/', '_')}"
+
+
+def index_csv(cards: CardSet, ctx: Context, carried: str | None = None) -> str:
+    """One row per card: its draw, parameters, series and checks (the file's header says more); a
+    shifted run's also its shift parameters, and what the format carries of the law."""
+    law = ctx.shift
+    names = () if law is None else law.parameters
     lines = [f"# bayes_dnlr export of {ctx.run}: cards of the small-strain Prony series (docs/export.md)",
-             f"# checks: {json.dumps(cards.checks)}",
-             "card,quantile_of_E,posterior_draw,E_MPa,G_MPa,tau_max_s,alpha,E0_MPa,E_inf_MPa,terms,"
-             "refit_max_error"]
+             f"# checks: {json.dumps(cards.checks)}"]
+    if law is not None:
+        lines.append(f"# shift: temperature {law.temperature}, stress {law.stress}; the series are at the "
+                     f"reference state; this format: {carried}")
+    lines.append("card,quantile_of_E,posterior_draw,E_MPa,G_MPa,tau_max_s,alpha,E0_MPa,E_inf_MPa,terms,"
+                 "refit_max_error" + "".join(f",{_column(k)}" for k in names))
     for c in cards.cards:
         p = c.params
         q = "" if c.quantile_of_E is None else f"{c.quantile_of_E:g}"
         err = "" if c.refit is None else f"{c.refit.max_error:.4g}"
         lines.append(f"{c.label},{q},{c.draw_index},{p['E']:.10g},{p['G']:.10g},{p['tau_max']:.10g},"
                      f"{p.get('alpha', UNIVERSAL_EXPONENT):.10g},{c.prony.e0:.10g},"
-                     f"{c.prony.e_inf:.10g},{c.prony.terms},{err}")
+                     f"{c.prony.e_inf:.10g},{c.prony.terms},{err}" + "".join(f",{p[k]:.10g}" for k in names))
     return "\n".join(lines) + "\n"
