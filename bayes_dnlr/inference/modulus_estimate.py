@@ -253,8 +253,8 @@ class ExponentSpread:
         moved = {"E": max(float(point["E"]) + d.get("E", 0.0) * a, 1e-9 * float(point["E"])),
                  "G": max(float(point.get("G", 0.0)) + d.get("G", 0.0) * a, 0.0),
                  # a time constant moves in log space (d ln τ = dτ/τ), never to a negative τ
-                 "tau_max": float(point["tau_max"]) * math.exp(
-                     d.get("tau_max", 0.0) * a / float(point["tau_max"])),
+                 "tau_max": float(point["tau_max"]) * math.exp(float(np.clip(
+                     d.get("tau_max", 0.0) * a / float(point["tau_max"]), -50.0, 50.0))),
                  SPECTRUM_EXPONENT: float(point.get(SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT)) + a,
                  SHIFT_FACTOR: float(point.get(SHIFT_FACTOR, 1.0))}
         return (modulus_draws(moved, times, modes, decades)[0]

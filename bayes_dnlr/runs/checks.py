@@ -303,6 +303,8 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
     }
     checks["prior_sources"] = prior_sources(draws, names, priors,
                                             list(prior_shaped_e(checks["prior_sensitivity"])))
+    if fit.get("shift_law"):
+        checks["shift_law"] = fit["shift_law"]
     references = reference_check(summary.get("reference_moduli"))
     if references is not None:
         checks["reference_moduli"] = references
@@ -336,7 +338,7 @@ def _master_curve(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray
     refits = {t: posterior_refits(checks.get("bound_limited") or [], layout, t, cfg.for_test(t))
               for t in sources}
     noise_ok = {t: ((checks.get("noise_model") or {}).get(t) or {}).get("ok", True) for t in sources}
-    return master_curve(cfg, tests, sources, bands, singles, refits, noise_ok)
+    return master_curve(cfg, tests, sources, bands, singles, refits, noise_ok, fit.get("shift_law"))
 
 
 def _log_prior(draws: np.ndarray, priors) -> np.ndarray:

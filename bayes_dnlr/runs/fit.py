@@ -29,6 +29,7 @@ from bayes_dnlr.runs.master_curve import fit_master_curve
 from bayes_dnlr.runs.modulus_block import fit_rows, stress_refit
 from bayes_dnlr.runs.modulus_view import console_lines
 from bayes_dnlr.runs.reference_fit import fit_references
+from bayes_dnlr.runs.shift_law import leave_one_temperature_out
 from bayes_dnlr.runs.testset import load_tests, sections
 
 # fit_is_current lives with the other staleness checks (runs/identity.py), where the report reads it
@@ -87,6 +88,8 @@ def fit(cfg: Config, *, overwrite: bool = False, write: bool = True, test=None) 
                              "" if test.plain else f"{name}: ")
             single.modulus_at = None if found is None else found.rows
         if not test.plain:
+            result.shift_law = leave_one_temperature_out(
+                cfg, test, {t: r.to_dict() for t, r in result.singles.items()})
             result.modulus_reference = fit_master_curve(cfg, test, result)
     secs = sections(cfg)
     result.config_digest = identity.config_digest(cfg, secs)

@@ -29,6 +29,7 @@ from bayes_dnlr.inference.modulus_estimate import (
 from bayes_dnlr.inference.modulus_window import ResolvedWindow, nice_time
 from bayes_dnlr.runs.modulus_block import at_temperature, has_modulus, judged, resolved
 from bayes_dnlr.runs.testset import TestSet
+from bayes_dnlr.runs.verdict import modulus_reasons
 
 MAX_TIMES = 6        # the default reference times: the shortest, then one per decade
 NO_SPREAD = ("the exponent's spread comes from one test's own fit, which a curve shared by the "
@@ -74,10 +75,22 @@ def _holder(windows: Mapping[str, dict], t: float) -> tuple[str, bool]:
     return best, margin(windows[best]) >= -1e-9
 
 
+def _law_check(block: Mapping[str, Any] | None, temperature: float,
+               reference: float) -> dict[str, Any] | None:
+    """The held-out check (runs/shift_law.py) of the tests at ``temperature``, for E(t) the law
+    carries from there to the reference temperature; None at the reference or where unchecked."""
+    if not block or temperature == reference:
+        return None
+    for e in block.get("held_out") or []:
+        if e["temperature"] == temperature and e["tests"]:
+            return {"temperature": temperature, "ok": all(x["ok"] for x in e["tests"].values())}
+    return None
+
+
 def master_curve(cfg: Config, tests: TestSet, sources: Mapping[str, Source],
                  bands: Mapping[str, Band], fits: Mapping[str, Mapping[str, Any]],
-                 refits: Mapping[str, Sequence[BoundRefit]], noise_ok: Mapping[str, bool]
-                 ) -> dict[str, Any] | None:
+                 refits: Mapping[str, Sequence[BoundRefit]], noise_ok: Mapping[str, bool],
+                 shift_law: Mapping[str, Any] | None = None) -> dict[str, Any] | None:
     """The ``modulus_reference`` block (summary.json, fit.json): the reference temperature, each
     test's windows, the rows at the reference times (``output.modulus_at``, else
     ``default_times``), each with the test it comes from, and the curve over the union of the
@@ -106,6 +119,11 @@ def master_curve(cfg: Config, tests: TestSet, sources: Mapping[str, Source],
                                 view.model.decades, None, reference), "")
         row = found.rows[0]
         row["test"] = test
+        law = _law_check(shift_law, w["temperature"], s.reference_temperature)
+        if law is not None:
+            row["checks"]["shift_law"] = law
+            row["trust_reasons"] = modulus_reasons(row)
+            row["trust"] = not row["trust_reasons"]
         row["lacks"] = {**row.get("lacks", {}), "spectrum exponent": NO_SPREAD}
         row["checks"]["inside_window"] = inside and row["checks"]["inside_window"]
         rows.append(row)
@@ -162,4 +180,4 @@ def fit_master_curve(cfg: Config, tests: TestSet, result) -> dict[str, Any] | No
                              fit_noise(view, tests.tests[t], singles[t], under))
     white = {t: bool((singles[t].get("residuals") or {}).get("white", True)) for t in sources}
     return master_curve(cfg, tests, sources, bands, singles, {},
-                        {t: under or white[t] for t in sources})
+                        {t: under or white[t] for t in sources}, result.shift_law)

@@ -333,7 +333,7 @@ def posterior_block(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarr
                     names: list[str], bands: Mapping[str, Band], checks: Mapping[str, Any],
                     log_prior: np.ndarray | None, converged: bool,
                     fit: Mapping[str, Any]) -> tuple[Any, Any]:
-    """summary.json's ``modulus_at`` (per test, a list of {t, mean, sd, median, hdi_90, source,
+    """The ``modulus_at`` of summary.json (per test, a list of {t, mean, sd, median, hdi_90, source,
     resolved, why, checks, trust, trust_reasons}; a run with one test gives its list, a run with
     several {"tests": {name: list}}) and ``modulus_curve`` (per test, what the report draws)."""
     per_test: dict[str, list[dict]] = {}

@@ -216,6 +216,11 @@ def modulus_reasons(row: dict[str, Any], who: str = "") -> list[str]:
                    f"holds it at ½), which moves {t} by {fmt(shape['move'], 3)} MPa, "
                    f"{abs(shape['z']):.1f} of its sd: the assumed spectrum's shape, not the data, "
                    "decides it; sample the exponent (parameters.alpha, docs/model-form.md)")
+    law = c.get("shift_law")
+    if law and not law["ok"]:
+        out.append(f"{who}the temperature law does not carry the tests at {law['temperature']:g} °C "
+                   f"from the others (its held-out check): {t} at the reference temperature from "
+                   "them is the law's, not the data's")
     stress = c.get("stress")
     if stress and not stress["ok"]:
         out.append(f"{who}the data ask for a stress shift (its score test, z = {stress['score_z']:.1f}"
@@ -286,6 +291,27 @@ def band_remedy(band: dict[str, Any]) -> str:
     return ("the model's form does not describe the curve where E(t) is measured (docs/model-form.md): "
             "read the residuals there")
 
+def shift_law_words(block: dict[str, Any] | None) -> str | None:
+    """The verdict's sentence on the temperature law's held-out check (runs/shift_law.py); None
+    without one, or when it was not checked."""
+    if not block or block.get("ok") is None:
+        return None
+    bad = [(e["temperature"], t, x) for e in block["held_out"] for t, x in e["tests"].items()
+           if not x["ok"]]
+    if not bad:
+        shares = [x["coverage"] for e in block["held_out"] for x in e["tests"].values()]
+        return (f"The temperature law predicts each temperature's tests from the others: "
+                f"{100 * min(shares):.0f}-{100 * max(shares):.0f} % of their points in the 90 % "
+                "band (held out one temperature at a time).")
+    T, t, x = bad[0]
+    return (f"The temperature law does not predict the tests at {T:g} °C from the others: {t} lies "
+            f"beyond the prediction of the fit without them (χ² {x['chi2']:.0f} on {x['points']} "
+            f"points, p = {x['p']:.2g}; {100 * x['coverage']:.0f} % of its points in the 90 % "
+            "band): the law fits every temperature but does not carry one to another; E(t) at the "
+            "reference temperature from those tests is the law's, not the data's. Try the other "
+            "law (model.shift.temperature), or tests at more temperatures.")
+
+
 
 def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[bool, bool, str, list[str]]:
     """(adequate, trust_interval, the verdict's first sentence, one sentence per check) from the
@@ -331,6 +357,11 @@ def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[boo
     if sens:
         trust = False
         said.append((False, _prior_words(sens, checks.get("prior_sources") or {})))
+    law = shift_law_words(checks.get("shift_law"))
+    if law:
+        ok = bool(checks["shift_law"]["ok"])
+        trust &= ok
+        said.append((ok, law))
     if not converged:
         trust = False
         said.append((False, "The chain has not converged: its intervals are not final (raise "

@@ -543,10 +543,8 @@ def _force_only(note: str, test: Any) -> str:
 def _cycles_window(time: np.ndarray, strain: np.ndarray, turns: Turns,
                    lines: np.ndarray | None = None) -> tuple[dict[str, float], str] | None:
     """For a loading-unloading test (its ``turns``, data/cycles.py, indices of ``time``): its first
-    loading, with the whole history named as the other window; None for a test without cycles.
-    The model's relaxed state does not follow unloading (docs/model-form.md, "Loading-unloading
-    cycles"), with or without its stress shift: over the whole history it misses every unloading
-    and E(t) with it, while the first loading is one analysis the model describes."""
+    loading, the whole history named; None for a test without cycles. The model follows no
+    unloading (docs/model-form.md, "Loading-unloading cycles"), with or without its stress shift."""
     if not turns.cyclic:
         return None
     k = turns.first_loading_end

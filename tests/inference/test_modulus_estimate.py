@@ -146,3 +146,74 @@ def test_the_spread_widens_the_rows_and_the_curve_alike():
     assert wide.rows[0]["spectrum_exponent"]["added_sd"] > 0
     i = int(np.argmin(np.abs(np.asarray(wide.curve["t"]) - 1.0)))
     assert (wide.curve["q95"][i] - wide.curve["q05"][i]) > 2 * (plain.curve["q95"][i] - plain.curve["q05"][i])
+
+
+def test_e_t_at_another_temperature_is_the_reference_curve_at_times_over_a_t_and_so_its_gradient():
+    from bayes_dnlr.inference.modulus_estimate import LOG_SLOPES, SHIFT_FACTOR, AtTemperature
+    from bayes_dnlr.model.shift import temperature_shift
+
+    at = AtTemperature("arrhenius", 20.0, 40.0)
+    point = {**POINT, "Ea": 250.0}
+    a = temperature_shift(40.0, "arrhenius", 20.0, Ea=250.0)
+    assert at.factor(point) == pytest.approx(a) and not AtTemperature("arrhenius", 20.0, 20.0).shifted
+    shifted = {**point, SHIFT_FACTOR: a, LOG_SLOPES: at.log_slopes(point)}
+    times = [0.01, 0.1]
+    np.testing.assert_allclose(modulus_draws(shifted, times)[0],
+                               relaxation_modulus(np.array(times) / a, *POINT.values()), rtol=1e-12)
+    g = gradient(shifted, ["tau_max", "Ea"], times)
+    for j, k in enumerate(["tau_max", "Ea"]):
+        h = 1e-6 * point[k]
+
+        def at_value(v, k=k):
+            p = {**point, k: v}
+            return relaxation_modulus(times, p["E"], p["G"], p["tau_max"],
+                                      shift_factor=at.factor(p))
+
+        np.testing.assert_allclose(g[:, j], (at_value(point[k] + h) - at_value(point[k] - h)) / (2 * h),
+                                   rtol=1e-5)
+
+
+def test_an_interval_wider_than_a_quarter_of_e_t_says_little():
+    from bayes_dnlr.inference.modulus_estimate import INFORMATIVE, width_check
+
+    assert width_check({"hdi_90": [90.0, 110.0], "median": 100.0}) == {"half_width": 0.1, "ok": True}
+    wide = width_check({"hdi_90": [70.0, 130.0], "median": 100.0})
+    assert wide["half_width"] == pytest.approx(0.3) and not wide["ok"] and INFORMATIVE == 0.25
+
+
+def test_the_local_check_is_its_gap_in_the_local_sd():
+    from bayes_dnlr.inference.modulus_estimate import LocalEstimate, local_check
+
+    local = LocalEstimate(1000.0, 10.0, 5.0, 5.0)
+    assert local_check(local, 1020.0)["ok"] and local_check(local, 1020.0)["z"] == pytest.approx(2.0)
+    assert not local_check(local, 1030.0)["ok"]
+    assert local_check(None, 1.0) is None and local_check(LocalEstimate(1.0, 0.0, 1.0, 1.0), 2.0) is None
+
+
+def test_the_exponent_s_pull_is_followed_only_where_small_and_never_where_the_data_ask_for_a_stress_shift():
+    from bayes_dnlr.inference.modulus_estimate import followed
+
+    held = np.full((4000, 2), 1000.0) * np.exp(0.01 * np.random.default_rng(0).standard_normal((4000, 2)))
+    spread = ExponentSpread(0.05, {"E": -2900.0}, step=0.05)
+    point = {**POINT, "alpha": 0.5}
+    values, checks = followed(held, spread, point, [1.0, 100.0], 50, 6.0)
+    moved = [c["move"] for c in checks]
+    for i, c in enumerate(checks):
+        assert c["followed"] == c["ok"] == (abs(c["z"]) <= 2.576)
+        if c["followed"]:
+            assert np.median(values[:, i]) == pytest.approx(np.median(held[:, i]) + moved[i], rel=1e-3)
+    _, not_followed = followed(held, spread, point, [1.0, 100.0], 50, 6.0, follow=False)
+    assert not any(c["followed"] for c in not_followed)
+    assert [c["z"] for c in not_followed] == [c["z"] for c in checks]
+
+
+def test_the_stress_check_compares_the_refit_s_e_t_in_this_one_s_sd():
+    from bayes_dnlr.inference.modulus_estimate import AtTemperature, StressPull, stress_check
+
+    refit = {"E": 2000.0, "G": 0.0, "tau_max": 50.0, "sigma_s": 2.0}
+    other = relaxation_modulus([1.0], 2000.0, 0.0, 50.0)[0]
+    pull = StressPull(5.0, 2.0, refit)
+    c = stress_check(pull, other - 30.0, 10.0, 1.0, 50, 6.0, AtTemperature())
+    assert c["move"] == pytest.approx(30.0) and c["z"] == pytest.approx(3.0) and not c["ok"]
+    assert stress_check(StressPull(1.0, 2.0, refit), 0.0, 10.0, 1.0, 50, 6.0, AtTemperature()) is None
+    assert stress_check(StressPull(5.0, None, None), 0.0, 10.0, 1.0, 50, 6.0, AtTemperature()) is None

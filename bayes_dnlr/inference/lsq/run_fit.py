@@ -68,6 +68,7 @@ class RunFit:
     plain: bool = False                    # one test, plain names: fit.json is that test's fit
     identifiability: dict[str, Any] | None = None   # parameters held: no test identifies them
     modulus_reference: dict[str, Any] | None = None  # E(t) at T_ref (runs/master_curve.py)
+    shift_law: dict[str, Any] | None = None          # its held-out check (runs/shift_law.py)
     references: dict[str, Any] | None = None        # fit.json's reference_moduli and reference_data
     reference_lines: list[str] = field(default_factory=list)   # their lines of the console table
 
@@ -124,6 +125,7 @@ class RunFit:
             "data_sha256": self.data_sha256, "version": __version__, "wall_time_s": self.wall_time_s,
             "identifiability": self.identifiability,
             **({"modulus_reference": self.modulus_reference} if self.modulus_reference else {}),
+            **({"shift_law": self.shift_law} if self.shift_law else {}),
         })
 
     def table(self) -> str:
