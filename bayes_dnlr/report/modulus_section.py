@@ -46,10 +46,20 @@ def headline_words(run: RunResults) -> str:
             mark = ('<span class="good">trusted</span>' if r.get("trust") else
                     '<span class="bad">not trusted (below)</span>')
             lo, hi = r["hdi_90"]
-            parts.append(f"{who}<b>E({fmt(r['t'], 3)} s) = {pm(r['mean'], r['sd'])} MPa</b> "
+            at = f" at {r['temperature']:g} °C" if r.get("temperature") is not None else ""
+            parts.append(f"{who}<b>E({fmt(r['t'], 3)} s){at} = {pm(r['mean'], r['sd'])} MPa</b> "
                          f"(90 % HDI {interval(lo, hi, r['sd'])}), {mark}")
-    return ("The modulus the data determine, the relaxation modulus at the shortest time the "
-            "test resolves: " + "; ".join(parts) + ". " + html.escape(WHAT_E_IS))
+    text = ("The modulus the data determine, the relaxation modulus at the shortest time the "
+            "test resolves: " + "; ".join(parts) + ". ")
+    ref = reference(run.summary or {})
+    trusted = [r for r in (ref or {}).get("rows") or [] if r.get("trust")]
+    if ref and ref.get("rows"):
+        shown = trusted or ref["rows"][:1]
+        text += (f"At the reference temperature, {ref['temperature']:g} °C (the master curve, below): "
+                 + "; ".join(f"<b>E({fmt(r['t'], 3)} s) = {pm(r['mean'], r['sd'])} MPa</b> from "
+                             f"{html.escape(str(r.get('test')))}" for r in shown[:3])
+                 + ("" if trusted else ", not trusted") + ". ")
+    return text + html.escape(WHAT_E_IS)
 
 
 def consistency_box(run: RunResults) -> str:

@@ -104,6 +104,11 @@ def leave_one_temperature_out(cfg: Config, tests: TestSet,
         for t in held:
             view = cfg.for_test(t)
             columns = {k: draws.draws[k][:N_CURVES] for k in view.parameters if k in draws.draws}
+            unseen = [k for k in view.parameters if k not in columns and k not in view.fixed_values]
+            if unseen:
+                entry.setdefault("note", f"{t} has {', '.join(unseen)}, which the tests at the other "
+                                         "temperatures do not measure: nothing to predict it from")
+                continue
             noise = fit_noise(view, tests.tests[t], singles.get(t) or {}, under)
             band = test_band(view, tests.tests[t], columns, noise)
             q, n = _mahalanobis(view, tests.tests[t], columns, noise.var)

@@ -300,9 +300,15 @@ def shift_law_words(block: dict[str, Any] | None) -> str | None:
            if not x["ok"]]
     if not bad:
         shares = [x["coverage"] for e in block["held_out"] for x in e["tests"].values()]
-        return (f"The temperature law predicts each temperature's tests from the others: "
-                f"{100 * min(shares):.0f}-{100 * max(shares):.0f} % of their points in the 90 % "
-                "band (held out one temperature at a time).")
+        lo, hi = 100 * min(shares), 100 * max(shares)
+        held = [e for e in block["held_out"] if e["tests"]]
+        missed = [e.get("note") or f"{e['temperature']:g} °C" for e in block["held_out"]
+                  if not e["tests"]]
+        return (f"The temperature law predicts the tests at "
+                f"{', '.join(f'{e['temperature']:g}' for e in held)} °C from the others, each held "
+                f"out in turn ({lo:.0f} %" + (f"-{hi:.0f} %" if round(hi) != round(lo) else "")
+                + " of their points in the 90 % band)"
+                + (f"; not held out: {'; '.join(missed)}" if missed else "") + ".")
     T, t, x = bad[0]
     return (f"The temperature law does not predict the tests at {T:g} °C from the others: {t} lies "
             f"beyond the prediction of the fit without them (χ² {x['chi2']:.0f} on {x['points']} "

@@ -34,12 +34,25 @@ def constant_temperature(test) -> float | None:
 
 def alone(view: Config, test) -> Config:
     """The config of a test fitted alone: its temperature law's free parameters held at NOMINAL
-    when its temperature is constant (alone, they have no effect but through tau_max)."""
+    when its temperature is constant (alone, they have no effect but through tau_max), and the
+    prior boxes of its time constants moved by a_T at those values, so that the box the config
+    gives holds the test's own time scale τ_T = tau_max a_T, whatever the nominal law."""
     law = view.model.shift.temperature
-    if law == "none" or constant_temperature(test) is None:
+    T = constant_temperature(test)
+    if law == "none" or T is None:
         return view
     hold = {k: NOMINAL[k] for k in SHIFT_LAW_PARAMETERS[law] if k in view.free_parameters}
-    return view.with_holds(hold) if hold else view
+    if not hold:
+        return view
+    a = math.exp(log_temperature_shift(T, law, view.model.shift.reference_temperature,
+                                       **{**{k: view.fixed_values.get(k) for k in NOMINAL}, **hold}))
+    params = dict(view.with_holds(hold).parameters)
+    for k in ("tau_max", "tau_max_R"):
+        spec = params.get(k)
+        if spec is not None and not spec.fixed:
+            params[k] = spec.model_copy(update={
+                key: getattr(spec, key) / a for key in ("low", "high") if getattr(spec, key)})
+    return view.model_copy(update={"parameters": params})
 
 
 def time_scale(view: Config, test, fixed: Mapping[str, float], tau: float) -> float:
