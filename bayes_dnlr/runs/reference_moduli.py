@@ -84,9 +84,14 @@ def _reference(cfg: Config, index: int, label: str, spec, base: Path) -> Referen
         temp = np.array([np.nan if spec.temperature is None else float(spec.temperature)])
         reading = []
     shift, words = temperature_shift(cfg, temp, label, spec.use)
+    s = cfg.model.shift
+    law = (s.temperature, float(s.reference_temperature)) if s.temperature != "none" else None
+    if law is not None and not np.all(np.isfinite(temp)):
+        words.append(f"no temperature given: predicted at the reference temperature, "
+                     f"{s.reference_temperature:g} °C")
     return Reference(index=index, label=label, method=spec.method, use=spec.use, quantity=quantity,
                      at=at, value=value, sd=sd, test=spec.test, shift=shift, temperature=temp,
-                     spec=spec, notes=words, sweep=spec.is_sweep, reading=reading)
+                     spec=spec, notes=words, sweep=spec.is_sweep, reading=reading, law=law)
 
 
 def references_of(cfg: Config) -> list[Reference]:

@@ -304,8 +304,8 @@ def shift_law_words(block: dict[str, Any] | None) -> str | None:
         held = [e for e in block["held_out"] if e["tests"]]
         missed = [e.get("note") or f"{e['temperature']:g} °C" for e in block["held_out"]
                   if not e["tests"]]
-        return (f"The temperature law predicts the tests at "
-                f"{', '.join(f'{e['temperature']:g}' for e in held)} °C from the others, each held "
+        temps = ", ".join(f"{e['temperature']:g}" for e in held)
+        return (f"The temperature law predicts the tests at {temps} °C from the others, each held "
                 f"out in turn ({lo:.0f} %" + (f"-{hi:.0f} %" if round(hi) != round(lo) else "")
                 + " of their points in the 90 % band)"
                 + (f"; not held out: {'; '.join(missed)}" if missed else "") + ".")

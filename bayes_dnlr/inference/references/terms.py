@@ -30,7 +30,10 @@ from bayes_dnlr.numbers import frequency_text
 from bayes_dnlr.vocabulary import SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT
 
 STORAGE, LOSS, RELAXATION = "storage", "loss", "relaxation"
-PREDICTED_BY = ("E", "G", "tau_max", SPECTRUM_EXPONENT)    # what a reference's prediction depends on
+# what a reference's prediction depends on; with a temperature law, its parameters too (a_T carries
+# a reference's temperature to the spectrum's reference one)
+SPECTRAL = ("E", "G", "tau_max", SPECTRUM_EXPONENT)
+PREDICTED_BY = (*SPECTRAL, "Ea", "C1", "C2")
 LOG_STEP = 1.0e-5        # central differences in ln tau_max and in alpha
 TEMPERATURE_TOLERANCE = 1.0   # °C: a reference this close to the tests' temperature is at theirs
 _LOG_2PI = math.log(2.0 * math.pi)
@@ -53,6 +56,8 @@ class Reference:
     test: str | None             # whose parameters predict it (None: the run's shared ones)
     shift: np.ndarray            # (m,) a_T of each element's temperature (1: the tests')
     temperature: np.ndarray      # (m,) °C, NaN when not given
+    law: tuple[str, float] | None = None   # the model's temperature law and reference temperature:
+    #                                        a_T then comes from each draw's Ea (C1, C2)
     spec: Any = field(repr=False, default=None)     # the config entry
     notes: list[str] = field(default_factory=list)     # what to say about it (its temperature)
     sweep: bool = False
@@ -111,8 +116,9 @@ def temperature_shift(cfg, temperature: np.ndarray, label: str, use: str
     given = temperature[np.isfinite(temperature)]
     if given.size == 0:
         return shift, []
-    if getattr(cfg.model, "shift", None) is not None:
-        raise NotImplementedError("reference_moduli with model.shift: apply a_T here")
+    if cfg.model.shift.temperature != "none":
+        # the law carries each temperature to the reference one, draw by draw (``predict``)
+        return shift, []
     own = tests_temperature(cfg)
     lo, hi = float(given.min()), float(given.max())
     at = f"{lo:g} °C" if hi - lo <= TEMPERATURE_TOLERANCE else f"{lo:g}-{hi:g} °C"
@@ -147,23 +153,44 @@ def columns_of(values: Mapping[str, Any]) -> dict[str, np.ndarray | float]:
             SPECTRUM_EXPONENT: values.get(SPECTRUM_EXPONENT, UNIVERSAL_EXPONENT)}
 
 
+def law_factor(ref: Reference, values: Mapping[str, Any], rows: np.ndarray) -> np.ndarray | float:
+    """a_T of the elements ``rows`` (one temperature) for each draw of ``values`` under the model's
+    temperature law; 1 without one or at the reference temperature (a reference without a
+    temperature is taken at it)."""
+    from bayes_dnlr.model.shift import temperature_shift as a_t
+
+    if ref.law is None:
+        return 1.0
+    T = float(ref.temperature[rows[0]])
+    law, reference = ref.law
+    if not np.isfinite(T) or T == reference:
+        return 1.0
+    return a_t(T, law, reference, **{k: values.get(k) for k in ("Ea", "C1", "C2")})
+
+
 def predict(ref: Reference, values: Mapping[str, Any], modes: int = 50,
             decades: float = 6.0) -> np.ndarray:
     """The model's value of each element: (k, m) for k draws (or (m,) for one parameter set)."""
     c = columns_of(values)
-    scalar = all(np.ndim(v) == 0 for v in c.values())
-    E, G, tau, a = (np.atleast_1d(np.asarray(c[k], dtype=float)) for k in PREDICTED_BY)
-    k = max(E.size, G.size, tau.size, a.size)
+    law = [values[k] for k in ("Ea", "C1", "C2") if ref.law is not None and k in values]
+    scalar = all(np.ndim(v) == 0 for v in [*c.values(), *law])
+    E, G, tau, a = (np.atleast_1d(np.asarray(c[k], dtype=float)) for k in SPECTRAL)
+    k = max(E.size, G.size, tau.size, a.size, *(np.size(v) for v in law))
     out = np.full((k, ref.m), np.nan)
-    for shift in np.unique(ref.shift):
+    groups = (np.round(np.nan_to_num(ref.temperature, nan=-1e9), 6) if ref.law is not None
+              else ref.shift)
+    for group in np.unique(groups):
         for q in (STORAGE, LOSS, RELAXATION):
-            rows = np.flatnonzero((ref.quantity == q) & (ref.shift == shift))
+            rows = np.flatnonzero((ref.quantity == q) & (groups == group))
             if not rows.size:
                 continue
+            shift = float(ref.shift[rows[0]])
+            # a temperature law: the draws' own a_T times each τ_j (τ_max is the reference state's)
+            t_eff = tau * np.atleast_1d(np.asarray(law_factor(ref, values, rows), dtype=float))
             if q == RELAXATION:
-                v = relaxation_modulus(ref.at[rows] / shift, E, G, tau, a, modes, decades)
+                v = relaxation_modulus(ref.at[rows] / shift, E, G, t_eff, a, modes, decades)
             else:
-                v = complex_modulus(ref.at[rows], E, G, tau, a, modes, decades, shift)[q == LOSS]
+                v = complex_modulus(ref.at[rows], E, G, t_eff, a, modes, decades, shift)[q == LOSS]
             out[:, rows] = np.atleast_2d(v)
     return out[0] if scalar else out
 
@@ -174,6 +201,8 @@ def gradient(ref: Reference, params: Mapping[str, float], names: Sequence[str], 
     tau_max in s); E and G exactly (the prediction is linear in them), tau_max and alpha by central
     differences (in ln tau_max); zero for a parameter the references do not depend on."""
     p = {k: float(v) for k, v in columns_of(params).items()}
+    law = {k: float(params[k]) for k in ("Ea", "C1", "C2") if k in params}
+    p.update(law)
     out = np.zeros((ref.m, len(names)))
     for j, k in enumerate(names):
         if k == "E":
@@ -189,6 +218,12 @@ def gradient(ref: Reference, params: Mapping[str, float], names: Sequence[str], 
             up = predict(ref, {**p, SPECTRUM_EXPONENT: a + LOG_STEP}, modes, decades)
             down = predict(ref, {**p, SPECTRUM_EXPONENT: a - LOG_STEP}, modes, decades)
             out[:, j] = (up - down) / (2 * LOG_STEP)
+        elif k in ("Ea", "C1", "C2") and k in params:
+            v = float(params[k])
+            h = LOG_STEP * max(abs(v), 1.0)
+            up = predict(ref, {**p, **law, k: v + h}, modes, decades)
+            down = predict(ref, {**p, **law, k: v - h}, modes, decades)
+            out[:, j] = (up - down) / (2 * h)
     return out
 
 

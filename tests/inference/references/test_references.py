@@ -172,3 +172,29 @@ def test_a_sweep_is_checked_as_a_whole():
                                pred, sweep=True).fired for _ in range(200)]
     assert sum(fired) <= 8                            # about 1 % expected
     assert compare.agreement(mean + 40.0 * np.sin(np.arange(m)), sd, pred, sweep=True).fired
+
+
+def test_a_reference_at_another_temperature_is_carried_by_the_model_s_law_draw_by_draw():
+    """With a temperature law, a reference measured at 40 °C is the reference spectrum's with every
+    τ_j times a_T(40 °C) of each draw's Ea; at the reference temperature, or without a temperature,
+    a_T = 1; the gradient in Ea is the prediction's own."""
+    from bayes_dnlr.model.shift import temperature_shift
+
+    m = 3
+    r = Reference(0, "r", "dma", "data", np.array([STORAGE, LOSS, RELAXATION]),
+                  np.array([1.0, 1.0, 2.0]), np.ones(m), np.ones(m), None, np.ones(m),
+                  np.full(m, 40.0), law=("arrhenius", 20.0))
+    draws = {**P, "Ea": np.array([200.0, 300.0])}
+    got = predict(r, draws)
+    for i, ea in enumerate((200.0, 300.0)):
+        a = temperature_shift(40.0, "arrhenius", 20.0, Ea=ea)
+        s, loss = complex_modulus(1.0, P["E"], P["G"], P["tau_max"] * a)
+        assert got[i, 0] == pytest.approx(s[0]) and got[i, 1] == pytest.approx(loss[0])
+        assert got[i, 2] == pytest.approx(relaxation_modulus(2.0, P["E"], P["G"], P["tau_max"] * a)[0])
+    at_ref = Reference(0, "r", "dma", "data", np.array([STORAGE]), np.array([1.0]), np.ones(1),
+                       np.ones(1), None, np.ones(1), np.full(1, 20.0), law=("arrhenius", 20.0))
+    assert predict(at_ref, {**P, "Ea": 250.0})[0] == pytest.approx(complex_modulus(1.0, **P)[0][0])
+    g = gradient(r, {**P, "Ea": 250.0}, ["Ea"])
+    h = 1e-3
+    fd = (predict(r, {**P, "Ea": 250.0 + h}) - predict(r, {**P, "Ea": 250.0 - h})) / (2 * h)
+    np.testing.assert_allclose(g[:, 0], fd, rtol=1e-4)
