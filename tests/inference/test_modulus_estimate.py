@@ -197,14 +197,17 @@ def test_the_exponent_s_pull_is_followed_only_where_small_and_never_where_the_da
     spread = ExponentSpread(0.05, {"E": -2900.0}, step=0.05)
     point = {**POINT, "alpha": 0.5}
     values, checks = followed(held, spread, point, [1.0, 100.0], 50, 6.0)
-    moved = [c["move"] for c in checks]
-    for i, c in enumerate(checks):
-        assert c["followed"] == c["ok"] == (abs(c["z"]) <= 2.576)
-        if c["followed"]:
-            assert np.median(values[:, i]) == pytest.approx(np.median(held[:, i]) + moved[i], rel=1e-3)
-    _, not_followed = followed(held, spread, point, [1.0, 100.0], 50, 6.0, follow=False)
+    still, not_followed = followed(held, spread, point, [1.0, 100.0], 50, 6.0, follow=False)
     assert not any(c["followed"] for c in not_followed)
     assert [c["z"] for c in not_followed] == [c["z"] for c in checks]
+    for i, c in enumerate(checks):
+        assert c["followed"] == c["ok"] == (abs(c["z"]) <= 2.576)
+        # the move is the pull's shift of the median; the spread widens the held draws
+        assert np.median(values[:, i]) - np.median(still[:, i]) == pytest.approx(
+            c["move"] if c["followed"] else 0.0, rel=0.02, abs=1e-6)
+        assert still[:, i].std() >= 0.999 * held[:, i].std() and np.all(still[:, i] > 0)
+    # the move is linearized along the path: slope × pull
+    assert checks[0]["move"] == pytest.approx(float(spread.slope(point, [1.0], 50, 6.0)[0]) * 0.05)
 
 
 def test_the_stress_check_compares_the_refit_s_e_t_in_this_one_s_sd():
