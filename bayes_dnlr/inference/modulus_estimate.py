@@ -339,7 +339,9 @@ def followed(held: np.ndarray, spread: ExponentSpread, point: Mapping[str, float
     with np.errstate(divide="ignore", invalid="ignore"):
         z = np.where(sd > 0, move / sd, 0.0)
     ok = np.abs(z) <= SHAPE_Z
-    taken = ok & follow
+    # A move that would take the median through zero is far outside the linearization, however
+    # wide E(t)'s spread there (late times, where E(t) is small and loosely held).
+    taken = ok & follow & (np.median(held, axis=0) + move > 0)
     values = np.where(taken[None, :], apply_spread(held, added, np.where(taken, move, 0.0)), still)
     checks = [{"alpha_pulled": UNIVERSAL_EXPONENT + spread.pull, "move": float(m), "z": float(zi),
                "ok": bool(o), "followed": bool(f)}
@@ -385,11 +387,11 @@ def apply_spread(values: np.ndarray, added_sd: np.ndarray,
                  move: np.ndarray | None = None) -> np.ndarray:
     """E(t) draws (draws, times) with the exponent's pull and spread: each multiplied by
     exp(μ + σ z), z standard normal (seeded); μ = ln(1 + move / median) (the median moves by
-    ``move``, which ``ExponentSpread.move`` keeps above −median); σ the log-normal's whose sd is the added
+    ``move``, which ``followed`` keeps above −median); σ the log-normal's whose sd is the added
     sd over the median, r: e^{σ²}(e^{σ²} − 1) = r², so σ ≈ r where r is small and grows as
     sqrt(2 ln r) where it is not (no overflow)."""
     median = np.maximum(np.median(values, axis=0), 1e-300)
-    rel = np.asarray(added_sd, dtype=float) / median
+    rel = np.minimum(np.asarray(added_sd, dtype=float) / median, 1e100)
     sigma = np.sqrt(np.log1p((np.sqrt(1.0 + 4.0 * rel**2) - 1.0) / 2.0))
     mu = np.zeros_like(sigma) if move is None else np.log1p(np.asarray(move, dtype=float) / median)
     z = np.random.default_rng(SPREAD_SEED).standard_normal(values.shape)

@@ -119,7 +119,7 @@ def section(run: RunResults, figdir: Path) -> list[str]:
         curve = _curve_of(run, t)
         if curve is not None and rs:
             suffix = "" if not several else "-" + "".join(c if c.isalnum() else "_" for c in t)
-            q = np.array([curve["q05"], curve["q50"], curve["q95"]])
+            q = np.array([curve["q05"], curve["q50"], curve["q95"]], dtype=float)  # null: NaN
             marks = [(r["t"], r["mean"], *r["hdi_90"], bool(r.get("trust"))) for r in rs]
             p = drawn(modulus_plot, np.asarray(curve["t"]), q, tuple(curve["resolved"]),
                       float(curve["E_median"]), tuple(curve["E_hdi_90"]), _chords(view, rs), marks,
@@ -148,7 +148,7 @@ def _master_curve(run: RunResults, figdir: Path) -> list[str]:
     spans = "; ".join(f"{html.escape(t)} at {w['temperature']:g} °C: {fmt(w['reduced'][0], 3)}-"
                       f"{fmt(w['reduced'][1], 3)} s (a_T = {fmt(w['a_T'], 3)})"
                       for t, w in ref["windows"].items())
-    q = np.array([curve["q05"], curve["q50"], curve["q95"]])
+    q = np.array([curve["q05"], curve["q50"], curve["q95"]], dtype=float)  # null: NaN
     marks = [(r["t"], r["mean"], *r["hdi_90"], bool(r.get("trust"))) for r in rows]
     p = drawn(modulus_plot, np.asarray(curve["t"]), q, tuple(curve["resolved"]),
               float(curve["E_median"]), tuple(curve["E_hdi_90"]), [], marks,

@@ -220,3 +220,17 @@ def test_the_stress_check_compares_the_refit_s_e_t_in_this_one_s_sd():
     assert c["move"] == pytest.approx(30.0) and c["z"] == pytest.approx(3.0) and not c["ok"]
     assert stress_check(StressPull(1.0, 2.0, refit), 0.0, 10.0, 1.0, 50, 6.0, AtTemperature()) is None
     assert stress_check(StressPull(5.0, None, None), 0.0, 10.0, 1.0, 50, 6.0, AtTemperature()) is None
+
+
+def test_a_pull_that_would_take_e_t_through_zero_is_not_followed_however_wide_its_spread():
+    from bayes_dnlr.inference.modulus_estimate import followed
+
+    # late times: E(t) small and loosely held, so a move larger than E(t) is still within 2.576 sd
+    held = np.full((4000, 1), 5.0) * np.exp(2.0 * np.random.default_rng(1).standard_normal((4000, 1)))
+    spread = ExponentSpread(0.05, {"E": -2900.0}, step=-0.05)
+    point = {**POINT, "alpha": 0.5}
+    move = float(spread.move(point, [1.0], 50, 6.0)[0])
+    assert move < -float(np.median(held))          # the case at hand
+    values, checks = followed(held, spread, point, [1.0], 50, 6.0)
+    assert not checks[0]["followed"]
+    assert np.all(np.isfinite(values)) and np.all(values > 0)
