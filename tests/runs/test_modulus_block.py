@@ -226,3 +226,32 @@ def test_a_chain_that_samples_a_parameter_the_fit_now_holds_is_refused(tmp_path)
     _check_holds(cfg, SimpleNamespace(names=["E", "G", "tau_max"]), {})
     with pytest.raises(StaleRunError, match="they differ on G"):
         _check_holds(cfg, SimpleNamespace(names=["E", "tau_max"]), {})
+
+
+def test_a_bound_refit_of_a_test_at_another_temperature_carries_the_temperature_law(tmp_path):
+    """E(t) of a test away from the reference temperature needs a_T of each bound refit: the refits
+    keep the law's parameters (Ea here), and E(t)'s move is the refit's at that temperature."""
+    from bayes_dnlr.inference.layout import Layout
+    from bayes_dnlr.inference.modulus_estimate import AtTemperature, bound_moves
+    from bayes_dnlr.model.shift import temperature_shift
+    from bayes_dnlr.runs.modulus_block import posterior_refits
+
+    data = {"columns": {"time": "t", "eps11": "e", "stress": "s"}, "observable": "stress"}
+    raw = {"name": "t", "model": {"shift": {"temperature": "arrhenius", "reference_temperature": 20}},
+           "tests": [{"name": f"T{c}", "data": {**data, "file": f"T{c}.csv", "temperature": c}}
+                     for c in (10, 30)]}
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(raw))
+    cfg = load_config(tmp_path / "config.yaml")
+    layout = Layout.build({t: cfg.for_test(t).free_parameters for t in cfg.test_names},
+                          cfg.per_test_parameters)
+    before = {"E": 2800.0, "G": 2.0, "tau_max": 6.0, "Ea": 150.0}
+    after = {**before, "tau_max": 4.0, "Ea": 140.0}
+    [refit] = posterior_refits([{"parameter": "tau_max", "estimates": {"before": before, "after": after}}],
+                               layout, "T10", cfg.for_test("T10"))
+    assert refit.before["Ea"] == 150.0 and refit.after["Ea"] == 140.0
+    at = AtTemperature("arrhenius", 20.0, 10.0)
+    moves = bound_moves([refit], 1.0, 10.0, 50, 6.0, at)
+    a0, a1 = (temperature_shift(10.0, "arrhenius", 20.0, Ea=p["Ea"]) for p in (before, after))
+    expected = (relaxation_modulus([1.0], 2800.0, 2.0, 4.0 * a1)[0]
+                - relaxation_modulus([1.0], 2800.0, 2.0, 6.0 * a0)[0]) / 10.0
+    assert moves == {"tau_max": pytest.approx(expected)}
