@@ -255,3 +255,32 @@ def test_a_bound_refit_of_a_test_at_another_temperature_carries_the_temperature_
     expected = (relaxation_modulus([1.0], 2800.0, 2.0, 4.0 * a1)[0]
                 - relaxation_modulus([1.0], 2800.0, 2.0, 6.0 * a0)[0]) / 10.0
     assert moves == {"tau_max": pytest.approx(expected)}
+
+
+def test_the_master_curve_of_a_fit_that_holds_g_uses_the_held_value(tmp_path):
+    """A joint fit at several temperatures whose windows cannot identify G holds it at 0
+    (fit.json identifiability): the master curve's draws and bands take G from there."""
+    from bayes_dnlr.runs.fit import fit
+    from bayes_dnlr.workflows.simulate import simulate_tests
+
+    shift = {"temperature": "arrhenius", "reference_temperature": 20.0}
+    tests = []
+    for k, c in enumerate((0.0, 10.0, 20.0)):
+        tests.append({"name": f"T{c:g}", "data": {
+            "file": f"T{c:g}.csv", "columns": {"time": "t", "eps11": "e", "stress": "s"},
+            "observable": "stress", "temperature": c}, "noise": {"sigma0": 0.3, "discrepancy": "none"},
+            "truth": {"params": {"E": 2854.0, "G": 2.32, "tau_max": 5.79, "Ea": 150.0}, "shift": shift,
+                      "temperature": c, "strain_rate": 5e-3, "strain_max": 0.005, "n_points": 120,
+                      "noise": {"strain_sd": 0.0, "stress_sd": 0.3}, "seed": 11 + k}})
+    raw = {"name": "held", "tests": tests, "model": {"shift": shift}, "fit": {"multistart": 0}}
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(raw))
+    cfg = load_config(tmp_path / "config.yaml")
+    simulate_tests(cfg)
+    result = fit(cfg)
+    f = json.loads((cfg.run_dir / "fit.json").read_text())
+    assert "G" in f["identifiability"]["held"] and "G" not in f["estimate"]
+    rows = f["modulus_reference"]["rows"]
+    assert rows and result.modulus_reference["rows"] == rows
+    for r in rows:          # E(t) of the held G = 0 at the reference temperature, near the truth's
+        true = relaxation_modulus([r["t"]], 2854.0, 2.32, 5.79)[0]
+        assert r["hdi_90"][0] < r["mean"] < r["hdi_90"][1] and abs(r["mean"] - true) < 0.1 * true
