@@ -94,10 +94,12 @@ def _log_stress_shift(view: Config, data, rows, test: str, layout: Layout, draws
 
 
 def plausibility_check(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray,
-                       names: list[str], standards: dict[str, dict | None]) -> dict[str, dict]:
+                       names: list[str], standards: dict[str, dict | None],
+                       bands: dict[str, Band] | None = None) -> dict[str, dict]:
     """Each test's physical checks (only those that apply to it). A time constant is judged at the
     test's temperature (× a_T) against the test's duration, in reduced time under a stress shift
-    (∫ dt / a_σ: the stress speeds the modes up where it flows)."""
+    (∫ dt / a_σ: the stress speeds the modes up where it flows); E against the chord, allowing for
+    the chord's noise (the start check's, in ``bands``)."""
     out = {}
     for t in layout.tests:
         data, checks = tests.tests[t], {}
@@ -122,7 +124,10 @@ def plausibility_check(cfg: Config, tests: TestSet, layout: Layout, draws: np.nd
         chord = next((v for v in ((standards.get(t) or {}).get(s) for s in ("iso527_1", "astm_d638"))
                       if v), None)
         if e is not None and chord:
-            checks["E_chord"] = physical.chord_check(e, float(chord))
+            # the chord's noise sd where the start check measured the same chord (bands.py)
+            start = (bands or {}).get(t) and bands[t].start
+            same = start is not None and math.isclose(start.data, float(chord), rel_tol=1e-9)
+            checks["E_chord"] = physical.chord_check(e, float(chord), start.noise_sd if same else 0.0)
         out[t] = checks
     # a time constant the tests share is measured when one of them measures it
     for k in ("tau_max", "tau_max_R"):
@@ -358,7 +363,7 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
                                               bands=bands),
         "bound_limited": bound_check(cfg, tests, draws, names, priors, fit, uses_disc, post_sd),
         "prior_sensitivity": prior_sensitivity_check(draws, names, priors),
-        "plausibility": plausibility_check(cfg, tests, layout, draws, names, standards),
+        "plausibility": plausibility_check(cfg, tests, layout, draws, names, standards, bands),
         "model_form": model_form_check(fit, layout, post_sd),
         "noise_model": noise_model_check(cfg, noise),
     }

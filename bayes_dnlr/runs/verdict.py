@@ -109,7 +109,10 @@ def _plausibility_words(test: str, checks: dict, several: bool) -> list[tuple[st
     if c is not None and not c["ok"]:
         out.append(("adequate", False,
                     f"{who}E's 95 % quantile ({fmt(c['E_q95'])} MPa) lies below the standards' chord "
-                    f"({fmt(c['chord'])} MPa), a lower bound of the instantaneous modulus: impossible. "
+                    f"({fmt(c['chord'])} MPa"
+                    + (f", by more than {physical.CHORD_Z:g} of its noise sd of {fmt(c['chord_sd'])} MPa"
+                       if c.get("chord_sd") else "")
+                    + "), a lower bound of the instantaneous modulus: impossible. "
                     "The model does not describe the start of this curve (a toe, a preload)."))
     return out
 

@@ -503,3 +503,20 @@ def test_a_stress_shifted_test_measures_a_time_constant_far_beyond_its_clock_dur
     assert 15 * 40.0 < c["reduced_duration"] < 25 * 40.0
     blind = cfg.model_copy(update={"model": cfg.model.model_copy(update={"shift": type(cfg.model.shift)()})})
     assert not plausibility_check(blind, tests, layout, draws, names, {})["t"]["tau_max"]["ok"]
+
+
+def test_e_below_a_noisy_chord_is_impossible_only_beyond_the_chord_s_noise() -> None:
+    """A slow spectrum's chord lies within a few % of E, and noise moves the measured chord above
+    E's 95 % quantile in about one test of ten: the check allows CHORD_Z of the chord's noise sd
+    (73 MPa on a 40 s ramp to 4 % with 0.3 MPa of noise, E 1000 MPa)."""
+    e = np.full(100, 1000.0)
+    assert physical.chord_check(e, 1039.0, 73.0) == {"ok": True, "E_q95": 1000.0, "chord": 1039.0,
+                                                      "chord_sd": 73.0}
+    assert not physical.chord_check(e, 1039.0, 10.0)["ok"]
+    assert not physical.chord_check(e, 1039.0)["ok"]                    # no noise known: as before
+    failing = physical.chord_check(e, 1300.0, 73.0)
+    adequate, _, _, words = verdict_parts(_at_thresholds(plausibility={"t": {"E_chord": failing}}),
+                                          True, False)
+    assert not adequate and words[0].startswith(
+        "E's 95 % quantile (1000 MPa) lies below the standards' chord (1300 MPa, by more than 1.645 "
+        "of its noise sd of 73.00 MPa), a lower bound")
