@@ -22,6 +22,18 @@ the checks change inside the package.
     .venv/bin/python benchmarks/misspecification.py --from results.json   # print saved results
     .venv/bin/python benchmarks/misspecification.py --kinds strain-toe-hold --strength 2e-3 --first 100
 
+``stress-shift`` (held out) makes the test with an Eyring stress shift (``truth.shift``, the
+package's shifted model): a slow-spectrum material like the ETFE film at 40 °C (E 1000 MPa,
+tau_max 1000 s, sigma_s 2 MPa) on a ramp at 1e-3 1/s to 4 %, well into the nonlinear range. Fitted
+by the stress-blind model (the default config) and by the shifted one (``--set
+'model.shift={stress: eyring}'``), whose records say so (``fitted``). Its E(t) truth is the σ → 0
+limit, the relaxation modulus of the true reference spectrum. ``--modulus-at-resolved 10`` asks
+every run for E(t) at 10× the first time its test resolves (``output.modulus_at``):
+
+    .venv/bin/python benchmarks/misspecification.py --kinds stress-shift --modulus-at-resolved 10
+    .venv/bin/python benchmarks/misspecification.py --kinds stress-shift --modulus-at-resolved 10 \
+        --set 'model.shift={stress: eyring}'
+
 The checks' thresholds were chosen on the default kinds at the mild strength, replicates 0-29:
 ``HELD_OUT_KINDS``, numeric strengths and other ``--first`` replicates are data they were not
 chosen on (docs/thresholds.md, benchmarks/thresholds.py reads the records' ``check_values``).
@@ -46,6 +58,11 @@ RAMP = {"params": {"E": 2854.0, "G": 2.32, "tau_max": 5.79}, "strain_rate": 5e-3
 # specimen B of the paper at 5e-3 1/s (Tables 4-5), then a 600 s hold (runs/hdpe-b-relax-5e-3)
 HOLD = {"params": {"E": 2270.0, "G": 2.30, "tau_max": 7.16, "sigma_inf": 100.0, "tau_max_R": 150.0},
         "strain_rate": 5e-3, "strain_max": 2.0, "hold": 600.0}
+# an Eyring stress shift (model/shift.py) on a slow-spectrum material like the ETFE film at 40 °C
+# (E(t) about 1000 MPa, flat over 2-100 s), a ramp at 0.1 %/s to 4 %: linear to about 0.2 %, then
+# flow at 7-9 MPa, where the stress-blind model reads yield as relaxation (docs/theory.md)
+STRESS_SHIFT = {"params": {"E": 1000.0, "G": 5.0, "tau_max": 1000.0, "sigma_s": 2.0},
+                "shift": {"stress": "eyring"}, "strain_rate": 1e-3, "strain_max": 0.04}
 # label -> (truth.model_form kind or None, protocol)
 KINDS = {
     "clean": (None, RAMP),
@@ -67,6 +84,7 @@ HELD_OUT_KINDS = {
     "clean-hold": (None, HOLD),
     "two-process-fast": ("two-process", RAMP | {"strain_rate": 1e-2}),
     "hardening-langevin-fast": ("hardening-langevin", RAMP | {"strain_rate": 1e-2}),
+    "stress-shift": (None, STRESS_SHIFT),
 }
 ALL_KINDS = KINDS | HELD_OUT_KINDS
 QUICK_KINDS = ("clean", "spectrum-lognormal", "strain-toe", "two-process-hold")
@@ -115,7 +133,11 @@ def read_checks(summary: dict[str, Any]) -> tuple[bool | None, list[str]]:
             trust = not _fired(checks[k])
             break
     fired = [k for k, v in checks.items()
-             if k not in (*TRUST_KEYS, "verdict", "verdict_points", "adequate") and _fired(v)]
+             if k not in (*TRUST_KEYS, "verdict", "verdict_points", "adequate", "plausibility")
+             and _fired(v)]
+    # the physical checks, each by name (plausibility.tau_max, plausibility.E_chord, ...)
+    fired += [f"plausibility.{k}" for k, v in (checks.get("plausibility") or {}).items()
+              if isinstance(v, dict) and v.get("ok") is False]
     if "adequate" in checks and _fired(checks["adequate"]):
         fired.append("adequate")
     return trust, fired
@@ -202,22 +224,46 @@ def fit_replicate(cfg, out: dict[str, Any]) -> dict[str, Any]:
                   "fit_bound_warnings": sum("bound" in w for w in r.get("warnings", [])),
                   "posterior": {k: {"mean": src["estimate"][k], "sd": src["sd"][k]}
                                 for k in src["sd"]},
-                  "spectrum_exponent": r.get("spectrum_exponent"), **_scores(r)}
+                  "spectrum_exponent": r.get("spectrum_exponent"), **_scores(r),
+                  "modulus_at": modulus_records(cfg, r)}
+
+
+def at_resolved(path: Path, multiples: list[float]) -> Path:
+    """The config at ``path`` asking for E(t) at ``multiples`` of the first time its test resolves
+    (the package's resolved window, inference/modulus_window.py), once its data are written."""
+    from bayes_dnlr.config import load_config
+    from bayes_dnlr.data import load_test
+    from bayes_dnlr.inference.modulus_window import test_window
+
+    first = test_window(load_test(load_config(path))).shortest
+    raw = yaml.safe_load(path.read_text())
+    _set(raw, "output.modulus_at", [float(f"{m * first:.6g}") for m in multiples])
+    path.write_text(yaml.safe_dump(raw, sort_keys=False))
+    return path
+
+
+def fitted_model(cfg) -> str:
+    """The fitted model's shift: 'stress-blind', or its laws ('eyring', 'arrhenius+eyring')."""
+    s = cfg.model.shift
+    laws = [x for x in (s.temperature, s.stress) if x != "none"]
+    return "+".join(laws) if laws else "stress-blind"
 
 
 def replicate(args: tuple) -> dict[str, Any]:
     """Simulate, fit and sample one replicate; what the tables need from its outputs."""
-    folder, kind, strength, likelihood, rep, overrides, target_ess, fit_only = args
+    folder, kind, strength, likelihood, rep, overrides, target_ess, fit_only, *more = args
     from bayes_dnlr.config import load_config
     from bayes_dnlr.runs.sample import sample
     from bayes_dnlr.workflows.simulate import simulate_test
 
     path = write_config(Path(folder), kind, strength, likelihood, rep, overrides, target_ess)
+    simulate_test(load_config(path))
+    if more and more[0]:
+        at_resolved(path, more[0])
     cfg = load_config(path)
-    simulate_test(cfg)
     t0 = time.perf_counter()
     out: dict[str, Any] = {"kind": kind, "strength": strength, "likelihood": likelihood, "rep": rep,
-                           "truth": cfg.truth.params}
+                           "truth": cfg.truth.params, "fitted": fitted_model(cfg)}
     if fit_only:
         return fit_replicate(cfg, out) | {"wall_s": time.perf_counter() - t0}
     try:
@@ -288,16 +334,22 @@ def _check_numbers(row: dict[str, Any]) -> dict[str, float | None]:
             "added_sd": (row.get("spectrum_exponent") or {}).get("added_sd")}
 
 
+def row_label(r: dict[str, Any]) -> str:
+    """The row's kind, with the fitted model's shift when it has one (``+eyring``)."""
+    fitted = r.get("fitted", "stress-blind")
+    return r["kind"] if fitted == "stress-blind" else f"{r['kind']}+{fitted}"
+
+
 def modulus_table(results: list[dict[str, Any]]) -> str:
     """One row per kind × likelihood × time: E(t)'s coverage, covered or flagged, flagged, bias, sd
     and the checks that withdrew its trust."""
     groups: dict[tuple, list[dict]] = {}
     for r in results:
         for m in r.get("modulus_at") or []:
-            groups.setdefault((r["kind"], r["strength"], r["likelihood"], m["t"]), []).append(m)
+            groups.setdefault((row_label(r), r["strength"], r["likelihood"], m["t"]), []).append(m)
     if not groups:
         return ""
-    lines = [f"{'E(t)':<20}{'strength':<9}{'likelihood':<11}{'t (s)':>7}{'n':>4}{'raw':>6}{'cover':>7}"
+    lines = [f"{'E(t)':<26}{'strength':<9}{'likelihood':<11}{'t (s)':>7}{'n':>4}{'raw':>6}{'cover':>7}"
              f"{'cov|flag':>9}{'flag':>6}{'bias %':>8}{'sd %':>7}{'med|z|':>8}  checks that withdrew trust"]
     for (kind, strength, lik, t), ms in groups.items():
         n = len(ms)
@@ -308,7 +360,7 @@ def modulus_table(results: list[dict[str, Any]]) -> str:
         sdp = np.mean([100 * m["sd"] / m["truth"] for m in ms])
         z = np.median([abs(m["mean"] - m["truth"]) / m["sd"] for m in ms if m["sd"] > 0] or [math.nan])
         why = Counter(k for m in ms for k in m["reasons"])
-        lines.append(f"{kind:<20}{strength:<9}{lik:<11}{t:>7.3g}{n:>4}{raw / n:>6.2f}{cov / n:>7.2f}"
+        lines.append(f"{kind:<26}{strength:<9}{lik:<11}{t:>7.3g}{n:>4}{raw / n:>6.2f}{cov / n:>7.2f}"
                      f"{(cov + flag) / n:>9.2f}{flag / n:>6.2f}{bias:>+8.2f}{sdp:>7.2f}{z:>8.2f}  "
                      + ", ".join(f"{k} {v}/{n}" for k, v in sorted(why.items())))
     return "\n".join(lines)
@@ -343,8 +395,8 @@ def table(results: list[dict[str, Any]]) -> str:
     """One row per kind × likelihood."""
     groups: dict[tuple[str, str, str], list[dict]] = {}
     for r in results:
-        groups.setdefault((r["kind"], str(r["strength"]), r["likelihood"]), []).append(r)
-    head = (f"{'kind':<20}{'strength':<9}{'likelihood':<11}{'n':>4}{'cover':>7}{'cov|flag':>9}"
+        groups.setdefault((row_label(r), str(r["strength"]), r["likelihood"]), []).append(r)
+    head = (f"{'kind':<26}{'strength':<9}{'likelihood':<11}{'n':>4}{'cover':>7}{'cov|flag':>9}"
             f"{'flag':>6}{'mean|z|':>9}{'med|z|':>8}{'bias %':>8}{'sd %':>7}{'steps':>7}{'s':>6}"
             "  kernels; checks fired")
     lines = [head]
@@ -369,7 +421,7 @@ def table(results: list[dict[str, Any]]) -> str:
         if n - len(ok):
             notes += f"; {n - len(ok)} failed"
         lines.append(
-            f"{kind:<20}{strength:<9}{lik:<11}{n:>4}{covered / n:>7.2f}{(covered + flagged) / n:>9.2f}"
+            f"{kind:<26}{strength:<9}{lik:<11}{n:>4}{covered / n:>7.2f}{(covered + flagged) / n:>9.2f}"
             f"{flagged / n:>6.2f}{np.mean(z):>9.2f}{np.median(z):>8.2f}{bias:>+8.1f}{sdp:>7.2f}"
             f"{_median([r['steps'] for r in ok]):>7.0f}{_median([r['sampling_s'] for r in ok]):>6.1f}"
             f"  {notes}")
@@ -381,7 +433,7 @@ def table(results: list[dict[str, Any]]) -> str:
             shift = [abs(r["spectrum_exponent"]["shift_in_prior_sd"]) for r in alpha
                      if (r.get("spectrum_exponent") or {}).get("shift_in_prior_sd") is not None]
             far = f", |shift| > 2 prior sd in {sum(x > 2 for x in shift)}/{len(shift)}" if shift else ""
-            lines.append(f"{'':<40}alpha: posterior mean {am:.3f} (avg), sd {asd:.3f}, "
+            lines.append(f"{'':<46}alpha: posterior mean {am:.3f} (avg), sd {asd:.3f}, "
                          f"corr(E, alpha) {rho:+.3f}{far}")
     return "\n".join(lines)
 
@@ -411,6 +463,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--fit-only", action="store_true",
                     help="least squares only: linearized intervals (the GLS ones under the "
                          "discrepancy) and the score test of alpha; fast")
+    ap.add_argument("--modulus-at-resolved", type=float, nargs="+", default=None, metavar="M",
+                    help="E(t) at these multiples of the first time each test resolves "
+                         "(output.modulus_at; default: the package's default times)")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--first", type=int, default=0, help="first replicate number (to extend a run)")
     ap.add_argument("--out", type=Path, default=None, help="write every replicate's record (JSON)")
@@ -434,7 +489,8 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         work = [(tmp, k, args.strength, lik, args.first + r, overrides, args.target_ess,
-                 args.fit_only) for k in kinds for lik in args.likelihoods for r in range(reps)]
+                 args.fit_only, args.modulus_at_resolved)
+                for k in kinds for lik in args.likelihoods for r in range(reps)]
         if args.jobs <= 1:
             results = [replicate(w) for w in work]
         else:

@@ -21,9 +21,21 @@ The likelihood is a config passthrough: ``--likelihood white`` (``noise.discrepa
 length (log-uniform 5-100 s) are drawn per test from the same prior and added to the data as an
 Ornstein-Uhlenbeck error; their ranks are checked too).
 
+``--shift``: the shift factor's parameters are sampled too (docs/theory.md, "The shift factor"):
+each simulation is one run of three ramps (``tests:``) at 0, 10 and 20 °C into the nonlinear
+range (to strain 0.1, ``--points`` per test, 300 by default), made and fitted with an Arrhenius
+a_T about 20 °C and an Eyring a_σ driven by the true stress; E, G, tau_max, Ea (uniform 100-200
+kJ/mol) and sigma_s (log-uniform 2-10 MPa) are shared by the three tests. The reference is the
+warmest temperature: a test above it could relax so far within the prior (tau_max 2 s, sigma_s
+2 MPa, Ea 200 kJ/mol at 30 °C: a peak stress of 1 MPa) that the data check refuses it (no tensile
+load: a peak within 10 noise sd of zero); at 20 °C the lowest peak over the prior's corners is
+4.7 MPa. A manifest cannot
+address a test of ``tests:``, so every simulation is a config of its own (``<out>/sims/``).
+
     .venv/bin/python benchmarks/sbc.py --sims 200 --jobs 2 --out /work/wt/h5-batch-out/sbc-white
     .venv/bin/python benchmarks/sbc.py --likelihood discrepancy --sims 200 --out .../sbc-discrepancy
     .venv/bin/python benchmarks/sbc.py --alpha --sims 200 --out .../sbc-alpha
+    .venv/bin/python benchmarks/sbc.py --shift --sims 200 --out .../sbc-shift
 """
 
 from __future__ import annotations
@@ -46,12 +58,23 @@ PRIOR = {"E": {"prior": "uniform", "low": 2400.0, "high": 3300.0},
 ALPHA_PRIOR = {"prior": "normal", "mean": 0.5, "sd": 0.05, "low": 0.35, "high": 0.65}
 DISC_PRIOR = {"amplitude": {"prior": "half-normal", "scale": 1.0},
               "length": {"prior": "log-uniform", "low": 5.0, "high": 100.0}}
+SHIFT_PRIOR = {"Ea": {"prior": "uniform", "low": 100.0, "high": 200.0},
+               "sigma_s": {"prior": "log-uniform", "low": 2.0, "high": 10.0}}
+SHIFT = {"temperature": "arrhenius", "reference_temperature": 20.0, "stress": "eyring"}
+SHIFT_TEMPERATURES = (0.0, 10.0, 20.0)      # °C: a_T 20-400, 4-18 and 1 over the prior of Ea
+SHIFT_STRAIN_MAX = 0.1                       # into the Eyring flow at sigma_s 2-10 MPa
+SHIFT_POINTS = 300                           # per test
 SIGMA0 = 0.3
 
 
 def prior(args: argparse.Namespace) -> dict[str, dict]:
     """The sampled model parameters' priors (and the truths' distribution)."""
-    return PRIOR | ({"alpha": ALPHA_PRIOR} if args.alpha else {})
+    return PRIOR | ({"alpha": ALPHA_PRIOR} if args.alpha else {}) | (SHIFT_PRIOR if args.shift else {})
+
+
+def points(args: argparse.Namespace) -> int:
+    """Samples per test: --points, else 1000 (300 per test with --shift)."""
+    return args.points if args.points is not None else (SHIFT_POINTS if args.shift else 1000)
 
 
 def draw(spec: dict, rng: np.random.Generator) -> float:
@@ -83,13 +106,34 @@ def template(args: argparse.Namespace) -> dict:
                     "checkpoint_every": 200, "moves": args.moves},
         "fit": {"multistart": 4},
         "truth": {"params": {"E": 2854.0, "G": 2.32, "tau_max": 5.79}, "strain_rate": 5.0e-3,
-                  "strain_max": 1.9, "n_points": args.points,
+                  "strain_max": 1.9, "n_points": points(args),
                   "noise": {"strain_sd": 0.0, "stress_sd": SIGMA0}, "seed": 0},
     }
 
 
-def write_inputs(args: argparse.Namespace, out: Path) -> tuple[Path, Path, dict[str, dict[str, float]]]:
-    """template.yaml and manifest.csv in ``out`` (kept when already there: a resumed run)."""
+def shift_config(args: argparse.Namespace, name: str, truth: dict[str, float], seed: int) -> dict:
+    """One --shift simulation: its three ramps at SHIFT_TEMPERATURES in one run, from ``truth``."""
+    base = template(args)
+    tests = []
+    for k, temp in enumerate(SHIFT_TEMPERATURES):
+        test = f"T{temp:g}"
+        tests.append({
+            "name": test, "data": base["data"] | {"file": f"{test}.csv", "temperature": temp},
+            "noise": base["noise"],
+            "truth": {"params": dict(truth), "shift": dict(SHIFT), "temperature": temp,
+                      "strain_rate": 5.0e-3, "strain_max": SHIFT_STRAIN_MAX, "n_points": points(args),
+                      "noise": {"strain_sd": 0.0, "stress_sd": SIGMA0}, "seed": seed + k}})
+    # G stays free where the windows hardly see it (the fit would hold it at 0, off the prior that
+    # made the truth): its prior is the truths' distribution
+    return {"name": name, "tests": tests, "model": base["model"] | {"shift": dict(SHIFT)},
+            "parameters": base["parameters"], "sampler": base["sampler"],
+            "fit": base["fit"] | {"hold_unidentified": False}}
+
+
+def write_inputs(args: argparse.Namespace, out: Path
+                 ) -> tuple[Path, Path | list[Path], dict[str, dict[str, float]]]:
+    """template.yaml and manifest.csv in ``out`` (kept when already there: a resumed run); with
+    --shift, template.yaml and one config per simulation (their paths instead of the manifest)."""
     out.mkdir(parents=True, exist_ok=True)
     tpl, man = out / "template.yaml", out / "manifest.csv"
     rng = np.random.default_rng(args.seed)
@@ -111,6 +155,16 @@ def write_inputs(args: argparse.Namespace, out: Path) -> tuple[Path, Path, dict[
     if tpl.exists() and tpl.read_text() != text:
         sys.exit(f"{tpl} exists with other settings: use another --out")
     tpl.write_text(text)
+    if args.shift:        # one config per simulation (a manifest cannot address tests: entries)
+        configs = []
+        for row in rows:
+            folder = out / "sims" / row["name"]
+            folder.mkdir(parents=True, exist_ok=True)
+            raw = shift_config(args, row["name"], truths[row["name"]], int(row["truth.seed"]))
+            raw["sampler"] = raw["sampler"] | {"seed": row["sampler.seed"]}
+            (folder / "config.yaml").write_text(yaml.safe_dump(raw, sort_keys=False))
+            configs.append(folder / "config.yaml")
+        return tpl, configs, truths
     with open(man, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
@@ -171,30 +225,34 @@ def main() -> None:
     ap.add_argument("--sims", type=int, default=200)
     ap.add_argument("--jobs", type=int, default=-1)
     ap.add_argument("--scheduler", default=None, help="Dask scheduler address (as batch --scheduler)")
-    ap.add_argument("--points", type=int, default=1000)
+    ap.add_argument("--points", type=int, default=None, help="per test: 1000 (300 with --shift)")
     ap.add_argument("--target-ess", type=float, default=400.0)
     ap.add_argument("--likelihood", choices=("white", "discrepancy"), default="white")
     ap.add_argument("--seed", type=int, default=2018)
     ap.add_argument("--moves", default="de", help="sampler.moves (de-plain: DEMove alone)")
     ap.add_argument("--alpha", action="store_true", help="sample the spectrum's exponent too")
+    ap.add_argument("--shift", action="store_true",
+                    help="three temperatures in one run, Arrhenius and Eyring: Ea and sigma_s sampled")
     ap.add_argument("--out", type=Path, required=True, help="folder for the runs, table and plot")
     args = ap.parse_args()
 
     from bayes_dnlr.inference.analyses.sbc import inside_band, pit_from_ranks, simultaneous_band
-    from bayes_dnlr.workflows.batch.manifest import jobs_from_manifest
+    from bayes_dnlr.workflows.batch.manifest import jobs_from_configs, jobs_from_manifest
     from bayes_dnlr.workflows.batch.page import run_campaign
-    from bayes_dnlr.workflows.simulate import simulate_test
+    from bayes_dnlr.workflows.simulate import simulate_tests
 
     out = args.out.resolve()
     t0 = time.perf_counter()
     tpl, man, truths = write_inputs(args, out)
-    for job in jobs_from_manifest(tpl, man, out):
+    jobs = jobs_from_configs(man) if args.shift else jobs_from_manifest(tpl, man, out)
+    for job in jobs:
         if job.error:
             sys.exit(job.error)
-        simulate_test(job.config())
+        simulate_tests(job.config())
     t_sim = time.perf_counter() - t0
     # the simulations' E come from the prior, not a population of specimens: no population step
-    result = run_campaign([str(tpl)], manifest=man, out=out, n_jobs=args.jobs,
+    inputs, manifest = ([str(p) for p in man], None) if args.shift else ([str(tpl)], man)
+    result = run_campaign(inputs, manifest=manifest, out=out, n_jobs=args.jobs,
                           scheduler=args.scheduler, report=False, population=False)
     wall = time.perf_counter() - t0
     print(result.summary())
@@ -211,7 +269,8 @@ def main() -> None:
     elapsed = [r.get("elapsed_s") or 0.0 for r in result.rows
                if r.get("status") == "ok" and not r.get("reused")]
     cores = os.cpu_count()
-    print(f"\nSBC, {args.likelihood} likelihood: {n} simulations ({args.points} points, target ESS "
+    print(f"\nSBC, {args.likelihood} likelihood{', shifted' if args.shift else ''}: {n} simulations "
+          f"({points(args)} points{' per test, 3 tests' if args.shift else ''}, target ESS "
           f"{args.target_ess:g}); converged {conv}/{len(result.rows)}")
     print(f"wall time {wall:.0f} s this invocation (simulating the data {t_sim:.0f} s) on "
           f"{result.backend}; machine cores {cores}")
@@ -229,10 +288,11 @@ def main() -> None:
         inside = inside_band(u, z, lo, hi)
         verdict[p] = inside
         print(f"{p:<15} {np.abs(ecdf(u, z) - z).max():>11.4f}  {'yes' if inside else 'NO'}")
-    png = out / f"sbc_rank_ecdf_{args.likelihood}{'_alpha' if args.alpha else ''}.png"
-    plot(pits, band, png, f"SBC, {args.likelihood} likelihood: {n} simulations, rank ECDF − uniform "
-                          "with 95 % simultaneous bands")
-    (out / f"sbc_{args.likelihood}.json").write_text(json.dumps(
+    tag = f"{args.likelihood}{'_alpha' if args.alpha else ''}{'_shift' if args.shift else ''}"
+    png = out / f"sbc_rank_ecdf_{tag}.png"
+    plot(pits, band, png, f"SBC, {args.likelihood} likelihood{', shifted model' if args.shift else ''}: "
+                          f"{n} simulations, rank ECDF − uniform with 95 % simultaneous bands")
+    (out / f"sbc_{tag}.json").write_text(json.dumps(
         {"n": n, "ranks": rk, "inside_band": verdict, "wall_time_s": wall, "cores": cores,
          "backend": result.backend, "settings": vars(args) | {"out": str(out)}}, indent=1))
     print(f"plot: {png}")

@@ -226,6 +226,15 @@ class ExponentSpread:
     alpha_sd: float
     derivative: dict[str, float]     # d β*/dα of the other parameters along the least-squares path
     step: float = 0.0                # the score test's Gauss-Newton step of alpha from ½
+    # where the derivative was taken, for the time constants: their d ln β/dα is what carries over
+    # to another point (a joint run's draws, whose tau_max a test alone holding its temperature
+    # law's parameters puts elsewhere)
+    scale: dict[str, float] = field(default_factory=dict)
+
+    def at(self, point: Mapping[str, float]) -> dict[str, float]:
+        """The derivative at ``point``: a time constant's scaled by its ratio to ``scale``."""
+        return {k: d * (float(point[k]) / self.scale[k] if k in self.scale and k in point else 1.0)
+                for k, d in self.derivative.items()}
 
     def slope(self, point: Mapping[str, float], times: Sequence[float], modes: int,
               decades: float) -> np.ndarray:
@@ -233,7 +242,7 @@ class ExponentSpread:
         names = list(MODULUS_PARAMETERS)
         g = gradient(point, names, times, modes, decades)
         return g[:, names.index(SPECTRUM_EXPONENT)] + sum(
-            g[:, names.index(k)] * float(d) for k, d in self.derivative.items() if k in names)
+            g[:, names.index(k)] * float(d) for k, d in self.at(point).items() if k in names)
 
     def added_sd(self, point: Mapping[str, float], times: Sequence[float], modes: int,
                  decades: float) -> np.ndarray:
@@ -268,8 +277,11 @@ def exponent_spread(fit: Mapping[str, Any], under_model_error: bool) -> Exponent
         or block.get("score")
     if not score or not (score.get("sd") and np.isfinite(score["sd"])):
         return None
-    return ExponentSpread(float(score["sd"]), {k: float(v) for k, v in block["derivative"].items()},
-                          float(score.get("step") or 0.0))
+    derivative = {k: float(v) for k, v in block["derivative"].items()}
+    estimate_ = fit.get("estimate") or {}
+    scale = {k: float(estimate_[k]) for k in derivative
+             if k in LOG_PARAMETERS and float(estimate_.get(k) or 0.0) > 0}
+    return ExponentSpread(float(score["sd"]), derivative, float(score.get("step") or 0.0), scale)
 
 
 @dataclass(frozen=True)

@@ -34,9 +34,11 @@ from typing import Any
 import numpy as np
 
 from bayes_dnlr.config import Config
+from bayes_dnlr.data.conversions import haward_thackray_strain
 from bayes_dnlr.inference.checks import bounds, physical, power_scaling, predictive
 from bayes_dnlr.inference.layout import Layout
 from bayes_dnlr.inference.posterior.likelihood import window_rows
+from bayes_dnlr.model.shift import log_stress_shift
 from bayes_dnlr.runs.bands import Band, column, predictive_bands
 from bayes_dnlr.runs.reference_moduli import reference_check
 from bayes_dnlr.runs.testset import TestSet
@@ -60,14 +62,51 @@ def coverage_check(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarra
     return out
 
 
+def _median_of(k: str, test: str, view: Config, layout: Layout, draws: np.ndarray,
+               names: list[str]) -> float | None:
+    d = column(draws, names, layout.name(k, test))
+    return float(np.median(d)) if d is not None else view.fixed_values.get(k)
+
+
+def _log_stress_shift(view: Config, data, rows, test: str, layout: Layout, draws: np.ndarray,
+                      names: list[str]) -> np.ndarray | None:
+    """ln a_σ at each compared sample of a test, at the posterior median of sigma_s and the data's
+    stress as the law's driving stress takes it (the overstress against the relaxed state of the
+    medians of G and sigma_inf). None without a stress shift."""
+    s = view.model.shift
+    sigma_s = _median_of("sigma_s", test, view, layout, draws, names)
+    if s.stress == "none" or not sigma_s:
+        return None
+    stress = np.asarray(data.stress[: data.model_end], dtype=float)[rows]
+    time = np.asarray(data.time[: data.model_end], dtype=float)[rows]
+    if s.driving == "peak":
+        stress = np.maximum.accumulate(np.abs(stress))
+    elif s.driving == "overstress":
+        strain = np.asarray(data.strain_input[: data.model_end], dtype=float)[rows]
+        relaxed = (_median_of("G", test, view, layout, draws, names) or 0.0) * \
+            haward_thackray_strain(strain)
+        if data.relaxation_start is not None:
+            relaxed = np.where(time > data.relaxation_start,
+                               _median_of("sigma_inf", test, view, layout, draws, names) or 0.0,
+                               relaxed)
+        stress = stress - relaxed
+    return log_stress_shift(stress, sigma_s)
+
+
 def plausibility_check(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray,
-                       names: list[str], standards: dict[str, dict | None]) -> dict[str, dict]:
-    """Each test's physical checks (only those that apply to it)."""
+                       names: list[str], standards: dict[str, dict | None],
+                       bands: dict[str, Band] | None = None) -> dict[str, dict]:
+    """Each test's physical checks (only those that apply to it). A time constant is judged at the
+    test's temperature (× a_T) against the test's duration, in reduced time under a stress shift
+    (∫ dt / a_σ: the stress speeds the modes up where it flows); E against the chord, allowing for
+    the chord's noise (the start check's, in ``bands``)."""
     out = {}
     for t in layout.tests:
         data, checks = tests.tests[t], {}
         rows = window_rows(data)
         time = np.asarray(data.time[: data.model_end], dtype=float)[rows]
+        log_a = _log_stress_shift(cfg.for_test(t), data, rows, t, layout, draws, names)
+        reduced = None if log_a is None else physical.reduced_duration(time, log_a)
         stress = np.asarray(data.stress[: data.model_end], dtype=float)[rows]
         s_inf = column(draws, names, layout.name("sigma_inf", t))
         if s_inf is not None and data.relaxation_start is not None:
@@ -79,13 +118,16 @@ def plausibility_check(cfg: Config, tests: TestSet, layout: Layout, draws: np.nd
             if k == "tau_max_R" and data.relaxation_start is None:
                 continue            # a shared tau_max_R is another test's hold's
             if d is not None and span > 0:
-                checks[k] = physical.time_constant_check(d * _shift_factor(cfg, t, data, draws, names,
-                                                                           layout), span)
+                checks[k] = physical.time_constant_check(
+                    d * _shift_factor(cfg, t, data, draws, names, layout), span, reduced)
         e = column(draws, names, layout.name("E", t))
         chord = next((v for v in ((standards.get(t) or {}).get(s) for s in ("iso527_1", "astm_d638"))
                       if v), None)
         if e is not None and chord:
-            checks["E_chord"] = physical.chord_check(e, float(chord))
+            # the chord's noise sd where the start check measured the same chord (bands.py)
+            start = (bands or {}).get(t) and bands[t].start
+            same = start is not None and math.isclose(start.data, float(chord), rel_tol=1e-9)
+            checks["E_chord"] = physical.chord_check(e, float(chord), start.noise_sd if same else 0.0)
         out[t] = checks
     # a time constant the tests share is measured when one of them measures it
     for k in ("tau_max", "tau_max_R"):
@@ -321,7 +363,7 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
                                               bands=bands),
         "bound_limited": bound_check(cfg, tests, draws, names, priors, fit, uses_disc, post_sd),
         "prior_sensitivity": prior_sensitivity_check(draws, names, priors),
-        "plausibility": plausibility_check(cfg, tests, layout, draws, names, standards),
+        "plausibility": plausibility_check(cfg, tests, layout, draws, names, standards, bands),
         "model_form": model_form_check(fit, layout, post_sd),
         "noise_model": noise_model_check(cfg, noise),
     }

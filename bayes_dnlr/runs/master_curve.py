@@ -146,7 +146,10 @@ def test_sources(cfg: Config, layout, joint: Source) -> dict[str, Source]:
         view = cfg.for_test(t)
         draws = {k: joint.draws[layout.name(k, t)] for k in view.parameters
                  if layout.name(k, t) in joint.draws}
-        fixed = {k: v for k, v in {**joint.fixed, **view.fixed_values}.items() if k not in draws}
+        held = {k: joint.fixed[layout.name(k, t)] for k in view.parameters
+                if layout.name(k, t) in joint.fixed}
+        fixed = {k: v for k, v in {**joint.fixed, **held, **view.fixed_values}.items()
+                 if k not in draws}
         out[t] = Source(joint.kind, draws, fixed, joint.converged, joint.log_prior,
                         joint.under_model_error, dict(joint.lacks))
     return out
@@ -168,14 +171,17 @@ def fit_master_curve(cfg: Config, tests: TestSet, result) -> dict[str, Any] | No
     estimate_, cov, names, under = analysis(joint)
     layout = Layout.build({t: cfg.for_test(t).free_parameters for t in cfg.test_names},
                           cfg.per_test_parameters)
-    drawn = fit_source(estimate_, cov, names, cfg.fixed_values, bool(joint.get("converged", True)),
-                       under)
+    # the parameters the joint fit held (no test's window identifies them) at their held values
+    held = {k: v["value"] for k, v in ((joint.get("identifiability") or {}).get("held") or {}).items()}
+    drawn = fit_source(estimate_, cov, names, {**cfg.fixed_values, **held},
+                       bool(joint.get("converged", True)), under)
     sources = {t: src for t, src in test_sources(cfg, layout, drawn).items()
                if has_modulus(cfg.for_test(t))}
     singles = {t: r.to_dict() for t, r in result.singles.items()}
     bands = {}
     for t, src in sources.items():
-        view = fit_view(cfg.for_test(t), {})
+        own = cfg.for_test(t)
+        view = fit_view(own, {"fixed": {k: v for k, v in src.fixed.items() if k in own.free_parameters}})
         bands[t] = test_band(view, tests.tests[t], {k: v[:N_CURVES] for k, v in src.draws.items()},
                              fit_noise(view, tests.tests[t], singles[t], under))
     white = {t: bool((singles[t].get("residuals") or {}).get("white", True)) for t in sources}

@@ -44,6 +44,7 @@ from bayes_dnlr.inference.posterior.priors import LOG_SPACE_KINDS
 from bayes_dnlr.runs.bands import N_CURVES, fit_noise, test_band
 from bayes_dnlr.runs.testset import TestSet
 from bayes_dnlr.runs.verdict import modulus_reasons
+from bayes_dnlr.vocabulary import SHIFT_LAW_PARAMETERS
 
 LOCAL_FACTOR = 10.0      # E(t) at t is measured by the slope over about a decade of time after t
 LOCAL_MIN_SAMPLES = 12   # a local fit needs this many samples ...
@@ -299,13 +300,15 @@ def uses_discrepancy(checks: Mapping[str, Any], test: str) -> bool:
 
 def posterior_refits(bound_limited: Sequence[Mapping[str, Any]], layout: Layout, test: str,
                       view: Config) -> list[BoundRefit]:
-    """The bound check's refits (runs/checks.py) in the test's own names."""
+    """The bound check's refits (runs/checks.py) in the test's own names, with the temperature
+    law's parameters: E(t) at a test's temperature needs a_T of each refit."""
+    keys = (*MODULUS_PARAMETERS, *SHIFT_LAW_PARAMETERS[view.model.shift.temperature])
     out = []
     for b in bound_limited:
         est = b.get("estimates")
         if not est:
             continue
-        before, after = ({k: v for k in MODULUS_PARAMETERS
+        before, after = ({k: v for k in keys
                           if (v := e.get(layout.name(k, test), view.fixed_values.get(k))) is not None}
                          for e in (est["before"], est["after"]))
         if "E" in before and "tau_max" in before and "E" in after and "tau_max" in after:

@@ -97,16 +97,22 @@ def _plausibility_words(test: str, checks: dict, several: bool) -> list[tuple[st
     for k in ("tau_max", "tau_max_R"):
         c = checks.get(k)
         if c is not None and not c["ok"]:
+            span = (f"test's duration ({fmt(c['test_duration'], 3)} s)" if "reduced_duration" not in c
+                    else f"test's duration in reduced time ({fmt(c['reduced_duration'], 3)} s, its "
+                         f"{fmt(c['test_duration'], 3)} s over the stress shift a_σ at the data's "
+                         "stress)")
             out.append(("trust", False,
                         f"{who}{k} = {fmt(c['median'], 3)} s (posterior median) is more than "
-                        f"{physical.SPAN_FACTOR:g}× the "
-                        f"test's duration ({fmt(c['test_duration'], 3)} s): the test does not measure "
+                        f"{physical.SPAN_FACTOR:g}× the {span}: the test does not measure "
                         "it, and what trades off with it comes from the prior box."))
     c = checks.get("E_chord")
     if c is not None and not c["ok"]:
         out.append(("adequate", False,
                     f"{who}E's 95 % quantile ({fmt(c['E_q95'])} MPa) lies below the standards' chord "
-                    f"({fmt(c['chord'])} MPa), a lower bound of the instantaneous modulus: impossible. "
+                    f"({fmt(c['chord'])} MPa"
+                    + (f", by more than {physical.CHORD_Z:g} of its noise sd of {fmt(c['chord_sd'])} MPa"
+                       if c.get("chord_sd") else "")
+                    + "), a lower bound of the instantaneous modulus: impossible. "
                     "The model does not describe the start of this curve (a toe, a preload)."))
     return out
 

@@ -234,3 +234,30 @@ def test_a_pull_that_would_take_e_t_through_zero_is_not_followed_however_wide_it
     values, checks = followed(held, spread, point, [1.0], 50, 6.0)
     assert not checks[0]["followed"]
     assert np.all(np.isfinite(values)) and np.all(values > 0)
+
+
+def test_the_exponent_s_path_carries_to_another_point_in_relative_time_constants():
+    """A test alone of a run at several temperatures holds its temperature law's parameters, so its
+    fit puts tau_max elsewhere (16.9 s against the run's 5.7 s on the three-temperature benchmark):
+    d ln tau_max/dα is what carries over, not dtau_max/dα (applied at 5.7 s it moved tau_max ×0.025
+    and E(10 s) at 10 °C to 9 MPa, below E(100 s))."""
+    fit = {"estimate": {"E": 2642.0, "G": 2.2, "tau_max": 16.87},
+           "spectrum_exponent": {"derivative": {"E": 364.6, "G": -3.0, "tau_max": -166.3},
+                                 "score": {"sd": 0.141, "step": 0.127}}}
+    spread = exponent_spread(fit, False)
+    assert spread.scale == {"tau_max": 16.87}
+    point = {"E": 2748.0, "G": 2.3, "tau_max": 5.7}
+    at = spread.at(point)
+    assert at["tau_max"] == pytest.approx(-166.3 * 5.7 / 16.87) and at["E"] == 364.6
+    same = ExponentSpread(0.141, at, 0.127)        # the derivative taken at the point itself
+    times = [0.1, 1.0, 10.0]
+    assert np.allclose(spread.move(point, times, 50, 6.0), same.move(point, times, 50, 6.0))
+    assert np.allclose(spread.slope(point, times, 50, 6.0), same.slope(point, times, 50, 6.0))
+    base = relaxation_modulus(times, 2748.0, 2.3, 5.7)
+    moved = base + spread.move(point, times, 50, 6.0)
+    absolute = base + ExponentSpread(0.141, spread.derivative, 0.127).move(point, times, 50, 6.0)
+    # at 1 s (E(1 s) at ½ is 1258 MPa) the relative derivative moves E(t) by about 480 MPa; the
+    # absolute one by 1840, through zero
+    assert moved[1] > 0.4 * base[1] and absolute[1] < 0.0
+    own = {"E": 2642.0, "G": 2.2, "tau_max": 16.87}  # at the fit's own point: the derivative as given
+    assert spread.at(own) == pytest.approx(fit["spectrum_exponent"]["derivative"])

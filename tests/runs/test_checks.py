@@ -454,3 +454,69 @@ def test_a_time_constant_beyond_the_test_withdraws_trust_in_words() -> None:
                             "test's duration (400 s): "
                             "the test does not measure it, and what trades off with it comes from the "
                             "prior box.")
+
+
+def test_a_time_constant_is_judged_against_the_test_s_duration_in_reduced_time() -> None:
+    t = np.linspace(0.0, 40.0, 401)
+    assert physical.reduced_duration(t, np.full(t.size, np.log(0.01))) == pytest.approx(4000.0)
+    assert physical.reduced_duration(t, np.zeros(t.size)) == pytest.approx(40.0)
+    c = physical.time_constant_check(np.full(10, 1000.0), 40.0, 4000.0)
+    assert c == {"ok": True, "median": 1000.0, "test_duration": 40.0, "reduced_duration": 4000.0}
+    assert not physical.time_constant_check(np.full(10, 1000.0), 40.0)["ok"]
+    failing = physical.time_constant_check(np.full(10, 1000.0), 40.0, 60.0)
+    _, trust, _, words = verdict_parts(_at_thresholds(plausibility={"t": {"tau_max": failing}}),
+                                       True, False)
+    assert not trust and words[0] == (
+        "Tau_max = 1000 s (posterior median) is more than 10× the test's duration in reduced time "
+        "(60.0 s, its 40.0 s over the stress shift a_σ at the data's stress): the test "
+        "does not measure it, and what trades off with it comes from the prior box.")
+
+
+def test_a_stress_shifted_test_measures_a_time_constant_far_beyond_its_clock_duration(tmp_path) -> None:
+    """An Eyring truth (sigma_s 2 MPa) on a slow spectrum (tau_max 1000 s), a 40 s ramp into its
+    flow at 10-12 MPa: there the stress shortens the modes' times about 30-fold (sinh x / x), and
+    the test lasts about 730 s in reduced time; the shifted model identifies tau_max (1153 ± 317 s
+    on such a ramp), and at the truth the plausibility check keeps trust. The same draws in a
+    stress-blind model fail it."""
+    import yaml
+
+    from bayes_dnlr.config import load_config
+    from bayes_dnlr.runs.checks import plausibility_check
+    from bayes_dnlr.runs.testset import load_tests
+    from bayes_dnlr.workflows.simulate import simulate_test
+
+    truth = {"E": 1000.0, "G": 5.0, "tau_max": 1000.0, "sigma_s": 2.0}
+    raw = {"name": "t", "data": {"file": "t.csv", "columns": {"time": "t", "eps11": "e", "stress": "s"},
+                                 "observable": "stress"},
+           "model": {"shift": {"stress": "eyring"}},
+           "truth": {"params": truth, "shift": {"stress": "eyring"}, "strain_rate": 1e-3,
+                     "strain_max": 0.04, "n_points": 200, "noise": {"strain_sd": 0.0, "stress_sd": 0.3}}}
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(raw))
+    cfg = load_config(tmp_path / "config.yaml")
+    simulate_test(cfg)
+    tests = load_tests(cfg)
+    names = list(cfg.free_parameters)
+    layout = Layout.build({"t": names}, [], plain=True)
+    draws = np.array([truth[k] for k in names])[None, None, :] * np.ones((20, 4, 1))
+    c = plausibility_check(cfg, tests, layout, draws, names, {})["t"]["tau_max"]
+    assert c["ok"] and c["test_duration"] == pytest.approx(40.0)
+    assert 15 * 40.0 < c["reduced_duration"] < 25 * 40.0
+    blind = cfg.model_copy(update={"model": cfg.model.model_copy(update={"shift": type(cfg.model.shift)()})})
+    assert not plausibility_check(blind, tests, layout, draws, names, {})["t"]["tau_max"]["ok"]
+
+
+def test_e_below_a_noisy_chord_is_impossible_only_beyond_the_chord_s_noise() -> None:
+    """A slow spectrum's chord lies within a few % of E, and noise moves the measured chord above
+    E's 95 % quantile in about one test of ten: the check allows CHORD_Z of the chord's noise sd
+    (73 MPa on a 40 s ramp to 4 % with 0.3 MPa of noise, E 1000 MPa)."""
+    e = np.full(100, 1000.0)
+    assert physical.chord_check(e, 1039.0, 73.0) == {"ok": True, "E_q95": 1000.0, "chord": 1039.0,
+                                                      "chord_sd": 73.0}
+    assert not physical.chord_check(e, 1039.0, 10.0)["ok"]
+    assert not physical.chord_check(e, 1039.0)["ok"]                    # no noise known: as before
+    failing = physical.chord_check(e, 1300.0, 73.0)
+    adequate, _, _, words = verdict_parts(_at_thresholds(plausibility={"t": {"E_chord": failing}}),
+                                          True, False)
+    assert not adequate and words[0].startswith(
+        "E's 95 % quantile (1000 MPa) lies below the standards' chord (1300 MPa, by more than 1.645 "
+        "of its noise sd of 73.00 MPa), a lower bound")

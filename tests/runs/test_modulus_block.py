@@ -226,3 +226,61 @@ def test_a_chain_that_samples_a_parameter_the_fit_now_holds_is_refused(tmp_path)
     _check_holds(cfg, SimpleNamespace(names=["E", "G", "tau_max"]), {})
     with pytest.raises(StaleRunError, match="they differ on G"):
         _check_holds(cfg, SimpleNamespace(names=["E", "tau_max"]), {})
+
+
+def test_a_bound_refit_of_a_test_at_another_temperature_carries_the_temperature_law(tmp_path):
+    """E(t) of a test away from the reference temperature needs a_T of each bound refit: the refits
+    keep the law's parameters (Ea here), and E(t)'s move is the refit's at that temperature."""
+    from bayes_dnlr.inference.layout import Layout
+    from bayes_dnlr.inference.modulus_estimate import AtTemperature, bound_moves
+    from bayes_dnlr.model.shift import temperature_shift
+    from bayes_dnlr.runs.modulus_block import posterior_refits
+
+    data = {"columns": {"time": "t", "eps11": "e", "stress": "s"}, "observable": "stress"}
+    raw = {"name": "t", "model": {"shift": {"temperature": "arrhenius", "reference_temperature": 20}},
+           "tests": [{"name": f"T{c}", "data": {**data, "file": f"T{c}.csv", "temperature": c}}
+                     for c in (10, 30)]}
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(raw))
+    cfg = load_config(tmp_path / "config.yaml")
+    layout = Layout.build({t: cfg.for_test(t).free_parameters for t in cfg.test_names},
+                          cfg.per_test_parameters)
+    before = {"E": 2800.0, "G": 2.0, "tau_max": 6.0, "Ea": 150.0}
+    after = {**before, "tau_max": 4.0, "Ea": 140.0}
+    [refit] = posterior_refits([{"parameter": "tau_max", "estimates": {"before": before, "after": after}}],
+                               layout, "T10", cfg.for_test("T10"))
+    assert refit.before["Ea"] == 150.0 and refit.after["Ea"] == 140.0
+    at = AtTemperature("arrhenius", 20.0, 10.0)
+    moves = bound_moves([refit], 1.0, 10.0, 50, 6.0, at)
+    a0, a1 = (temperature_shift(10.0, "arrhenius", 20.0, Ea=p["Ea"]) for p in (before, after))
+    expected = (relaxation_modulus([1.0], 2800.0, 2.0, 4.0 * a1)[0]
+                - relaxation_modulus([1.0], 2800.0, 2.0, 6.0 * a0)[0]) / 10.0
+    assert moves == {"tau_max": pytest.approx(expected)}
+
+
+def test_the_master_curve_of_a_fit_that_holds_g_uses_the_held_value(tmp_path):
+    """A joint fit at several temperatures whose windows cannot identify G holds it at 0
+    (fit.json identifiability): the master curve's draws and bands take G from there."""
+    from bayes_dnlr.runs.fit import fit
+    from bayes_dnlr.workflows.simulate import simulate_tests
+
+    shift = {"temperature": "arrhenius", "reference_temperature": 20.0}
+    tests = []
+    for k, c in enumerate((0.0, 10.0, 20.0)):
+        tests.append({"name": f"T{c:g}", "data": {
+            "file": f"T{c:g}.csv", "columns": {"time": "t", "eps11": "e", "stress": "s"},
+            "observable": "stress", "temperature": c}, "noise": {"sigma0": 0.3, "discrepancy": "none"},
+            "truth": {"params": {"E": 2854.0, "G": 2.32, "tau_max": 5.79, "Ea": 150.0}, "shift": shift,
+                      "temperature": c, "strain_rate": 5e-3, "strain_max": 0.005, "n_points": 120,
+                      "noise": {"strain_sd": 0.0, "stress_sd": 0.3}, "seed": 11 + k}})
+    raw = {"name": "held", "tests": tests, "model": {"shift": shift}, "fit": {"multistart": 0}}
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(raw))
+    cfg = load_config(tmp_path / "config.yaml")
+    simulate_tests(cfg)
+    result = fit(cfg)
+    f = json.loads((cfg.run_dir / "fit.json").read_text())
+    assert "G" in f["identifiability"]["held"] and "G" not in f["estimate"]
+    rows = f["modulus_reference"]["rows"]
+    assert rows and result.modulus_reference["rows"] == rows
+    for r in rows:          # E(t) of the held G = 0 at the reference temperature, near the truth's
+        true = relaxation_modulus([r["t"]], 2854.0, 2.32, 5.79)[0]
+        assert r["hdi_90"][0] < r["mean"] < r["hdi_90"][1] and abs(r["mean"] - true) < 0.1 * true

@@ -71,3 +71,44 @@ def test_the_alpha_score_signals_a_toe_and_a_second_relaxation_process(tmp_path:
         z = [r["score_gls_z"] for r in res]
         print(kind, [round(v, 1) for v in z])
         assert sum(abs(v) > 2 for v in z) >= 5, kind
+
+
+def test_the_stress_shift_kind_is_an_eyring_truth_into_the_nonlinear_range(tmp_path: Path) -> None:
+    """The held-out ``stress-shift`` kind: an Eyring truth (truth.shift) whose ramp flows far below
+    the stress-blind model's stress, E(t) asked at 10× the first resolved time, and the fitted
+    model named in the record's label."""
+    from misspecification import at_resolved, fitted_model, row_label, write_config
+
+    from bayes_dnlr.config import load_config
+    from bayes_dnlr.data import load_test
+    from bayes_dnlr.inference.modulus_window import test_window
+    from bayes_dnlr.model import simulate
+    from bayes_dnlr.workflows.simulate import simulate_test
+
+    path = write_config(tmp_path, "stress-shift", "mild", "default", 0,
+                        [("model.shift", {"stress": "eyring"})], 400.0)
+    cfg = load_config(path)
+    assert cfg.truth.shift.stress == "eyring" and 1.0 < cfg.truth.params["sigma_s"] < 4.0
+    sim = simulate_test(cfg)
+    blind = simulate(sim.time, sim.strain, cfg.truth.params | {"sigma_s": np.inf}, modes=50,
+                     decades=6, relaxation_start=None)
+    assert sim.stress.max() < 0.5 * blind.max()          # flow: far into the nonlinear range
+    early = sim.strain < 5e-4                            # σ ≪ sigma_s: the linear start
+    assert np.allclose(sim.stress[early], blind[early], rtol=0.1, atol=0.05)
+    at_resolved(path, [10.0])
+    cfg = load_config(path)
+    first = test_window(load_test(cfg)).shortest
+    assert cfg.output.modulus_at == [pytest.approx(10 * first, rel=1e-5)]
+    assert fitted_model(cfg) == "eyring"
+    assert row_label({"kind": "stress-shift", "fitted": "eyring"}) == "stress-shift+eyring"
+    assert row_label({"kind": "stress-shift"}) == "stress-shift"
+
+
+def test_read_checks_names_each_physical_check_that_fired() -> None:
+    from misspecification import read_checks
+
+    checks = {"trust_interval": False, "adequate": True, "model_form": {"ok": True},
+              "plausibility": {"tau_max": {"ok": False, "median": 2e4}, "E_chord": {"ok": True}},
+              "bound_limited": [{"parameter": "G"}]}
+    trust, fired = read_checks({"checks": checks})
+    assert trust is False and fired == ["bound_limited", "plausibility.tau_max"]

@@ -1,7 +1,11 @@
-"""SBC helpers (ranks, PIT, simultaneous ECDF bands) and the synthetic correlated error that the
-discrepancy SBC adds to its data."""
+"""SBC helpers (ranks, PIT, simultaneous ECDF bands), the synthetic correlated error that the
+discrepancy SBC adds to its data, and the shifted model's SBC (benchmarks/sbc.py --shift)."""
 
 from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -95,3 +99,45 @@ def test_simulate_adds_the_correlated_error_after_the_other_draws(tmp_path):
     assert lag1 > np.exp(-dt / 20.0) - 0.05       # smooth: OU lag-1 correlation e^{-Δt/ℓ} ≈ 0.95
     resid = y_white - white.stress
     assert abs(np.corrcoef(resid[:-1], resid[1:])[0, 1]) < 0.15     # the white part stays white
+
+
+def _sbc_args(**kw) -> argparse.Namespace:
+    sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "benchmarks"))
+    base = {"sims": 3, "jobs": 1, "scheduler": None, "points": None, "target_ess": 400.0,
+            "likelihood": "white", "seed": 2018, "moves": "de", "alpha": False, "shift": True}
+    return argparse.Namespace(**(base | kw))
+
+
+def test_the_shifted_sbc_writes_one_run_of_three_temperatures_per_draw(tmp_path):
+    """--shift: each simulation is a config of its own (a manifest cannot address tests:), three
+    ramps at the benchmark's temperatures from the drawn truth, Ea and sigma_s in the prior, G left
+    to its prior where the windows hardly see it."""
+    args = _sbc_args()
+    from sbc import SHIFT_PRIOR, SHIFT_TEMPERATURES, write_inputs
+
+    _, configs, truths = write_inputs(args, tmp_path)
+    assert len(configs) == 3 and set(truths) == {"sim0000", "sim0001", "sim0002"}
+    cfg = load_config(configs[1])
+    truth = truths["sim0001"]
+    assert set(truth) == {"E", "G", "tau_max", "Ea", "sigma_s"}
+    assert SHIFT_PRIOR["Ea"]["low"] <= truth["Ea"] <= SHIFT_PRIOR["Ea"]["high"]
+    assert cfg.parameter_names == ["E", "G", "tau_max", "Ea", "sigma_s"] and not cfg.fit.hold_unidentified
+    views = cfg.test_configs()
+    assert [v.data.temperature for v in views] == list(SHIFT_TEMPERATURES)
+    assert len({v.truth.seed for v in views}) == 3
+    for v in views:
+        assert v.truth.params == pytest.approx(truth) and v.truth.temperature == v.data.temperature
+
+
+@pytest.mark.slow
+def test_the_shifted_model_s_sbc_ranks_are_uniform(tmp_path, monkeypatch):
+    """20 simulations of the shifted SBC end to end (the benchmark runs 200): every run converges
+    and every rank ECDF, Ea's and sigma_s's among them, stays inside its 95 % band."""
+    _sbc_args()
+    import sbc
+
+    monkeypatch.setattr(sys, "argv", ["sbc.py", "--shift", "--sims", "20", "--jobs", "2",
+                                      "--out", str(tmp_path)])
+    with pytest.raises(SystemExit) as end:
+        sbc.main()
+    assert end.value.code == 0
