@@ -273,7 +273,8 @@ def _fit_refits(view: Config, data, fit: Mapping[str, Any],
             continue
         spec = view.parameters[k]
         low, high = spec.bounds()
-        side = bound_side(float(estimate_[k]), low, high)
+        # bound_side says "lower"/"upper"; the bound check's rules (physical_limit, widened) "low"/"high"
+        side = {"lower": "low", "upper": "high"}.get(bound_side(float(estimate_[k]), low, high))
         if side is None or bound_rules.physical_limit(side, low if side == "low" else high):
             continue
         lo, hi = bound_rules.widened(low, high, side, spec.prior in LOG_SPACE_KINDS)
