@@ -284,10 +284,12 @@ class DNLR:
                 sets[:, 4] *= at
             else:
                 t_mid = 0.5 * (self.temperature[:-1] + self.temperature[1:])
-                ln_at = np.ascontiguousarray(np.broadcast_to(log_temperature_shift(
+                # a writable copy: a read-only array (one row's broadcast view) is another
+                # type to numba, and would compile the shifted kernels a second time
+                ln_at = np.array(np.broadcast_to(log_temperature_shift(
                     t_mid[None, :], law, self.shift.reference_temperature,
                     **{n: v[:, None] for n, v in pars.items() if v is not None}),
-                    (k, t_mid.size)), dtype=float)
+                    (k, t_mid.size)), dtype=float, order="C")
         if not self._compiled_shift:
             return sets, None
         sigma_s = column("sigma_s") if self.shift.stress != "none" else None
