@@ -218,7 +218,8 @@ def _phase_tables(grid, p, tau_max, relaxation, for_stress):
 
 
 _BLOCK = 32     # steps whose decays integrate computes in one call
-_FLAGS, _STEP0 = np.array([False, True]), np.zeros(1, np.int64)  # run-time, not literal: docs/performance.md
+# run-time, not literal (docs/performance.md): numba compiles a function once per literal value
+PHASE_FLAGS, FIRST_STEP = np.array([False, True]), np.zeros(1, np.int64)
 
 
 @njit(cache=True, fastmath=FASTMATH)
@@ -373,9 +374,9 @@ def stress_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, grid, out):
     D = np.zeros(n)
     j0t = 0
     if nt > 0:
-        tabs = _phase_tables(grid, p, tau_max, _FLAGS[0], _FLAGS[1])
+        tabs = _phase_tables(grid, p, tau_max, PHASE_FLAGS[0], PHASE_FLAGS[1])
         j0t = tabs.j0
-        _stress_phase(grid, _STEP0[0], nt, grid.exact_t, tabs, E, G, 0.0, D[j0t:], out)
+        _stress_phase(grid, FIRST_STEP[0], nt, grid.exact_t, tabs, E, G, 0.0, D[j0t:], out)
     if not relax:
         return True
     # the switch (section 4.1): D_j = σ_j - p_j σ_inf; the always-relaxed tensile modes leave
@@ -389,7 +390,7 @@ def stress_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, grid, out):
         h_sw = grid.h0
     for j in range(n):
         D[j] += p[j] * (G * h_sw - sigma_inf)
-    tabs = _phase_tables(grid, p, tau_max_R, _FLAGS[1], _FLAGS[1])
+    tabs = _phase_tables(grid, p, tau_max_R, PHASE_FLAGS[1], PHASE_FLAGS[1])
     _stress_phase(grid, nt, n_steps, grid.exact_r, tabs, E, 0.0, sigma_inf, D[tabs.j0:], out)
     return True
 
@@ -568,7 +569,7 @@ def integrate(tau_max, tau_max_R, alpha, grid, want_grad, out, grad_t, grad_r, g
     # ---- tensile phase (eq. 18)
     j0_t = 0
     if n_tensile > 0:
-        tabs = _phase_tables(grid, p, tau_max, _FLAGS[0], _FLAGS[0])
+        tabs = _phase_tables(grid, p, tau_max, PHASE_FLAGS[0], PHASE_FLAGS[0])
         j0_t = tabs.j0
         states = (A[j0_t:], B[j0_t:], C[j0_t:], gA[j0_t:], gB[j0_t:], gC[j0_t:], rA[j0_t:], rB[j0_t:])
         _integrate_phase(grid, tabs, False, 0, n_tensile, p, cw, states, want_grad, out, grad_t,
@@ -592,7 +593,7 @@ def integrate(tau_max, tau_max_R, alpha, grid, want_grad, out, grad_t, grad_r, g
             gB[j] = -p[j] * tau * rate_h
 
     # ---- relaxation phase (section 4.1): same E and weights, spectrum tau_max_R, σ^r = σ_inf
-    tabs = _phase_tables(grid, p, tau_max_R, _FLAGS[1], _FLAGS[0])
+    tabs = _phase_tables(grid, p, tau_max_R, PHASE_FLAGS[1], PHASE_FLAGS[0])
     j0 = tabs.j0
     states = (A[j0:], B[j0:], C[j0:], rA[j0:], rB[j0:], rC[j0:], gA[j0:], gB[j0:])
     _integrate_phase(grid, tabs, True, n_tensile, n_steps, p, cw, states, want_grad, out, grad_r,

@@ -23,7 +23,19 @@ import numpy as np
 from numba import njit, prange
 
 from bayes_dnlr.model import kernel
-from bayes_dnlr.model.kernel import DE, DH, DT, FASTMATH, H1, X_RELAXED, decay, flush_tiny, mode_weights
+from bayes_dnlr.model.kernel import (
+    DE,
+    DH,
+    DT,
+    FASTMATH,
+    FIRST_STEP,
+    H1,
+    PHASE_FLAGS,
+    X_RELAXED,
+    decay,
+    flush_tiny,
+    mode_weights,
+)
 from bayes_dnlr.numba_cache import depend_on
 
 _LN2 = 0.6931471805599453
@@ -215,8 +227,9 @@ def stress_shift_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, sigma_s, drivi
     peak = 0.0
     ok = True
     if nt > 0:
-        ok, peak = _shift_phase(grid, 0, nt, ps, cps, ish, tau_max, False, E, G, 0.0, inv_ss,
-                                driving, ln_at, D, peak, out)
+        # run-time flag and first step (kernel.PHASE_FLAGS): one compile serves both phases
+        ok, peak = _shift_phase(grid, FIRST_STEP[0], nt, ps, cps, ish, tau_max, PHASE_FLAGS[0], E,
+                                G, 0.0, inv_ss, driving, ln_at, D, peak, out)
     if not ok:
         out[:] = np.nan
         return False
@@ -226,8 +239,8 @@ def stress_shift_into(E, G, sigma_inf, tau_max, tau_max_R, alpha, sigma_s, drivi
     h_sw = fg[nt - 1, H1] if nt > 0 else grid.h0
     for j in range(n):
         D[j] += p[j] * (G * h_sw - sigma_inf)
-    ok, peak = _shift_phase(grid, nt, n_steps, ps, cps, ish, tau_max_R, True, E, 0.0, sigma_inf,
-                            inv_ss, driving, ln_at, D, peak, out)
+    ok, peak = _shift_phase(grid, nt, n_steps, ps, cps, ish, tau_max_R, PHASE_FLAGS[1], E, 0.0,
+                            sigma_inf, inv_ss, driving, ln_at, D, peak, out)
     if not ok:
         out[:] = np.nan
     return ok

@@ -217,11 +217,17 @@ def modulus_reasons(row: dict[str, Any], who: str = "") -> list[str]:
                    "it says little about the material at this time; a test that resolves it (a "
                    "denser record, a slower rate) or a time inside the well-measured part would")
     shape = c.get("shape")
-    if shape and not shape["ok"]:
+    if shape and not shape["ok"] and shape.get("inside_family", True):
         out.append(f"{who}the data pull the spectrum's exponent to {shape['alpha_pulled']:.2f} (eq. 12 "
                    f"holds it at ½), which moves {t} by {fmt(shape['move'], 3)} MPa, "
                    f"{abs(shape['z']):.1f} of its sd: the assumed spectrum's shape, not the data, "
                    "decides it; sample the exponent (parameters.alpha, docs/model-form.md)")
+    elif shape and not shape["ok"]:
+        out.append(f"{who}the data pull the spectrum's exponent past the edge of eq. 12's family (to "
+                   f"{shape['alpha_pulled']:.0f} and beyond): they ask for a spectrum it cannot hold "
+                   "(a second, slower process, a wider distribution), so the assumed shape, not the "
+                   f"data, decides {t}; check it against an independent measurement (crosscheck:, "
+                   "reference_moduli:) or a test that resolves it alone")
     law = c.get("shift_law")
     if law and not law["ok"]:
         out.append(f"{who}the temperature law does not carry the tests at {law['temperature']:g} °C "
@@ -236,9 +242,13 @@ def modulus_reasons(row: dict[str, Any], who: str = "") -> list[str]:
                    "nonlinearity as relaxation; set model.shift.stress: eyring (docs/theory.md)")
     local = c.get("local")
     if local and not local["ok"]:
+        # the reported value (after the exponent's pull) where it is the farther one
+        pulled = abs(local.get("z_reported", 0.0)) > abs(local["z"])
+        z_far = local["z_reported"] if pulled else local["z"]
+        whose = "the value reported, after the exponent's pull" if pulled else "the whole window's"
         out.append(f"{who}fitted on its first {fmt(local['window_end'], 3)} s alone, where {t} is "
                    f"measured, the model gives {fmt(local['local_mean'])} ± {fmt(local['local_sd'], 2)} "
-                   f"MPa, {abs(local['z']):.1f} of that sd from the whole window's: what follows (a "
+                   f"MPa, {abs(z_far):.1f} of that sd from {whose}: what follows (a "
                    "slower process, yield read as relaxation, a hold one spectrum does not describe) "
                    f"moves {t}; identify on data.window: {{time_max: {fmt(local['time_max'], 4)}}}, "
                    "or give the model the form it lacks (docs/model-form.md)")

@@ -188,6 +188,11 @@ def test_the_local_check_is_its_gap_in_the_local_sd():
     assert local_check(local, 1020.0)["ok"] and local_check(local, 1020.0)["z"] == pytest.approx(2.0)
     assert not local_check(local, 1030.0)["ok"]
     assert local_check(None, 1.0) is None and local_check(LocalEstimate(1.0, 0.0, 1.0, 1.0), 2.0) is None
+    # the value reported after the exponent's pull must agree with the start too
+    pulled = local_check(local, 1010.0, 970.0)
+    assert pulled["z"] == pytest.approx(1.0) and pulled["z_reported"] == pytest.approx(-3.0)
+    assert not pulled["ok"]
+    assert local_check(local, 1010.0, 1015.0)["ok"] and "z_reported" not in local_check(local, 1010.0, 1010.0)
 
 
 def test_the_exponent_s_pull_is_followed_only_where_small_and_never_where_the_data_ask_for_a_stress_shift():
@@ -261,3 +266,19 @@ def test_the_exponent_s_path_carries_to_another_point_in_relative_time_constants
     assert moved[1] > 0.4 * base[1] and absolute[1] < 0.0
     own = {"E": 2642.0, "G": 2.2, "tau_max": 16.87}  # at the fit's own point: the derivative as given
     assert spread.at(own) == pytest.approx(fit["spectrum_exponent"]["derivative"])
+
+
+@pytest.mark.parametrize("step", [-0.6, 0.55])
+def test_a_pull_past_the_family_s_edge_fails_the_shape_check_however_small_its_move(step):
+    from bayes_dnlr.inference.modulus_estimate import followed
+
+    # held loosely: the move is well within E(t)'s sd, which alone would let it be followed
+    held = np.full((4000, 1), 1000.0) * np.exp(0.3 * np.random.default_rng(2).standard_normal((4000, 1)))
+    point = {**POINT, "alpha": 0.5}
+    spread = ExponentSpread(0.05, {"E": -2900.0}, step=step)
+    values, [check] = followed(held, spread, point, [1.0], 50, 6.0)
+    assert abs(check["z"]) < 2.576 and check["alpha_pulled"] in (0.0, 1.0)
+    assert not check["inside_family"] and not check["ok"] and not check["followed"]
+    inside = ExponentSpread(0.05, {"E": -2900.0}, step=0.45)
+    _, [kept] = followed(held, inside, point, [1.0], 50, 6.0)
+    assert kept["inside_family"] and kept["ok"] and kept["followed"]

@@ -231,7 +231,7 @@ def test_the_pull_is_followed_only_where_it_stays_within_the_spread():
     np.testing.assert_allclose(values[:, 1], apply_spread(held, added, np.array([0.0, move[1]]))[:, 1])
     assert [c["followed"] for c in checks] == [False, True] and [c["ok"] for c in checks] == [False, True]
     assert checks[1] == {"alpha_pulled": pytest.approx(0.65), "move": pytest.approx(move[1]),
-                         "z": pytest.approx(z[1]), "ok": True, "followed": True}
+                         "z": pytest.approx(z[1]), "inside_family": True, "ok": True, "followed": True}
     # not followed at all where the data ask for a stress shift; the check stays
     values, checks = followed(held, spread, point, times, MODES, DECADES, follow=False)
     np.testing.assert_allclose(values, still)

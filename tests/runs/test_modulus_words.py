@@ -39,6 +39,13 @@ SENTENCES = {
         "the data pull the spectrum's exponent to 0.62 (eq. 12 holds it at ½), which moves "
         "E(1.23 s) by -12.3 MPa, 3.5 of its sd: the assumed spectrum's shape, not the data, "
         "decides it; sample the exponent (parameters.alpha, docs/model-form.md)"),
+    "shape past the family's edge": (
+        {"shape": {"alpha_pulled": 0.0, "move": -1.5, "z": -0.5, "inside_family": False,
+                   "ok": False, "followed": False}},
+        "the data pull the spectrum's exponent past the edge of eq. 12's family (to 0 and "
+        "beyond): they ask for a spectrum it cannot hold (a second, slower process, a wider "
+        "distribution), so the assumed shape, not the data, decides E(1.23 s); check it against an "
+        "independent measurement (crosscheck:, reference_moduli:) or a test that resolves it alone"),
     "shift_law": (
         {"shift_law": {"temperature": 40.0, "ok": False}},
         "the temperature law does not carry the tests at 40 °C from the others (its held-out "
@@ -62,6 +69,14 @@ SENTENCES = {
         "MPa, 4.6 of that sd from the whole window's: what follows (a slower process, yield read "
         "as relaxation, a hold one spectrum does not describe) moves E(1.23 s); identify on "
         "data.window: {time_max: 112.3}, or give the model the form it lacks "
+        "(docs/model-form.md)"),
+    "local, after the exponent's pull": (
+        {"local": {"local_mean": 1234.567, "local_sd": 12.345, "window_end": 12.3456,
+                   "time_max": 112.34567, "z": -1.0, "z_reported": -3.21, "ok": False}},
+        "fitted on its first 12.3 s alone, where E(1.23 s) is measured, the model gives 1235 ± 12 "
+        "MPa, 3.2 of that sd from the value reported, after the exponent's pull: what follows (a "
+        "slower process, yield read as relaxation, a hold one spectrum does not describe) moves "
+        "E(1.23 s); identify on data.window: {time_max: 112.3}, or give the model the form it lacks "
         "(docs/model-form.md)"),
     "band": (
         {"band": BAND},

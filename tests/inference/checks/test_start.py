@@ -157,3 +157,18 @@ def test_the_real_relaxation_starts_are_no_toe(make_config):
         ramp = test.time <= test.relaxation_start
         toe = toe_test(test.nominal_strain[ramp], test.nominal_stress[ramp])
         assert not toe.found and toe.rises >= 14, (specimen, toe)
+
+
+def test_the_model_s_chord_is_the_draws_median_and_robust_spread():
+    from bayes_dnlr.inference.checks.start import centre_and_spread
+
+    rng = np.random.default_rng(5)
+    normal = 1100.0 + 20.0 * rng.standard_normal(20000)
+    centre, spread = centre_and_spread(normal)
+    assert centre == pytest.approx(1100.0, abs=0.5) and spread == pytest.approx(20.0, rel=0.03)
+    # draws piled at a parameter's far prior edge (chords hundreds of MPa off) do not make the
+    # spread so wide that any data chord agrees: the mean's sd here is about 300 MPa
+    piled = np.concatenate([normal[:15000], np.full(5000, 125.0)])
+    assert piled.std() > 300.0
+    centre, spread = centre_and_spread(piled)
+    assert abs(centre - 1100.0) < 30.0 and spread < 60.0
