@@ -16,6 +16,9 @@
   pull it, in sd, with E's shift per +0.1 of it. Most errors of the model's form that a change of
   the parameters absorbs (a strain toe, a second process, a peaked spectrum) pull it
   (docs/model-form.md);
+- ``stress_shift``: a stress-blind test's score test of the Eyring shift (fit.json
+  ``stress_score``) and, where it asks for it, E of the fit that admits it against the posterior's,
+  in posterior sd (docs/theory.md, "E(t) beyond the linear range");
 - ``noise_model``: a posterior of the white likelihood (``noise.discrepancy: none``) on residuals
   that are not white (fit.json ``residuals.white``): its interval ignores the model error;
 - ``reference_moduli``: each reference held out (``use: check``) against the posterior's prediction
@@ -37,6 +40,7 @@ from bayes_dnlr.config import Config
 from bayes_dnlr.data.conversions import haward_thackray_strain
 from bayes_dnlr.inference.checks import bounds, physical, power_scaling, predictive
 from bayes_dnlr.inference.layout import Layout
+from bayes_dnlr.inference.lsq.stress_score import STRESS_Z
 from bayes_dnlr.inference.posterior.likelihood import window_rows
 from bayes_dnlr.model.shift import log_stress_shift
 from bayes_dnlr.runs.bands import Band, column, predictive_bands
@@ -184,6 +188,32 @@ def model_form_check(fit: dict[str, Any], layout: Layout, post_sd: dict[str, flo
         out[t] = {"z": z, "step": step, "likelihood": how, "E_relative_per_tenth": rel,
                   "E_shift_sd": shift,
                   "ok": abs(z) <= SCORE_Z or (shift is not None and abs(shift) <= SHIFT_SD)}
+    return out
+
+
+def stress_shift_check(fit: dict[str, Any], layout: Layout, posterior: dict[str, dict]
+                       ) -> dict[str, dict]:
+    """Each stress-blind test's score test of the Eyring shift (fit.json ``stress_score``, under
+    the discrepancy when the fit has it) and, where it asks for the shift, E of the fit that admits
+    it (``stress_refit``) against the posterior's E, in posterior sd. It fails when the score asks
+    (one-sided 1 %, as for E(t)) and admitting the shift moves E by more than SHIFT_SD sd: the
+    stress-blind model reads yield as relaxation and E, its extrapolation to t → 0, follows."""
+    per_test = {t: fit for t in layout.tests} if layout.plain else {
+        t: (fit.get("single_fits") or {}).get(t) or {} for t in layout.tests}
+    out = {}
+    for t, f in per_test.items():
+        score = ((f.get("discrepancy") or {}).get("stress_score") or f.get("stress_score"))
+        if not score or not math.isfinite(float(score.get("z", math.nan))):
+            continue
+        z = float(score["z"])
+        refit = ((f.get("stress_refit") or {}).get("estimate") or {})
+        post = posterior.get(layout.name("E", t)) or {}
+        shift = None
+        if "E" in refit and post.get("sd"):
+            shift = (float(refit["E"]) - float(post["mean"])) / float(post["sd"])
+        out[t] = {"z": z, "sigma_s": refit.get("sigma_s"), "E_shifted": refit.get("E"),
+                  "E_shift_sd": shift,
+                  "ok": not z > STRESS_Z or shift is None or abs(shift) <= SHIFT_SD}
     return out
 
 
@@ -365,6 +395,7 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
         "prior_sensitivity": prior_sensitivity_check(draws, names, priors),
         "plausibility": plausibility_check(cfg, tests, layout, draws, names, standards, bands),
         "model_form": model_form_check(fit, layout, post_sd),
+        "stress_shift": stress_shift_check(fit, layout, summary.get("posterior") or {}),
         "noise_model": noise_model_check(cfg, noise),
     }
     checks["prior_sources"] = prior_sources(draws, names, priors,
@@ -387,6 +418,7 @@ def run_checks(cfg: Config, tests: TestSet, layout: Layout, draws: np.ndarray, n
         for k in ("predictive_coverage", "plausibility", "noise_model"):
             checks[k] = layout.collapse(checks[k])
         checks["model_form"] = checks["model_form"].get(layout.tests[0])      # None: no score test
+        checks["stress_shift"] = checks["stress_shift"].get(layout.tests[0])
     checks.update(adequate=adequate, trust_interval=trust, verdict=" ".join([head, *points]),
                   verdict_points=points)
     return checks, modulus, curve

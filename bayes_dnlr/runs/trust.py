@@ -6,10 +6,10 @@ verdict"); a run of an earlier version without them gives None for each.
 
 Names of the checks that fired (``fired``): ``coverage`` (the predictive band misses the data),
 ``sigma_inf``, ``tau_max``, ``tau_max_R``, ``E_chord`` (plausibility), ``noise_model``,
-``model_form``, ``bound:<parameter>`` (a prior bound that moves E by more than SHIFT_SD posterior
-sd when widened), ``prior_sensitivity`` (the prior shapes E), ``not_converged``, and the key of any
-other check that records ``ok: false``. In a run with several tests a per-test check carries the
-test's name: ``coverage[r5e-3]``.
+``model_form``, ``stress_shift``, ``bound:<parameter>`` (a prior bound that moves E by more than
+SHIFT_SD posterior sd when widened), ``prior_sensitivity`` (the prior shapes E),
+``not_converged``, and the key of any other check that records ``ok: false``. In a run with
+several tests a per-test check carries the test's name: ``coverage[r5e-3]``.
 """
 
 from __future__ import annotations
@@ -27,7 +27,8 @@ from bayes_dnlr.runs.verdict import (
 )
 
 # the checks that fired -> their names; the keys read here, the rest by their ``ok`` flag
-_KNOWN = ("predictive_coverage", "plausibility", "noise_model", "model_form", "bound_limited",
+_KNOWN = ("predictive_coverage", "plausibility", "noise_model", "model_form", "stress_shift",
+          "bound_limited",
           "prior_sensitivity", "prior_sources", "adequate", "trust_interval", "verdict",
           "verdict_points")
 ET_FIELDS = ("t_s", "mean", "sd", "hdi_lo", "hdi_hi", "trust")
@@ -77,7 +78,7 @@ def fired(checks: Mapping[str, Any] | None, converged: bool | None = None) -> li
         for kind, v in kinds.items():
             if isinstance(v, Mapping) and v.get("ok") is False:
                 out.append(_named(kind, test))
-    for key in ("noise_model", "model_form"):
+    for key in ("noise_model", "model_form", "stress_shift"):
         for test, c in _per_test(checks.get(key), "ok").items():
             if c.get("ok") is False:
                 out.append(_named(key, test))

@@ -142,6 +142,18 @@ def _model_form_words(test: str, c: dict, several: bool) -> tuple[bool, str | No
                    "curve, or check E against an independent measurement (reference_moduli:).")
 
 
+def _stress_shift_words(test: str, c: dict, several: bool) -> tuple[bool, str | None]:
+    if c["ok"]:
+        return True, None
+    who = f"{test}: " if several else ""
+    sigma = f"; sigma_s about {fmt(c['sigma_s'], 3)} MPa" if c.get("sigma_s") else ""
+    return False, (f"{who}the data ask for a stress shift (its score test, z = {c['z']:.1f}{sigma}), "
+                   f"and admitting it moves E to {fmt(c['E_shifted'])} MPa, {c['E_shift_sd']:+.1f} "
+                   "posterior sd: the stress-blind model reads the curve's nonlinearity as "
+                   "relaxation, and E, its extrapolation to t → 0, follows it. Set "
+                   "model.shift.stress: eyring (docs/theory.md).")
+
+
 def _bound_words(entries: list[dict]) -> tuple[bool, list[str]]:
     """(whether no bound decides E, a sentence per parameter whose posterior piles against a bound)."""
     said = _bound_sentences(entries)
@@ -363,6 +375,11 @@ def verdict(checks: dict[str, Any], converged: bool, several: bool) -> tuple[boo
             said.append((ok, text))
     for t, c in (checks.get("model_form") or {}).items():
         ok, text = _model_form_words(t, c, several)
+        trust &= ok
+        if text:
+            said.append((ok, text))
+    for t, c in (checks.get("stress_shift") or {}).items():
+        ok, text = _stress_shift_words(t, c, several)
         trust &= ok
         if text:
             said.append((ok, text))

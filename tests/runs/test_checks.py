@@ -9,7 +9,7 @@ import pytest
 
 from bayes_dnlr.inference.checks import bounds, physical, power_scaling, predictive
 from bayes_dnlr.inference.layout import Layout
-from bayes_dnlr.runs.checks import model_form_check
+from bayes_dnlr.runs.checks import model_form_check, stress_shift_check
 from bayes_dnlr.runs.checks import verdict as verdict_parts
 from bayes_dnlr.runs.verdict import (
     COVERAGE_HIGH,
@@ -160,6 +160,29 @@ def test_a_model_form_error_withdraws_trust_and_says_what_to_do() -> None:
     adequate, trust, words = verdict(checks, True, False)
     assert adequate and not trust
     assert "by +6.0 sd" in words and "-10 % per +0.1" in words and "parameters.alpha" in words
+
+
+def test_the_stress_shift_check_weighs_e_of_the_fit_that_admits_it() -> None:
+    layout = Layout.build({"t": ["E", "G", "tau_max"]}, (), plain=True)
+    posterior = {"E": {"mean": 1600.0, "sd": 100.0}}
+    asked = {"stress_score": {"z": 5.0}, "stress_refit": {"estimate": {"E": 1050.0, "sigma_s": 2.4}}}
+    c = stress_shift_check(asked, layout, posterior)["t"]
+    assert c["E_shift_sd"] == pytest.approx(-5.5) and c["sigma_s"] == 2.4 and not c["ok"]
+    # under the discrepancy, its score decides; one that does not ask leaves E's interval alone
+    quiet = {**asked, "discrepancy": {"stress_score": {"z": 1.0}}}
+    assert stress_shift_check(quiet, layout, posterior)["t"]["ok"]
+    # a refit that hardly moves E, or no refit (it failed), leaves it too
+    near = {**asked, "stress_refit": {"estimate": {"E": 1650.0, "sigma_s": 9.0}}}
+    assert stress_shift_check(near, layout, posterior)["t"]["ok"]
+    assert stress_shift_check({"stress_score": {"z": 5.0}}, layout, posterior)["t"]["ok"]
+    assert stress_shift_check({}, layout, posterior) == {}
+    checks = _checks()
+    checks["stress_shift"] = {"t": stress_shift_check(asked, layout, posterior)["t"]}
+    adequate, trust, words = verdict(checks, True, False)
+    assert adequate and not trust
+    assert ("The data ask for a stress shift (its score test, z = 5.0; sigma_s about 2.40 MPa), and "
+            "admitting it moves E to 1050 MPa, -5.5 posterior sd") in words
+    assert "model.shift.stress: eyring" in words
 
 
 def test_a_sampled_run_records_its_checks(tmp_path) -> None:

@@ -64,3 +64,11 @@ def test_modulus_at_in_both_forms():
 def test_a_run_without_checks_gives_none_not_a_guess():
     t = run_trust({"posterior": {"E": {"mean": 1.0, "sd": 1.0}}})
     assert t == {"trust_interval": None, "adequate": None, "verdict": None, "checks_fired": None}
+
+
+def test_a_stress_shift_that_moves_e_is_named_among_the_checks_that_fired():
+    from bayes_dnlr.runs.trust import fired
+
+    assert fired({"stress_shift": {"z": 5.0, "E_shift_sd": -4.0, "ok": False}}) == ["stress_shift"]
+    several = {"stress_shift": {"a": {"z": 5.0, "ok": False}, "b": {"z": 0.3, "ok": True}}}
+    assert fired(several) == ["stress_shift[a]"]
