@@ -218,8 +218,7 @@ def _phase_tables(grid, p, tau_max, relaxation, for_stress):
 
 
 _BLOCK = 32     # steps whose decays integrate computes in one call
-# run-time, not literal (docs/performance.md): numba compiles a function once per literal value
-PHASE_FLAGS, FIRST_STEP = np.array([False, True]), np.zeros(1, np.int64)
+PHASE_FLAGS, FIRST_STEP = np.array([False, True]), np.zeros(1, np.int64)  # not literal (docs/performance.md)
 
 
 @njit(cache=True, fastmath=FASTMATH)
