@@ -340,8 +340,9 @@ def followed(held: np.ndarray, spread: ExponentSpread, point: Mapping[str, float
     a posterior with alpha free and a flat prior, linearized). On data the model describes the step
     is N(0, σ_α²), so the move exceeds SHAPE_Z of E(t)'s sd (which holds |slope| σ_α) at most 1 %
     of the time. A larger move is not followed, since its linearization does not hold that far:
-    E(t) stays at ½ and the check says that the spectrum's shape, not the data, decides it; so is
-    a step that leaves the family's [0, 1] (``inside_family`` False), whatever its move.
+    E(t) stays at ½ and the check says that the spectrum's shape, not the data, decides it. Nor is
+    a step that leaves the family's [0, 1] (``inside_family`` False): E(t) stays at ½ with its
+    spread, and the check weighs the move as for any other.
     ``follow`` False: the pull is not followed at all (where the data ask for a stress shift, the
     curve bends for another reason than the spectrum's shape, and the pull says nothing of it);
     the spread stays, and so does the check."""
@@ -352,14 +353,16 @@ def followed(held: np.ndarray, spread: ExponentSpread, point: Mapping[str, float
     with np.errstate(divide="ignore", invalid="ignore"):
         z = np.where(sd > 0, move / sd, 0.0)
     # A step past the family's edge (alpha < 0 or > 1) asks for a spectrum eq. 12 cannot hold (a
-    # second process took alpha to 0 in most replicates of the misspecification benchmark): the
-    # path from ½ to the edge is no linearization of what the data want, however small the move
-    # in E(t)'s sd, so the check fails and the pull is not followed.
+    # second process took alpha to 0 in most replicates of the misspecification benchmark, and
+    # followed to the edge E(t) was 14 % low, trusted in 7 of 30): the path from ½ to the edge is
+    # no linearization of what the data want, so it is not followed. The check still weighs the
+    # move by E(t)'s sd: inside the resolved times the data pin E(t) whatever the shape (the real
+    # film's first loadings, pulled past the edge, keep E(2 s) within 2.4 % of its master curve).
     inside = 0.0 <= UNIVERSAL_EXPONENT + spread.step <= 1.0
-    ok = (np.abs(z) <= SHAPE_Z) & inside
+    ok = np.abs(z) <= SHAPE_Z
     # A move that would take the median through zero is far outside the linearization, however
     # wide E(t)'s spread there (late times, where E(t) is small and loosely held).
-    taken = ok & follow & (np.median(held, axis=0) + move > 0)
+    taken = ok & follow & inside & (np.median(held, axis=0) + move > 0)
     values = np.where(taken[None, :], apply_spread(held, added, np.where(taken, move, 0.0)), still)
     checks = [{"alpha_pulled": UNIVERSAL_EXPONENT + spread.pull, "move": float(m), "z": float(zi),
                "inside_family": inside, "ok": bool(o), "followed": bool(f)}

@@ -229,17 +229,11 @@ def modulus_reasons(row: dict[str, Any], who: str = "") -> list[str]:
                    "it says little about the material at this time; a test that resolves it (a "
                    "denser record, a slower rate) or a time inside the well-measured part would")
     shape = c.get("shape")
-    if shape and not shape["ok"] and shape.get("inside_family", True):
+    if shape and not shape["ok"]:
         out.append(f"{who}the data pull the spectrum's exponent to {shape['alpha_pulled']:.2f} (eq. 12 "
                    f"holds it at ½), which moves {t} by {fmt(shape['move'], 3)} MPa, "
                    f"{abs(shape['z']):.1f} of its sd: the assumed spectrum's shape, not the data, "
                    "decides it; sample the exponent (parameters.alpha, docs/model-form.md)")
-    elif shape and not shape["ok"]:
-        out.append(f"{who}the data pull the spectrum's exponent past the edge of eq. 12's family (to "
-                   f"{shape['alpha_pulled']:.0f} and beyond): they ask for a spectrum it cannot hold "
-                   "(a second, slower process, a wider distribution), so the assumed shape, not the "
-                   f"data, decides {t}; check it against an independent measurement (crosscheck:, "
-                   "reference_moduli:) or a test that resolves it alone")
     law = c.get("shift_law")
     if law and not law["ok"]:
         out.append(f"{who}the temperature law does not carry the tests at {law['temperature']:g} °C "

@@ -269,7 +269,7 @@ def test_the_exponent_s_path_carries_to_another_point_in_relative_time_constants
 
 
 @pytest.mark.parametrize("step", [-0.6, 0.55])
-def test_a_pull_past_the_family_s_edge_fails_the_shape_check_however_small_its_move(step):
+def test_a_pull_past_the_family_s_edge_is_not_followed_and_its_move_is_still_weighed(step):
     from bayes_dnlr.inference.modulus_estimate import followed
 
     # held loosely: the move is well within E(t)'s sd, which alone would let it be followed
@@ -278,7 +278,13 @@ def test_a_pull_past_the_family_s_edge_fails_the_shape_check_however_small_its_m
     spread = ExponentSpread(0.05, {"E": -2900.0}, step=step)
     values, [check] = followed(held, spread, point, [1.0], 50, 6.0)
     assert abs(check["z"]) < 2.576 and check["alpha_pulled"] in (0.0, 1.0)
-    assert not check["inside_family"] and not check["ok"] and not check["followed"]
+    assert not check["inside_family"] and check["ok"] and not check["followed"]
+    still, _ = followed(held, spread, point, [1.0], 50, 6.0, follow=False)
+    np.testing.assert_array_equal(values, still)          # E(t) at ½ with its spread
     inside = ExponentSpread(0.05, {"E": -2900.0}, step=0.45)
     _, [kept] = followed(held, inside, point, [1.0], 50, 6.0)
     assert kept["inside_family"] and kept["ok"] and kept["followed"]
+    # a move too large for E(t)'s sd fails the check past the edge as inside it
+    tight = held[:, :1] * 0 + 1000.0 * np.exp(1e-3 * np.random.default_rng(3).standard_normal((4000, 1)))
+    _, [far] = followed(tight, spread, point, [1.0], 50, 6.0)
+    assert abs(far["z"]) > 2.576 and not far["ok"] and not far["followed"]

@@ -39,13 +39,6 @@ SENTENCES = {
         "the data pull the spectrum's exponent to 0.62 (eq. 12 holds it at ½), which moves "
         "E(1.23 s) by -12.3 MPa, 3.5 of its sd: the assumed spectrum's shape, not the data, "
         "decides it; sample the exponent (parameters.alpha, docs/model-form.md)"),
-    "shape past the family's edge": (
-        {"shape": {"alpha_pulled": 0.0, "move": -1.5, "z": -0.5, "inside_family": False,
-                   "ok": False, "followed": False}},
-        "the data pull the spectrum's exponent past the edge of eq. 12's family (to 0 and "
-        "beyond): they ask for a spectrum it cannot hold (a second, slower process, a wider "
-        "distribution), so the assumed shape, not the data, decides E(1.23 s); check it against an "
-        "independent measurement (crosscheck:, reference_moduli:) or a test that resolves it alone"),
     "shift_law": (
         {"shift_law": {"temperature": 40.0, "ok": False}},
         "the temperature law does not carry the tests at 40 °C from the others (its held-out "
