@@ -215,3 +215,24 @@ def test_the_sandwich_adjustment_gives_the_target_covariance_and_counts_the_boun
     out, info = orthogonal.adjust_draws(draws, ["E", "tau_max", "disc_length"], ["E", "tau_max"],
                                         np.array([False, True]), model, target, bounds)
     assert out[:, 0].min() == 0.0 and 0.1 < info["draws_on_a_prior_bound"]["E"] < 0.2
+
+
+def test_a_parameter_the_estimate_does_not_identify_keeps_its_sampled_draws() -> None:
+    """sigma_s of a stress shift the test never reaches: its target sd in ln sigma_s (30) exceeds
+    its prior box's (ln 1e4 / sqrt 12 = 2.7); scaled by it, the draws piled on both edges."""
+    rng = np.random.default_rng(9)
+    model = np.array([[1.0, 0.0], [0.0, 0.5]])
+    target = np.array([[4.0, 0.0], [0.0, 900.0]])
+    u = rng.multivariate_normal([2.0, np.log(30.0)], model, size=20000)
+    draws = np.column_stack([u[:, 0], np.exp(u[:, 1])])
+    bounds = {"E": (-np.inf, np.inf), "sigma_s": (0.1, 1000.0)}
+    out, info = orthogonal.adjust_draws(draws, ["E", "sigma_s"], ["E", "sigma_s"],
+                                        np.array([False, True]), model, target, bounds)
+    np.testing.assert_array_equal(out[:, 1], draws[:, 1])
+    assert info["not_identified"] == ["sigma_s"] and info["draws_on_a_prior_bound"]["sigma_s"] == 0.0
+    assert np.std(out[:, 0]) == pytest.approx(2.0, rel=0.03)          # E adjusted as before
+    # the same target within the box's sd: adjusted, and then piled at both edges
+    identified = np.array([[4.0, 0.0], [0.0, 4.0]])
+    out, info = orthogonal.adjust_draws(draws, ["E", "sigma_s"], ["E", "sigma_s"],
+                                        np.array([False, True]), model, identified, bounds)
+    assert info["not_identified"] == [] and np.std(np.log(out[:, 1])) > 1.5
