@@ -93,19 +93,11 @@ def real_tests() -> list[tuple[str, np.ndarray, np.ndarray]]:
     return out
 
 
-def _plastic(back: float, peaks=(0.2, 0.35, 0.5), step=0.0005) -> tuple[np.ndarray, np.ndarray]:
-    """Cycles at large strain on an elastic-plastic material (E 1000 MPa, flow at 20 MPa): each
-    unloading takes the stress to zero while the strain goes back by ``back`` only."""
-    e = [0.0]
-    for p in peaks:
-        e += list(np.arange(e[-1] + step, p + 1e-12, step))
-        e += list(np.arange(e[-1] - step, p - back - 1e-12, -step))
-    e = np.array(e)
-    plastic, s = 0.0, np.empty(e.size)
-    for i, x in enumerate(e):
-        if 1000.0 * (x - plastic) > 20.0 + 10.0 * plastic:
-            plastic = (1000.0 * x - 20.0) / 1010.0
-        s[i] = max(1000.0 * (x - plastic), 0.0)
+def _plastic(back: float) -> tuple[np.ndarray, np.ndarray]:
+    """tests/support/plastic_cycles.py's cycles (E 1000 MPa, flow at 20 MPa) with 0.05 MPa noise."""
+    from support.plastic_cycles import plastic_cycles
+
+    _, e, s = plastic_cycles(back=back)
     return e, s + np.random.default_rng(1).normal(0, 0.05, e.size)
 
 

@@ -122,37 +122,34 @@ class _Counted:
 def pytest_terminal_summary(terminalreporter) -> None:
     """Say whether the real-data tests ran, on a line of its own (where the curves are, or how to
     give them) and in pytest's last summary line ('11 real-data tests ran'), so that a clone without
-    the curves does not run fewer tests silently."""
-    from support.real_data import ENV, PRESENT, REAL
+    the curves does not run fewer tests silently; the same for the tests that open a page in
+    Chromium ('2 browser tests ran', or '2 browser tests skipped (no Chromium)')."""
+    from support import browser, real_data
 
-    _browser_summary(terminalreporter)
-    ran, skipped = _REAL_REPORTS["ran"], _REAL_REPORTS["skipped"]
+    _summary(terminalreporter, _BROWSER_REPORTS, browser.PRESENT,
+             f"browser: {{ran}} tests ran ({browser.EXE})", "browser tests ran",
+             f"browser: {{skipped}} tests skipped: {browser.REASON}",
+             "browser tests skipped (no Chromium)")
+    _summary(terminalreporter, _REAL_REPORTS, real_data.PRESENT,
+             f"real data: {{ran}} tests ran ({real_data.REAL})", "real-data tests ran",
+             f"real data: absent, {{skipped}} tests skipped (set {real_data.ENV} to the folder of the "
+             "real curves)", "real-data tests skipped (curves absent)")
+
+
+def _summary(terminalreporter, reports: dict, present: bool, ran_text: str, ran_key: str,
+             absent_text: str, absent_key: str) -> None:
+    """One line of its own and one entry of pytest's last line for a kind of test that needs
+    something a clone may lack; nothing when no test of that kind was collected."""
+    ran, skipped = reports["ran"], reports["skipped"]
     if not ran and not skipped:
         return
-    if PRESENT:
-        text = f"real data: {len(ran)} tests ran ({REAL})" + (f", {len(skipped)} skipped" if skipped else "")
-        terminalreporter.stats["real-data tests ran"] = [_Counted() for _ in ran]
+    if present:
+        text = ran_text.replace("{ran}", str(len(ran))) + (f", {len(skipped)} skipped" if skipped else "")
+        terminalreporter.stats[ran_key] = [_Counted() for _ in ran]
     else:
-        text = f"real data: absent, {len(skipped)} tests skipped (set {ENV} to the folder of the real curves)"
-        terminalreporter.stats["real-data tests skipped (curves absent)"] = [_Counted() for _ in skipped]
-    terminalreporter.write_line(text, yellow=not PRESENT, bold=True)
-
-
-def _browser_summary(terminalreporter) -> None:
-    """The same for the tests that open a page in Chromium: '2 browser tests ran', or '2 browser
-    tests skipped (no Chromium)' on pytest's last line."""
-    from support.browser import EXE, PRESENT, REASON
-
-    ran, skipped = _BROWSER_REPORTS["ran"], _BROWSER_REPORTS["skipped"]
-    if not ran and not skipped:
-        return
-    if PRESENT:
-        text = f"browser: {len(ran)} tests ran ({EXE})" + (f", {len(skipped)} skipped" if skipped else "")
-        terminalreporter.stats["browser tests ran"] = [_Counted() for _ in ran]
-    else:
-        text = f"browser: {len(skipped)} tests skipped: {REASON}"
-        terminalreporter.stats["browser tests skipped (no Chromium)"] = [_Counted() for _ in skipped]
-    terminalreporter.write_line(text, yellow=not PRESENT, bold=True)
+        text = absent_text.replace("{skipped}", str(len(skipped)))
+        terminalreporter.stats[absent_key] = [_Counted() for _ in skipped]
+    terminalreporter.write_line(text, yellow=not present, bold=True)
 
 
 @dataclass

@@ -166,13 +166,19 @@ def _score_of(fit: dict[str, Any]) -> tuple[dict | None, str]:
     return score, "white"
 
 
+def _fit_per_test(fit: dict[str, Any], layout: Layout) -> dict[str, dict[str, Any]]:
+    """Each test's own fit.json block: the fit itself for one test, its single fit in a joint run."""
+    if layout.plain:
+        return {t: fit for t in layout.tests}
+    return {t: (fit.get("single_fits") or {}).get(t) or {} for t in layout.tests}
+
+
 def model_form_check(fit: dict[str, Any], layout: Layout, post_sd: dict[str, float]) -> dict[str, dict]:
     """Each test's score test of the spectrum's exponent held at ½, with E's shift per +0.1 of it
     and the shift of E, in posterior sd, at the exponent the data prefer (one Gauss-Newton step);
     empty for a test whose fit holds none (alpha sampled, or E fixed). It fails when the data pull
     the exponent by more than SCORE_Z sd and that pull moves E by more than SHIFT_SD posterior sd."""
-    per_test = {t: fit for t in layout.tests} if layout.plain else {
-        t: (fit.get("single_fits") or {}).get(t) or {} for t in layout.tests}
+    per_test = _fit_per_test(fit, layout)
     out = {}
     for t, f in per_test.items():
         score, how = _score_of(f)
@@ -198,8 +204,7 @@ def stress_shift_check(fit: dict[str, Any], layout: Layout, posterior: dict[str,
     it (``stress_refit``) against the posterior's E, in posterior sd. It fails when the score asks
     (one-sided 1 %, as for E(t)) and admitting the shift moves E by more than SHIFT_SD sd: the
     stress-blind model reads yield as relaxation and E, its extrapolation to t → 0, follows."""
-    per_test = {t: fit for t in layout.tests} if layout.plain else {
-        t: (fit.get("single_fits") or {}).get(t) or {} for t in layout.tests}
+    per_test = _fit_per_test(fit, layout)
     out = {}
     for t, f in per_test.items():
         score = ((f.get("discrepancy") or {}).get("stress_score") or f.get("stress_score"))

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from support.plastic_cycles import plastic_cycles
 from support.real_data import CYCLES, reads_export
 
 from bayes_dnlr.config import ConfigError
@@ -169,26 +170,6 @@ def test_a_name_a_confirmed_relation_contradicts_is_overruled_with_where_it_fits
     assert "the name 'StressTrue' over column 5 fits it: the header is shifted" in lines[2]
 
 
-def _plastic_cycles(peaks=(0.2, 0.35, 0.5), back=0.02, step=0.0005, rate=1e-3, yield_stress=20.0):
-    """Time, nominal strain and stress of cycles at large strain on an elastic-plastic material
-    (E, then flow at ``yield_stress`` with a small hardening): each unloading takes the stress to
-    zero while the strain goes back by ``back`` only (4 % of the range at 0.02 of 0.5)."""
-    e = [0.0]
-    for p in peaks:
-        e += list(np.arange(e[-1] + step, p + 1e-12, step))
-        e += list(np.arange(e[-1] - step, p - back - 1e-12, -step))
-    e = np.array(e)
-    plastic, s = 0.0, np.empty(e.size)
-    for i, x in enumerate(e):
-        trial = E * (x - plastic)
-        flow = yield_stress + 10.0 * plastic
-        if trial > flow:
-            plastic = (E * x - yield_stress) / (E + 10.0)
-            trial = E * (x - plastic)
-        s[i] = max(trial, 0.0)
-    return np.arange(e.size) * step / rate, e, s
-
-
 def test_cycles_that_reverse_by_4_percent_of_the_strain_are_cycles_everywhere(write_csv, make_config,
                                                                               tmp_path):
     """One rule for where a test turns (data/cycles.py), computed when the test is loaded and read
@@ -198,7 +179,7 @@ def test_cycles_that_reverse_by_4_percent_of_the_strain_are_cycles_everywhere(wr
     from bayes_dnlr.inference.checks.predictive import segments
     from bayes_dnlr.workflows.init import init_config
 
-    t, e, s = _plastic_cycles()
+    t, e, s = plastic_cycles()
     s = s + np.random.default_rng(5).normal(0, 0.01, e.size)
     _write(write_csv, t, e, s)
     test = load_test(make_config(**CYCLIC))
